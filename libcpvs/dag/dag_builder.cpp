@@ -1,0 +1,181 @@
+#include "libcpvs/dag/dag_builder.h"
+
+#include <algorithm>
+#include <bit>
+
+#include "libcpvs/error.h"
+
+namespace cpvs {
+
+namespace {
+uint32_t log2u(uint32_t v) { return uint32_t(std::countr_zero(v)); }
+}  // namespace
+
+DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse)
+    : resolution_(resolution), regionSize_(std::min(regionSize, resolution)), nodeReuse_(nodeReuse) {
+  if (resolution < 8 || !std::has_single_bit(resolution) || !std::has_single_bit(regionSize_) || regionSize_ < 8)
+    throw Error(ExitCode::RuntimeFailure, "DAG resolution and region size must be powers of two of at least 8");
+  leafLevel_ = log2u(resolution) - 3;
+  regionLevel_ = log2u(resolution / regionSize_);
+  regionsPerSide_ = resolution / regionSize_;
+  tables_.resize(leafLevel_ + 1);
+  regionColumns_.resize(size_t(regionsPerSide_) * regionsPerSide_ * regionsPerSide_);
+  regionAdded_.assign(size_t(regionsPerSide_) * regionsPerSide_, false);
+}
+
+DagBuilder::~DagBuilder() = default;
+
+DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8], uint32_t nextT) {
+  uint32_t words[9];
+  uint32_t header = 0, count = 1;
+  bool same = true;
+  for (unsigned c = 0; c < 8; ++c) {
+    header |= uint32_t(children[c].code) << (2 * c);
+    if (children[c].code == ChildCode::Ref) words[count++] = children[c].ref;
+    same = same && children[c].code == children[0].code;
+  }
+  if (same && children[0].code != ChildCode::Ref) return {children[0].code, 0, nextT, true};
+  words[0] = header;
+  ++stats_.nodesBuilt;
+  return {ChildCode::Ref, tables_[level].intern(words, count), nextT, true};
+}
+
+DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_t z0) {
+  const TileChains& ch = *chains_;
+  const uint32_t tile = ch.tileIndex(tx, ty);
+  const uint32_t begin = ch.first[tile], end = ch.first[tile + 1];
+  uint32_t entry = uint32_t(std::upper_bound(ch.start.begin() + begin, ch.start.begin() + end, z0) - ch.start.begin()) - 1;
+  Result children[8];
+  for (uint32_t c = 0; c < 8; ++c) {
+    const uint32_t z = z0 + c;
+    while (entry + 1 < end && ch.start[entry + 1] <= z) ++entry;
+    const uint64_t mask = ch.mask[entry];
+    if (mask == kAllLit)
+      children[c] = {ChildCode::Lit, 0, 0, true};
+    else if (mask == kAllShadowed)
+      children[c] = {ChildCode::Shadowed, 0, 0, true};
+    else
+      children[c] = {ChildCode::Ref, leafTable_.intern(mask), 0, true};
+  }
+  return intern(leafLevel_, children, ch.nextTransition(tile, z0));
+}
+
+DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour) {
+  const uint32_t size = resolution_ >> level;
+  const uint32_t z1 = z0 + size - 1;
+  const uint32_t hLevel = log2u(size / 8);
+  const uint32_t hSize = hierarchy_->size[hLevel];
+  const size_t h = size_t(ty >> hLevel) * hSize + (tx >> hLevel);
+  const uint32_t minLit = hierarchy_->minLitUntil[hLevel][h];
+  if (z1 < minLit) {
+    ++stats_.homogeneous;
+    return {ChildCode::Lit, 0, minLit, true};
+  }
+  if (z0 >= hierarchy_->maxShadowFrom[hLevel][h]) {
+    ++stats_.homogeneous;
+    return {ChildCode::Shadowed, 0, resolution_, true};
+  }
+  // §3.2: nothing changes along z in this footprint from the neighbour's first slice to our last one, so this
+  // volume equals its neighbour nearer the light: take its node without building it.
+  if (nodeReuse_ && neighbour.valid && neighbour.code == ChildCode::Ref && neighbour.nextT > z1) {
+    ++stats_.nodesReused;
+    return neighbour;
+  }
+  if (level == leafLevel_) return buildLeafParent(tx, ty, z0);
+
+  const uint32_t half = size / 2, childTiles = half / 8;
+  Result children[8];
+  for (unsigned c = 0; c < 8; ++c) {
+    Result childNeighbour;
+    if (c >= 4) {
+      childNeighbour = children[c - 4];
+    } else if (neighbour.valid) {
+      // The child's neighbour is the far child of our neighbour; its next change is bounded by the
+      // neighbour's (a larger footprint can only change sooner), which keeps the reuse test conservative.
+      childNeighbour = {neighbour.code, 0, neighbour.nextT, true};
+      if (neighbour.code == ChildCode::Ref) {
+        const std::vector<uint32_t>& words = tables_[level].words();
+        const uint32_t header = words[neighbour.ref];
+        childNeighbour.code = ChildCode(childCodeOf(header, c + 4));
+        if (childNeighbour.code == ChildCode::Ref)
+          childNeighbour.ref = words[neighbour.ref + 1 + refSlot(header, c + 4)];
+      }
+    }
+    children[c] = build(level + 1, tx + (c & 1) * childTiles, ty + ((c >> 1) & 1) * childTiles,
+                        z0 + (c >> 2) * half, childNeighbour);
+  }
+  const uint32_t nextT = std::min({children[0].nextT, children[1].nextT, children[2].nextT, children[3].nextT});
+  return intern(level, children, nextT);
+}
+
+void DagBuilder::addRegion(const TileChains& chains) {
+  if (chains.resolution != resolution_ || chains.rect.width != regionSize_ || chains.rect.height != regionSize_ ||
+      chains.rect.x0 % regionSize_ != 0 || chains.rect.y0 % regionSize_ != 0)
+    throw Error(ExitCode::RuntimeFailure, "DAG builder: region does not match the builder's region grid");
+  const uint32_t rx = chains.rect.x0 / regionSize_, ry = chains.rect.y0 / regionSize_;
+  chains_ = &chains;
+  hierarchy_ = std::make_unique<TileHierarchy>(chains);
+  Result neighbour;
+  for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
+    neighbour = build(regionLevel_, 0, 0, zBlock * regionSize_, neighbour);
+    regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock] = neighbour;
+  }
+  regionAdded_[size_t(ry) * regionsPerSide_ + rx] = true;
+  chains_ = nullptr;
+  hierarchy_.reset();
+}
+
+DagBuilder::Result DagBuilder::buildTop(uint32_t level, uint32_t rx, uint32_t ry, uint32_t zBlock) {
+  if (level == regionLevel_) return regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock];
+  const uint32_t half = 1u << (regionLevel_ - level - 1);  // child span in regions
+  Result children[8];
+  for (unsigned c = 0; c < 8; ++c)
+    children[c] = buildTop(level + 1, rx + (c & 1) * half, ry + ((c >> 1) & 1) * half, zBlock + (c >> 2) * half);
+  return intern(level, children, 0);
+}
+
+ShadowDag DagBuilder::finish() {
+  for (bool added : regionAdded_)
+    if (!added) throw Error(ExitCode::RuntimeFailure, "DAG builder: finish() before every region was added");
+  const Result root = buildTop(0, 0, 0, 0);
+
+  ShadowDag dag;
+  dag.resolution = resolution_;
+  dag.rootCode = root.code;
+  uint64_t total = 0;
+  for (const NodeTable& table : tables_) {
+    dag.levelOffsets.push_back(total);
+    dag.nodesPerLevel.push_back(table.size());
+    total += table.words().size();
+  }
+  if (total > UINT32_MAX) throw Error(ExitCode::RuntimeFailure, "DAG too large for 32-bit node offsets");
+  dag.nodes.reserve(total);
+  // Concatenate levels and turn level-local references into absolute offsets (the leaf level keeps leaf
+  // indices).
+  for (uint32_t level = 0; level <= leafLevel_; ++level) {
+    const std::vector<uint32_t>& words = tables_[level].words();
+    const uint32_t childBase = level < leafLevel_ ? uint32_t(dag.levelOffsets[level + 1]) : 0;
+    for (size_t i = 0; i < words.size();) {
+      const uint32_t header = words[i];
+      const unsigned count = nodeWordCount(header);
+      dag.nodes.push_back(header);
+      for (unsigned k = 1; k < count; ++k) dag.nodes.push_back(words[i + k] + childBase);
+      i += count;
+    }
+  }
+  // The root must sit at offset 0: level 0 holds exactly the root when it is a node.
+  if (root.code == ChildCode::Ref && root.ref != 0)
+    throw Error(ExitCode::RuntimeFailure, "DAG builder: root is not the first node");
+  dag.leaves = leafTable_.leaves();
+  return dag;
+}
+
+ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {
+  DagBuilder builder(chains.resolution, chains.rect.width, nodeReuse);
+  builder.addRegion(chains);
+  ShadowDag dag = builder.finish();
+  if (stats) *stats = builder.stats();
+  return dag;
+}
+
+}  // namespace cpvs

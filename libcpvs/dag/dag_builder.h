@@ -1,0 +1,65 @@
+#pragma once
+// Top-down construction of a view's shadow DAG from tile chains, region by region (seed 004 §3.2,
+// DESIGN.md §4.4). Hash tables persist across regions, so identical subtrees merge over the whole view.
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "libcpvs/dag/node_table.h"
+#include "libcpvs/dag/shadow_dag.h"
+#include "libcpvs/tiles/tile_masks.h"
+
+namespace cpvs {
+
+struct DagBuildStats {
+  uint64_t nodesBuilt = 0;       // interned (built) nodes, duplicates included
+  uint64_t nodesReused = 0;      // volumes that took their Z-neighbour's node without being built (§3.2)
+  uint64_t homogeneous = 0;      // volumes answered by the min-max hierarchy
+};
+
+class DagBuilder {
+public:
+  // regionSize: edge of the regions fed to addRegion (a power of two, at most N).
+  DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse);
+  ~DagBuilder();
+
+  // Adds the subtrees of one region. Regions may come in any order, but the same order gives the same bytes:
+  // callers use splitIntoRegions' order.
+  void addRegion(const TileChains& chains);
+  // Builds the levels above the regions and returns the relocated DAG. Every region must have been added.
+  ShadowDag finish();
+
+  const DagBuildStats& stats() const { return stats_; }
+
+private:
+  struct Result {
+    ChildCode code = ChildCode::Lit;
+    uint32_t ref = 0;     // level-local node offset (or leaf index below level L)
+    uint32_t nextT = 0;   // first tile-chain change strictly after the volume's first slice (lower bound)
+    bool valid = false;   // false: no neighbour known
+  };
+  Result build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour);
+  Result buildLeafParent(uint32_t tx, uint32_t ty, uint32_t z0);
+  Result intern(uint32_t level, const Result (&children)[8], uint32_t nextT);
+  Result buildTop(uint32_t level, uint32_t rx, uint32_t ry, uint32_t zBlock);
+
+  uint32_t resolution_;
+  uint32_t regionSize_;
+  bool nodeReuse_;
+  uint32_t leafLevel_;    // L
+  uint32_t regionLevel_;  // level whose nodes cover exactly one region's footprint
+  uint32_t regionsPerSide_;
+  std::vector<NodeTable> tables_;  // per level
+  LeafTable leafTable_;
+  std::vector<Result> regionColumns_;  // [ry][rx][zBlock]
+  std::vector<bool> regionAdded_;
+  DagBuildStats stats_;
+  // Per-region state while building.
+  const TileChains* chains_ = nullptr;
+  std::unique_ptr<TileHierarchy> hierarchy_;
+};
+
+// Builds a whole view from one region (N <= region size); convenience for tests and small bakes.
+ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats = nullptr);
+
+}  // namespace cpvs

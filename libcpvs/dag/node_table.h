@@ -1,0 +1,101 @@
+#pragma once
+// Hash-consing of DAG nodes and leaf masks: one table per level; every hash hit is confirmed by comparing
+// the whole node (a hash alone would corrupt shadows on a collision).
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include <xxhash.h>
+
+namespace cpvs {
+
+class NodeTable {
+public:
+  // Returns the word offset of a node equal to words[0, count), appending it when new.
+  uint32_t intern(const uint32_t* words, uint32_t count) {
+    if (2 * (size_ + 1) > slots_.size()) grow();
+    const uint64_t hash = XXH3_64bits(words, count * sizeof(uint32_t));
+    const size_t mask = slots_.size() - 1;
+    for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
+      const uint32_t slot = slots_[i];
+      if (slot == 0) {
+        const uint32_t offset = uint32_t(words_.size());
+        words_.insert(words_.end(), words, words + count);
+        slots_[i] = offset + 1;
+        hashes_[i] = hash;
+        ++size_;
+        return offset;
+      }
+      const uint32_t offset = slot - 1;
+      if (hashes_[i] == hash && words_[offset] == words[0] &&
+          std::memcmp(&words_[offset], words, count * sizeof(uint32_t)) == 0)
+        return offset;
+    }
+  }
+  const std::vector<uint32_t>& words() const { return words_; }
+  std::vector<uint32_t>& words() { return words_; }
+  uint64_t size() const { return size_; }
+
+private:
+  void grow() {
+    const size_t capacity = slots_.empty() ? 1024 : slots_.size() * 2;
+    std::vector<uint32_t> slots(capacity, 0);
+    std::vector<uint64_t> hashes(capacity, 0);
+    for (size_t i = 0; i < slots_.size(); ++i) {
+      if (slots_[i] == 0) continue;
+      for (size_t j = size_t(hashes_[i]) & (capacity - 1);; j = (j + 1) & (capacity - 1)) {
+        if (slots[j] == 0) {
+          slots[j] = slots_[i];
+          hashes[j] = hashes_[i];
+          break;
+        }
+      }
+    }
+    slots_.swap(slots);
+    hashes_.swap(hashes);
+  }
+
+  std::vector<uint32_t> words_;
+  std::vector<uint32_t> slots_;  // word offset + 1; 0 = empty
+  std::vector<uint64_t> hashes_;
+  uint64_t size_ = 0;
+};
+
+class LeafTable {
+public:
+  uint32_t intern(uint64_t mask) {
+    if (2 * (leaves_.size() + 1) > slots_.size()) grow();
+    const size_t m = slots_.size() - 1;
+    for (size_t i = size_t(XXH3_64bits(&mask, sizeof mask)) & m;; i = (i + 1) & m) {
+      const uint32_t slot = slots_[i];
+      if (slot == 0) {
+        leaves_.push_back(mask);
+        slots_[i] = uint32_t(leaves_.size());
+        return uint32_t(leaves_.size() - 1);
+      }
+      if (leaves_[slot - 1] == mask) return slot - 1;
+    }
+  }
+  const std::vector<uint64_t>& leaves() const { return leaves_; }
+  std::vector<uint64_t>& leaves() { return leaves_; }
+
+private:
+  void grow() {
+    const size_t capacity = slots_.empty() ? 1024 : slots_.size() * 2;
+    std::vector<uint32_t> slots(capacity, 0);
+    for (uint32_t index = 0; index < leaves_.size(); ++index) {
+      for (size_t j = size_t(XXH3_64bits(&leaves_[index], 8)) & (capacity - 1);; j = (j + 1) & (capacity - 1)) {
+        if (slots[j] == 0) {
+          slots[j] = index + 1;
+          break;
+        }
+      }
+    }
+    slots_.swap(slots);
+  }
+
+  std::vector<uint64_t> leaves_;
+  std::vector<uint32_t> slots_;  // leaf index + 1; 0 = empty
+};
+
+}  // namespace cpvs

@@ -1,0 +1,51 @@
+#pragma once
+// Renders enter and exit depth maps of one region of a light view with OpenGL 4.5 core
+// (OSMesa by default, EGL as an option), DESIGN.md §4.2.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "libcpvs/depth_maps.h"
+#include "libcpvs/light_view.h"
+#include "libcpvs/view_geometry.h"
+
+namespace cpvs {
+
+enum class RasterBackend { OSMesa, EGL };
+// "osmesa" / "egl"; throws Error(Usage) for anything else.
+RasterBackend parseRasterBackend(const std::string& name);
+const char* rasterBackendName(RasterBackend backend);
+
+struct PeelSettings {
+  // Each peel iteration renders the closed front faces and the closed back faces once. When the cap is
+  // reached the exit is set conservatively (to the next unconsumed surface: never later than the truth).
+  uint32_t maxPeels = 16;
+};
+
+struct RenderStats {
+  double enterMs = 0;   // enter-depth pass
+  double peelMs = 0;    // exit-depth peeling
+  uint32_t peelIterations = 0;
+  uint64_t texelsAtPeelCap = 0;  // texels whose exit was set conservatively at the cap
+  uint64_t trianglesSubmitted = 0;
+};
+
+class DepthRenderer {
+public:
+  // Opens a GL 4.5 core context on the backend. Throws Error(NotSupported) when the backend's library or a
+  // suitable context is not available on this machine.
+  static std::unique_ptr<DepthRenderer> create(RasterBackend backend);
+  virtual ~DepthRenderer() = default;
+
+  // Largest region edge this context can render in one go (render-target limit).
+  virtual uint32_t maxRegionSize() const = 0;
+  // GL_RENDERER / GL_VERSION, for reports.
+  virtual std::string description() const = 0;
+
+  // Renders the region's enter and exit slices. `geometry` holds the triangles that reach the view (see
+  // view_geometry.h); the renderer submits only those that overlap the region.
+  virtual DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                             const PeelSettings& peel, RenderStats* stats = nullptr) = 0;
+};
+
+}  // namespace cpvs

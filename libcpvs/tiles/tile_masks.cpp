@@ -1,0 +1,174 @@
+#include "libcpvs/tiles/tile_masks.h"
+
+#include <algorithm>
+#include <string>
+#include <thread>
+
+#include "libcpvs/error.h"
+
+namespace cpvs {
+
+UndefinedMode parseUndefinedMode(const std::string& name) {
+  if (name == "kampe") return UndefinedMode::Kampe;
+  if (name == "sintorn") return UndefinedMode::Sintorn;
+  if (name == "none") return UndefinedMode::None;
+  throw Error(ExitCode::Usage, "--undefined '" + name + "': expected kampe, sintorn or none");
+}
+
+const char* undefinedModeName(UndefinedMode mode) {
+  switch (mode) {
+    case UndefinedMode::Kampe: return "kampe";
+    case UndefinedMode::Sintorn: return "sintorn";
+    case UndefinedMode::None: return "none";
+  }
+  return "?";
+}
+
+uint64_t TileChains::maskAt(uint32_t tile, uint32_t slice) const {
+  const auto begin = start.begin() + first[tile], end = start.begin() + first[tile + 1];
+  const auto it = std::upper_bound(begin, end, slice);
+  return mask[size_t(it - start.begin()) - 1];
+}
+
+uint32_t TileChains::nextTransition(uint32_t tile, uint32_t slice) const {
+  const auto begin = start.begin() + first[tile], end = start.begin() + first[tile + 1];
+  const auto it = std::upper_bound(begin, end, slice);
+  return it == end ? resolution : *it;
+}
+
+namespace {
+
+struct Entry {
+  uint32_t start;
+  uint64_t mask;
+};
+
+// One tile's chain. e[j], x[j]: enter and exit slices of texel j (bit j).
+void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, UndefinedMode mode,
+                std::vector<Entry>& out) {
+  out.clear();
+  out.push_back({0, kAllLit});
+  uint32_t minX = n, maxE = 0;
+  for (int j = 0; j < 64; ++j) {
+    minX = std::min(minX, x[j]);
+    maxE = std::max(maxE, e[j]);
+  }
+  // Bits allowed to be shadowed at slice z: every texel whose first surface is in front of z.
+  auto shadowable = [&](uint32_t z) {
+    uint64_t m = 0;
+    for (int j = 0; j < 64; ++j) m |= uint64_t(e[j] < z) << j;
+    return m;
+  };
+  uint64_t current = kAllLit;
+  uint32_t z = minX;  // nothing needs shadow before the nearest exit
+  while (z < n) {
+    if (z > maxE) {  // nothing needs light any more
+      out.push_back({z, kAllShadowed});
+      return;
+    }
+    const uint64_t m = shadowable(z);
+    if (m != current) {
+      out.push_back({z, m});
+      current = m;
+    }
+    if (current == kAllShadowed) return;
+    uint32_t next = n;
+    if (mode == UndefinedMode::Sintorn) {
+      // The mask follows the enter depths slice by slice: it changes after the next enter depth.
+      for (int j = 0; j < 64; ++j)
+        if (e[j] >= z) next = std::min(next, e[j] + 1);
+    } else {
+      // Keep the mask until a texel outside it must be shadowed (Kampe; None has x = e + 1).
+      for (int j = 0; j < 64; ++j)
+        if (!(current >> j & 1)) next = std::min(next, x[j]);
+    }
+    z = std::min(next, maxE + 1);
+  }
+}
+
+void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, uint32_t rowEnd, uint32_t tilesX,
+               std::vector<std::vector<Entry>>& chains) {
+  uint32_t e[64], x[64];
+  const uint32_t n = depth.resolution;
+  for (uint32_t ty = rowBegin; ty < rowEnd; ++ty) {
+    for (uint32_t tx = 0; tx < tilesX; ++tx) {
+      for (uint32_t j = 0; j < 64; ++j) {
+        const uint32_t px = tx * 8 + (j & 7), py = ty * 8 + (j >> 3);
+        e[j] = depth.enterAt(px, py);
+        x[j] = mode == UndefinedMode::None ? std::min(e[j] + 1, n) : depth.exitAt(px, py);
+        if (e[j] >= n) x[j] = n;
+      }
+      buildChain(e, x, n, mode, chains[size_t(ty) * tilesX + tx]);
+    }
+  }
+}
+
+}  // namespace
+
+TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads) {
+  const RegionRect& rect = depth.rect;
+  if (rect.width % 8 != 0 || rect.height % 8 != 0)
+    throw Error(ExitCode::RuntimeFailure, "region size must be a multiple of 8 texels");
+  TileChains chains;
+  chains.rect = rect;
+  chains.resolution = depth.resolution;
+  chains.tilesX = rect.width / 8;
+  chains.tilesY = rect.height / 8;
+  const size_t tileCount = size_t(chains.tilesX) * chains.tilesY;
+
+  std::vector<std::vector<Entry>> perTile(tileCount);
+  threads = std::max(1u, std::min(threads, chains.tilesY));
+  std::vector<std::thread> workers;
+  for (unsigned t = 0; t < threads; ++t) {
+    const uint32_t begin = uint32_t(uint64_t(chains.tilesY) * t / threads);
+    const uint32_t end = uint32_t(uint64_t(chains.tilesY) * (t + 1) / threads);
+    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(perTile));
+  }
+  for (auto& w : workers) w.join();
+
+  chains.first.resize(tileCount + 1);
+  chains.litUntil.resize(tileCount);
+  chains.shadowFrom.resize(tileCount);
+  size_t total = 0;
+  for (size_t t = 0; t < tileCount; ++t) total += perTile[t].size();
+  chains.start.reserve(total);
+  chains.mask.reserve(total);
+  for (size_t t = 0; t < tileCount; ++t) {
+    const auto& c = perTile[t];
+    chains.first[t] = uint32_t(chains.start.size());
+    for (const Entry& entry : c) {
+      chains.start.push_back(entry.start);
+      chains.mask.push_back(entry.mask);
+    }
+    chains.litUntil[t] = c.size() > 1 ? c[1].start : depth.resolution;
+    chains.shadowFrom[t] = c.back().mask == kAllShadowed ? c.back().start : depth.resolution;
+  }
+  chains.first[tileCount] = uint32_t(chains.start.size());
+  return chains;
+}
+
+TileHierarchy::TileHierarchy(const TileChains& chains) {
+  if (chains.tilesX != chains.tilesY || (chains.tilesX & (chains.tilesX - 1)) != 0)
+    throw Error(ExitCode::RuntimeFailure, "tile hierarchy needs a square power-of-two region");
+  size.push_back(chains.tilesX);
+  minLitUntil.push_back(chains.litUntil);
+  maxShadowFrom.push_back(chains.shadowFrom);
+  while (size.back() > 1) {
+    const uint32_t fine = size.back(), coarse = fine / 2;
+    const auto& fineMin = minLitUntil.back();
+    const auto& fineMax = maxShadowFrom.back();
+    std::vector<uint32_t> mn(size_t(coarse) * coarse), mx(size_t(coarse) * coarse);
+    for (uint32_t y = 0; y < coarse; ++y) {
+      for (uint32_t x = 0; x < coarse; ++x) {
+        const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
+        mn[size_t(y) * coarse + x] = std::min({fineMin[a], fineMin[a + 1], fineMin[b], fineMin[b + 1]});
+        mx[size_t(y) * coarse + x] = std::max({fineMax[a], fineMax[a + 1], fineMax[b], fineMax[b + 1]});
+      }
+    }
+    size.push_back(coarse);
+    minLitUntil.push_back(std::move(mn));
+    maxShadowFrom.push_back(std::move(mx));
+  }
+}
+
+}  // namespace cpvs

@@ -1,0 +1,57 @@
+#pragma once
+// Per 8x8 texel tile, the visibility along depth as a chain of 64-bit masks (seed 004 §3.4, DESIGN.md §4.3).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "libcpvs/depth_maps.h"
+
+namespace cpvs {
+
+// How free voxels (inside closed solids, e < z < x) are resolved.
+enum class UndefinedMode : uint8_t {
+  Kampe = 0,    // seed 004 §3.4: greedy masks that shadow as much as allowed, reused as long as allowed
+  Sintorn = 1,  // Sintorn 2014: lit+free -> lit, shadow+free -> shadow, mixed -> free becomes shadow
+  None = 2,     // no free voxels: every texel exits right after its first surface (as for open geometry)
+};
+UndefinedMode parseUndefinedMode(const std::string& name);  // throws Error(Usage)
+const char* undefinedModeName(UndefinedMode mode);
+
+// Bit (ty * 8 + tx) of a mask is texel (tx, ty) of the tile; a set bit is shadowed.
+inline constexpr uint64_t kAllLit = 0;
+inline constexpr uint64_t kAllShadowed = ~uint64_t(0);
+
+// The chains of all tiles of one region. Tile t's chain is entries [first[t], first[t + 1]): entry i holds
+// mask[i] for slices [start[i], start[i + 1]) (the last one up to N). Masks only gain bits along a chain;
+// the first entry always starts at slice 0.
+struct TileChains {
+  RegionRect rect;              // in texels; width and height are multiples of 8
+  uint32_t resolution = 0;      // N
+  uint32_t tilesX = 0, tilesY = 0;
+  std::vector<uint32_t> first;  // tilesX * tilesY + 1
+  std::vector<uint32_t> start;
+  std::vector<uint64_t> mask;
+  // Per tile: every slice before litUntil is all lit; every slice from shadowFrom on is all shadowed (N if
+  // never). These feed the min-max hierarchy.
+  std::vector<uint32_t> litUntil;
+  std::vector<uint32_t> shadowFrom;
+
+  uint32_t tileIndex(uint32_t tx, uint32_t ty) const { return ty * tilesX + tx; }
+  uint64_t maskAt(uint32_t tile, uint32_t slice) const;
+  // The first chain start strictly after `slice` (N when the tile does not change again).
+  uint32_t nextTransition(uint32_t tile, uint32_t slice) const;
+};
+
+// Builds the chains of a region from its depth maps. Tiles are independent; `threads` > 1 splits rows
+// between threads (the result does not depend on it).
+TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads = 1);
+
+// Min-max hierarchy over the tiles of a region: level 0 is per tile, level k covers 2^k x 2^k tiles.
+struct TileHierarchy {
+  std::vector<uint32_t> size;                   // tiles per side at each level
+  std::vector<std::vector<uint32_t>> minLitUntil;
+  std::vector<std::vector<uint32_t>> maxShadowFrom;
+  explicit TileHierarchy(const TileChains& chains);
+};
+
+}  // namespace cpvs

@@ -1,0 +1,180 @@
+// Tile chains and DAG construction: every required voxel is exact in every mode, node reuse changes nothing,
+// and regions give the same grid as one piece.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "libcpvs/dag/dag_builder.h"
+#include "libcpvs/tiles/tile_masks.h"
+
+namespace cpvs {
+namespace {
+
+// A synthetic depth map with the structure of real ones: blocky casters at a few depths (so there are
+// mid-air shadow boundaries), solids of various thickness, open surfaces and empty texels.
+DepthRegion syntheticDepth(uint32_t n, uint32_t seed, RegionRect rect = {}) {
+  if (rect.width == 0) rect = {0, 0, n, n};
+  std::mt19937 rng(seed);
+  struct Block {
+    uint32_t x0, y0, x1, y1, e, thickness;
+  };
+  std::vector<Block> blocks;
+  for (int i = 0; i < 12; ++i) {
+    const uint32_t x0 = rng() % n, y0 = rng() % n;
+    const uint32_t w = 1 + rng() % (n / 3), h = 1 + rng() % (n / 3);
+    const uint32_t e = rng() % (n - 2);
+    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e - 1);
+    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
+  }
+  DepthRegion d;
+  d.rect = rect;
+  d.resolution = n;
+  d.enter.assign(size_t(rect.width) * rect.height, n);
+  d.exit.assign(size_t(rect.width) * rect.height, n);
+  for (uint32_t y = 0; y < rect.height; ++y) {
+    for (uint32_t x = 0; x < rect.width; ++x) {
+      const uint32_t gx = rect.x0 + x, gy = rect.y0 + y;
+      uint32_t e = n, xs = n;
+      for (const Block& b : blocks) {
+        if (gx >= b.x0 && gx < b.x1 && gy >= b.y0 && gy < b.y1 && b.e < e) {
+          e = b.e;
+          xs = std::min(n, b.e + b.thickness);
+        }
+      }
+      // A sloped open surface over part of the map.
+      if (gx + gy < n / 2) {
+        const uint32_t slope = (gx + 2 * gy) % n;
+        if (slope < e) {
+          e = slope;
+          xs = std::min(n, slope + 1);
+        }
+      }
+      d.enter[size_t(y) * rect.width + x] = e;
+      d.exit[size_t(y) * rect.width + x] = std::max(xs, std::min(n, e + 1));
+    }
+  }
+  return d;
+}
+
+void expectExact(const DagView& dag, const DepthRegion& depth) {
+  const uint32_t n = depth.resolution;
+  uint64_t errors = 0;
+  for (uint32_t y = 0; y < depth.rect.height; ++y) {
+    for (uint32_t x = 0; x < depth.rect.width; ++x) {
+      const uint32_t e = depth.enterAt(x, y), xs = depth.exitAt(x, y);
+      for (uint32_t z = 0; z < n; ++z) {
+        const bool shadowed = dag.shadowed(depth.rect.x0 + x, depth.rect.y0 + y, z);
+        if (z <= e && shadowed) ++errors;
+        if (z >= xs && !shadowed) ++errors;
+      }
+    }
+  }
+  EXPECT_EQ(errors, 0u);
+}
+
+class DagModes : public ::testing::TestWithParam<UndefinedMode> {};
+
+TEST_P(DagModes, RequiredVoxelsAreExactAndReuseChangesNothing) {
+  for (uint32_t n : {64u, 128u}) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      const DepthRegion depth = syntheticDepth(n, seed);
+      const TileChains chains = buildTileChains(depth, GetParam(), 2);
+      DagBuildStats withStats, withoutStats;
+      const ShadowDag with = buildDag(chains, true, &withStats);
+      const ShadowDag without = buildDag(chains, false, &withoutStats);
+      expectExact(with.view(), depth);
+      // Identical-node culling only skips building nodes that hash-consing would merge anyway.
+      EXPECT_EQ(with.nodes, without.nodes);
+      EXPECT_EQ(with.leaves, without.leaves);
+      EXPECT_GT(withStats.nodesReused, 0u);
+      EXPECT_LT(withStats.nodesBuilt, withoutStats.nodesBuilt);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllModes, DagModes,
+                         ::testing::Values(UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None),
+                         [](const auto& info) { return std::string(undefinedModeName(info.param)); });
+
+TEST(Dag, ModesAgreeOnEveryVoxelThatIsNotFree) {
+  const uint32_t n = 128;
+  const DepthRegion depth = syntheticDepth(n, 7);
+  const ShadowDag kampe = buildDag(buildTileChains(depth, UndefinedMode::Kampe), true);
+  const ShadowDag sintorn = buildDag(buildTileChains(depth, UndefinedMode::Sintorn), true);
+  const ShadowDag none = buildDag(buildTileChains(depth, UndefinedMode::None), true);
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x)
+      for (uint32_t z = 0; z < n; ++z) {
+        const uint32_t e = depth.enterAt(x, y), xs = depth.exitAt(x, y);
+        if (z > e && z < xs) continue;
+        const bool expected = z >= xs;
+        ASSERT_EQ(kampe.view().shadowed(x, y, z), expected);
+        ASSERT_EQ(sintorn.view().shadowed(x, y, z), expected);
+        ASSERT_EQ(none.view().shadowed(x, y, z), expected);
+      }
+  // The point of the modes: using free voxels makes the DAG smaller.
+  EXPECT_LE(kampe.bytes(), sintorn.bytes());
+  EXPECT_LT(sintorn.bytes(), none.bytes());
+}
+
+TEST(Dag, RegionsGiveTheSameGridAsOnePiece) {
+  const uint32_t n = 128, regionSize = 32;
+  const DepthRegion whole = syntheticDepth(n, 11);
+  const ShadowDag single = buildDag(buildTileChains(whole, UndefinedMode::Kampe), true);
+  DagBuilder builder(n, regionSize, true);
+  for (uint32_t ry = 0; ry < n / regionSize; ++ry)
+    for (uint32_t rx = 0; rx < n / regionSize; ++rx) {
+      const DepthRegion part = syntheticDepth(n, 11, {rx * regionSize, ry * regionSize, regionSize, regionSize});
+      builder.addRegion(buildTileChains(part, UndefinedMode::Kampe));
+    }
+  const ShadowDag regions = builder.finish();
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x)
+      for (uint32_t z = 0; z < n; ++z) ASSERT_EQ(single.view().shadowed(x, y, z), regions.view().shadowed(x, y, z));
+  // Hash tables persist across regions: the same unique nodes below the region level.
+  EXPECT_EQ(single.leaves.size(), regions.leaves.size());
+}
+
+TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
+  const DepthRegion depth = syntheticDepth(64, 3);
+  for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None}) {
+    const TileChains chains = buildTileChains(depth, mode);
+    for (uint32_t t = 0; t < chains.tilesX * chains.tilesY; ++t) {
+      ASSERT_EQ(chains.start[chains.first[t]], 0u);
+      for (uint32_t i = chains.first[t] + 1; i < chains.first[t + 1]; ++i) {
+        EXPECT_LT(chains.start[i - 1], chains.start[i]);
+        EXPECT_EQ(chains.mask[i - 1] & ~chains.mask[i], 0u);
+        EXPECT_NE(chains.mask[i - 1], chains.mask[i]);
+      }
+      for (uint32_t z = 0; z < 64; ++z) {
+        const uint64_t m = chains.maskAt(t, z);
+        if (z < chains.litUntil[t]) {
+          EXPECT_EQ(m, kAllLit);
+        }
+        if (z >= chains.shadowFrom[t]) {
+          EXPECT_EQ(m, kAllShadowed);
+        }
+      }
+    }
+  }
+}
+
+TEST(TileChains, KampeUsesFewerDistinctMasksThanSintorn) {
+  // One tile: texel j enters at slice j; texel 0 is an open surface, every other texel is inside a solid
+  // to the end. Kampe keeps one mask ({texel 0}) for the whole depth; Sintorn follows every enter depth.
+  DepthRegion depth;
+  depth.rect = {0, 0, 8, 8};
+  depth.resolution = 64;
+  for (uint32_t j = 0; j < 64; ++j) {
+    depth.enter.push_back(j);
+    depth.exit.push_back(j == 0 ? 1 : 64);
+  }
+  const TileChains kampe = buildTileChains(depth, UndefinedMode::Kampe);
+  const TileChains sintorn = buildTileChains(depth, UndefinedMode::Sintorn);
+  EXPECT_EQ(kampe.first[1] - kampe.first[0], 2u);
+  EXPECT_EQ(kampe.mask[1], 1u);
+  EXPECT_GT(sintorn.first[1] - sintorn.first[0], 60u);
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -1,0 +1,71 @@
+#include "support/test_support.h"
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "libcpvs/mesh_topology.h"
+
+namespace cpvs::test {
+
+std::string sourcePath(const std::string& relative) { return std::string(CPVS_SOURCE_DIR) + "/" + relative; }
+
+std::string toolPath(const std::string& tool) { return std::string(CPVS_BINARY_DIR) + "/bin/" + tool; }
+
+std::string tempDir() {
+  static std::atomic<int> counter{0};
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "cpvs";
+  for (char& c : name)
+    if (c == '/') c = '_';
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("cpvs-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+void addBox(Scene& scene, const std::string& name, const glm::dvec3& lo, const glm::dvec3& hi) {
+  Mesh mesh;
+  mesh.name = name;
+  for (int i = 0; i < 8; ++i)
+    mesh.positions.push_back(glm::vec3(i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z));
+  // Each face as two CCW triangles seen from outside.
+  const uint32_t faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+  for (const auto& f : faces) mesh.indices.insert(mesh.indices.end(), {f[0], f[1], f[2], f[0], f[2], f[3]});
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({uint32_t(scene.meshes.size() - 1), glm::dmat4(1.0), name});
+}
+
+void addQuad(Scene& scene, const std::string& name, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c,
+             const glm::dvec3& d) {
+  Mesh mesh;
+  mesh.name = name;
+  mesh.positions = {glm::vec3(a), glm::vec3(b), glm::vec3(c), glm::vec3(d)};
+  mesh.indices = {0, 1, 2, 0, 2, 3};
+  scene.meshes.push_back(mesh);
+  scene.instances.push_back({uint32_t(scene.meshes.size() - 1), glm::dmat4(1.0), name});
+}
+
+void classifyMeshes(Scene& scene) {
+  for (Mesh& mesh : scene.meshes) classifyMesh(mesh);
+}
+
+ToolResult runTool(const std::string& commandLine) {
+  ToolResult result;
+  FILE* pipe = ::popen((commandLine + " 2>&1").c_str(), "r");
+  if (!pipe) return result;
+  std::array<char, 4096> buffer;
+  size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) result.output.append(buffer.data(), n);
+  const int status = ::pclose(pipe);
+  result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  return result;
+}
+
+}  // namespace cpvs::test

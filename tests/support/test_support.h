@@ -1,0 +1,29 @@
+#pragma once
+// Helpers shared by the tests: paths, small procedural scenes, running the tools.
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "libcpvs/scene.h"
+
+namespace cpvs::test {
+
+std::string sourcePath(const std::string& relative);  // inside the source tree (data/, tests/)
+std::string toolPath(const std::string& tool);        // build/bin/<tool>
+std::string tempDir();                                // a fresh directory for this test
+
+// Appends an axis-aligned closed box (12 triangles, outward CCW) as a new mesh with one instance.
+void addBox(Scene& scene, const std::string& name, const glm::dvec3& min, const glm::dvec3& max);
+// Appends an open single-sided quad (2 triangles) with the given corners in CCW order.
+void addQuad(Scene& scene, const std::string& name, const glm::dvec3& a, const glm::dvec3& b,
+             const glm::dvec3& c, const glm::dvec3& d);
+// Decides closedness of every mesh the way the importer does.
+void classifyMeshes(Scene& scene);
+
+struct ToolResult {
+  int exitCode = -1;
+  std::string output;  // stdout and stderr together
+};
+ToolResult runTool(const std::string& commandLine);
+
+}  // namespace cpvs::test

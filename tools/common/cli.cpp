@@ -1,0 +1,158 @@
+#include "tools/common/cli.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <new>
+#include <sstream>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include "libcpvs/version.h"
+
+namespace cpvs::tools {
+namespace {
+
+std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(item.c_str(), &end);
+    if (item.empty() || end != item.c_str() + item.size() || errno != 0 || !std::isfinite(value))
+      throw Error(ExitCode::Usage, option + " '" + text + "': '" + item + "' is not a finite number");
+    values.push_back(value);
+  }
+  if (values.size() != expected)
+    throw Error(ExitCode::Usage, option + " '" + text + "': expected " + std::to_string(expected) +
+                                     " comma-separated numbers, got " + std::to_string(values.size()));
+  return values;
+}
+
+glm::dvec3 unitDirection(const std::string& option, const std::string& text, double x, double y, double z) {
+  const glm::dvec3 d(x, y, z);
+  const double length = glm::length(d);
+  if (!(length > 0)) throw Error(ExitCode::Usage, option + " '" + text + "': the direction must not be zero");
+  return d / length;
+}
+
+}  // namespace
+
+std::string exitCodeHelp() {
+  return "Exit codes:\n"
+         "  0  success\n"
+         "  1  usage error (bad option or value)\n"
+         "  2  input unreadable or invalid (the message names the file and element)\n"
+         "  3  output cannot be written\n"
+         "  4  runtime failure (e.g. out of memory, GL failure)\n"
+         "  5  not supported in this build or on this machine (e.g. EGL missing)\n";
+}
+
+void LightOptions::addTo(CLI::App& app) {
+  app.add_option("--sun", suns, "Directional light X,Y,Z: the direction the light travels (repeatable)")
+      ->type_name("X,Y,Z");
+  app.add_option("--spot", spots,
+                 "Spot light PX,PY,PZ,DX,DY,DZ,OUTER_ANGLE_RAD,RANGE (repeatable; RANGE 0 = unlimited)")
+      ->type_name("P,D,ANGLE,RANGE");
+  app.add_option("--point", points, "Point light PX,PY,PZ,RANGE (repeatable; RANGE 0 = unlimited)")
+      ->type_name("PX,PY,PZ,RANGE");
+  app.add_option("--exclude-mesh", excludedMeshes, "Drop the named mesh from the casters, e.g. a skybox (repeatable)")
+      ->type_name("NAME");
+}
+
+void LightOptions::applyTo(Scene& scene) const {
+  if (!excludedMeshes.empty()) excludeMeshes(scene, excludedMeshes);
+  if (!any()) return;
+  scene.lights.clear();
+  for (size_t i = 0; i < suns.size(); ++i) {
+    const auto v = parseNumbers("--sun", suns[i], 3);
+    Light light;
+    light.name = "sun" + std::to_string(i);
+    light.type = LightType::Directional;
+    light.direction = unitDirection("--sun", suns[i], v[0], v[1], v[2]);
+    scene.lights.push_back(light);
+  }
+  for (size_t i = 0; i < spots.size(); ++i) {
+    const auto v = parseNumbers("--spot", spots[i], 8);
+    Light light;
+    light.name = "spot" + std::to_string(i);
+    light.type = LightType::Spot;
+    light.position = {v[0], v[1], v[2]};
+    light.direction = unitDirection("--spot", spots[i], v[3], v[4], v[5]);
+    if (!(v[6] > 0 && v[6] <= M_PI / 2))
+      throw Error(ExitCode::Usage, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
+    light.outerConeAngle = v[6];
+    if (v[7] < 0) throw Error(ExitCode::Usage, "--spot '" + spots[i] + "': RANGE must not be negative");
+    light.range = v[7] == 0 ? std::numeric_limits<double>::infinity() : v[7];
+    scene.lights.push_back(light);
+  }
+  for (size_t i = 0; i < points.size(); ++i) {
+    const auto v = parseNumbers("--point", points[i], 4);
+    Light light;
+    light.name = "point" + std::to_string(i);
+    light.type = LightType::Point;
+    light.position = {v[0], v[1], v[2]};
+    if (v[3] < 0) throw Error(ExitCode::Usage, "--point '" + points[i] + "': RANGE must not be negative");
+    light.range = v[3] == 0 ? std::numeric_limits<double>::infinity() : v[3];
+    scene.lights.push_back(light);
+  }
+}
+
+int runMain(const char* toolName, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const Error& e) {
+    std::cerr << toolName << ": error: " << e.what() << "\n";
+    return int(e.code());
+  } catch (const std::bad_alloc&) {
+    std::cerr << toolName << ": error: out of memory\n";
+    return int(ExitCode::RuntimeFailure);
+  } catch (const std::exception& e) {
+    std::cerr << toolName << ": error: " << e.what() << "\n";
+    return int(ExitCode::RuntimeFailure);
+  }
+}
+
+void addVersionFlag(CLI::App& app, const char* toolName) {
+  app.set_version_flag("--version", std::string(toolName) + " " + kVersion);
+}
+
+void writeFileAtomically(const std::string& path, const std::string& bytes) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::string temp = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  const int fd = mkstemp(temp.data());
+  if (fd < 0) throw Error(ExitCode::OutputFailed, path + ": cannot create a temporary file beside it: " + std::strerror(errno));
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const std::string reason = std::strerror(errno);
+      ::close(fd);
+      ::unlink(temp.c_str());
+      throw Error(ExitCode::OutputFailed, path + ": write failed: " + reason);
+    }
+    written += size_t(n);
+  }
+  fchmod(fd, 0644);
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const std::string reason = std::strerror(errno);
+    ::unlink(temp.c_str());
+    throw Error(ExitCode::OutputFailed, path + ": write failed: " + reason);
+  }
+  if (std::rename(temp.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    ::unlink(temp.c_str());
+    throw Error(ExitCode::OutputFailed, path + ": cannot rename the finished file into place: " + reason);
+  }
+}
+
+}  // namespace cpvs::tools

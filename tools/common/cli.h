@@ -1,0 +1,40 @@
+#pragma once
+// What every cpvs tool shares on its command line: lights, excluded meshes, exit codes (DESIGN.md §7).
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "libcpvs/error.h"
+#include "libcpvs/scene.h"
+
+namespace cpvs::tools {
+
+// The text appended to every tool's --help.
+std::string exitCodeHelp();
+
+struct LightOptions {
+  std::vector<std::string> suns;    // "X,Y,Z": the direction the light travels
+  std::vector<std::string> spots;   // "PX,PY,PZ,DX,DY,DZ,OUTER_ANGLE_RAD,RANGE"
+  std::vector<std::string> points;  // "PX,PY,PZ,RANGE"
+  std::vector<std::string> excludedMeshes;
+
+  void addTo(CLI::App& app);
+  bool any() const { return !suns.empty() || !spots.empty() || !points.empty(); }
+  // Replaces the scene's lights by the command-line ones when any are given, and drops excluded meshes.
+  // Throws Error(Usage) on malformed values.
+  void applyTo(Scene& scene) const;
+};
+
+// Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
+int runMain(const char* toolName, const std::function<int()>& body);
+
+// Sets --version on the app to print "<tool> <version>".
+void addVersionFlag(CLI::App& app, const char* toolName);
+
+// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, then rename. Throws
+// Error(OutputFailed) naming the path.
+void writeFileAtomically(const std::string& path, const std::string& bytes);
+
+}  // namespace cpvs::tools
