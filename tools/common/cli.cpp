@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "libcpvs/version.h"
@@ -62,7 +63,7 @@ void LightOptions::addTo(CLI::App& app) {
       ->type_name("P,D,ANGLE,RANGE");
   app.add_option("--point", points, "Point light PX,PY,PZ,RANGE (repeatable; RANGE 0 = unlimited)")
       ->type_name("PX,PY,PZ,RANGE");
-  app.add_option("--exclude-mesh", excludedMeshes, "Drop the named mesh from the casters, e.g. a skybox (repeatable)")
+  app.add_option("--exclude-mesh", excludedMeshes, "Drop a glTF mesh (all its primitives; NAME#k for one primitive) from the casters, e.g. a skybox (repeatable)")
       ->type_name("NAME");
 }
 

@@ -1,0 +1,865 @@
+#include "formats/gltf/gltf_import.h"
+
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
+
+#include "libcpvs/error.h"
+#include "libcpvs/mesh_topology.h"
+
+namespace cpvs {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "glTF buffers are read in place as little-endian");
+
+constexpr const char* kLightsExtension = "KHR_lights_punctual";
+// An accessor without a bufferView is all zeros (plus sparse values); its count costs memory but no file
+// bytes, so it is capped to keep hostile files from exhausting memory.
+constexpr size_t kMaxZeroInitialisedElements = size_t(1) << 24;
+constexpr size_t kMaxElements = size_t(UINT32_MAX);  // cpvs meshes index with uint32
+
+// Required extensions that change what the geometry is; importing without them would give wrong shadows.
+const std::set<std::string> kUnsupportedGeometryExtensions = {
+    "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression", "EXT_mesh_gpu_instancing"};
+const std::set<std::string> kSupportedExtensions = {kLightsExtension, "KHR_mesh_quantization"};
+
+std::string lowercase(std::string s) {
+  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool hasImageExtension(const std::string& path) {
+  static const std::set<std::string> kImageExtensions = {".png", ".jpg",  ".jpeg", ".ktx2", ".ktx", ".webp",
+                                                         ".dds", ".basis", ".bmp", ".gif",  ".tga", ".hdr"};
+  return kImageExtensions.count(lowercase(std::filesystem::path(path).extension().string())) != 0;
+}
+
+// tinygltf looks for external files beside the glTF and also in the working directory; only the former is
+// meant (the loader is given an absolute path, so candidates from "." are the relative ones). Images are
+// never read: shadows do not need them, and they can be large.
+bool fileExistsBesideSceneExceptImages(const std::string& path, void* userData) {
+  if (path.empty() || path.front() != '/' || hasImageExtension(path)) return false;
+  return tinygltf::FileExists(path, userData);
+}
+
+bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+                       void*) {
+  return true;
+}
+
+std::string trimmed(const std::string& text) {
+  const size_t begin = text.find_first_not_of(" \t\r\n");
+  if (begin == std::string::npos) return {};
+  return text.substr(begin, text.find_last_not_of(" \t\r\n") - begin + 1);
+}
+
+std::vector<std::string> lines(const std::string& text) {
+  std::vector<std::string> result;
+  std::istringstream stream(text);
+  for (std::string line; std::getline(stream, line);)
+    if (!trimmed(line).empty()) result.push_back(trimmed(line));
+  return result;
+}
+
+size_t componentSize(int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_INT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
+    default: return 0;
+  }
+}
+
+const char* componentTypeName(int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
+    case TINYGLTF_COMPONENT_TYPE_INT: return "INT";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return "DOUBLE";
+    default: return "unknown";
+  }
+}
+
+size_t componentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT2: return 4;
+    case TINYGLTF_TYPE_MAT3: return 9;
+    case TINYGLTF_TYPE_MAT4: return 16;
+    default: return 0;
+  }
+}
+
+const char* typeName(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
+    case TINYGLTF_TYPE_VEC2: return "VEC2";
+    case TINYGLTF_TYPE_VEC3: return "VEC3";
+    case TINYGLTF_TYPE_VEC4: return "VEC4";
+    case TINYGLTF_TYPE_MAT2: return "MAT2";
+    case TINYGLTF_TYPE_MAT3: return "MAT3";
+    case TINYGLTF_TYPE_MAT4: return "MAT4";
+    default: return "unknown";
+  }
+}
+
+const char* modeName(int mode) {
+  switch (mode) {
+    case TINYGLTF_MODE_POINTS: return "POINTS";
+    case TINYGLTF_MODE_LINE: return "LINES";
+    case TINYGLTF_MODE_LINE_LOOP: return "LINE_LOOP";
+    case TINYGLTF_MODE_LINE_STRIP: return "LINE_STRIP";
+    case TINYGLTF_MODE_TRIANGLES: return "TRIANGLES";
+    case TINYGLTF_MODE_TRIANGLE_STRIP: return "TRIANGLE_STRIP";
+    case TINYGLTF_MODE_TRIANGLE_FAN: return "TRIANGLE_FAN";
+    default: return "unknown";
+  }
+}
+
+template <typename T>
+T loadUnaligned(const unsigned char* bytes) {
+  T value;
+  std::memcpy(&value, bytes, sizeof value);
+  return value;
+}
+
+// One component as float; normalized integers follow the glTF/KHR_mesh_quantization rules.
+float componentAsFloat(const unsigned char* bytes, int componentType, bool normalized) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      const float v = loadUnaligned<int8_t>(bytes);
+      return normalized ? std::max(v / 127.0f, -1.0f) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
+      const float v = loadUnaligned<uint8_t>(bytes);
+      return normalized ? v / 255.0f : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      const float v = loadUnaligned<int16_t>(bytes);
+      return normalized ? std::max(v / 32767.0f, -1.0f) : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      const float v = loadUnaligned<uint16_t>(bytes);
+      return normalized ? v / 65535.0f : v;
+    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return loadUnaligned<float>(bytes);
+    default: return 0.0f;  // callers accept only the types above
+  }
+}
+
+uint32_t componentAsIndex(const unsigned char* bytes, int componentType) {
+  switch (componentType) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return loadUnaligned<uint8_t>(bytes);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return loadUnaligned<uint16_t>(bytes);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return loadUnaligned<uint32_t>(bytes);
+    default: return 0;  // callers accept only the types above
+  }
+}
+
+bool isIndexComponentType(int componentType) {
+  return componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+         componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ||
+         componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+}
+
+// Triangles of a primitive as a list, from its vertex sequence (the indices, or 0..n-1 without indices).
+// Triangles that repeat a vertex are dropped: strips use them to restart, and they cast no shadow.
+struct Triangulation {
+  std::vector<uint32_t> indices;
+  size_t droppedDegenerate = 0;
+  size_t ignoredTrailing = 0;
+};
+
+Triangulation triangulate(int mode, const std::vector<uint32_t>& sequence) {
+  Triangulation result;
+  auto emit = [&](uint32_t a, uint32_t b, uint32_t c) {
+    if (a == b || b == c || c == a) {
+      ++result.droppedDegenerate;
+      return;
+    }
+    result.indices.insert(result.indices.end(), {a, b, c});
+  };
+  const size_t n = sequence.size();
+  if (mode == TINYGLTF_MODE_TRIANGLES) {
+    result.indices.reserve(n - n % 3);
+    for (size_t i = 0; i + 2 < n; i += 3) emit(sequence[i], sequence[i + 1], sequence[i + 2]);
+    result.ignoredTrailing = n % 3;
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+    // glTF: triangle i is (v_i, v_{i+1+i%2}, v_{i+2-i%2}), which keeps every triangle's winding.
+    for (size_t i = 0; i + 2 < n; ++i) emit(sequence[i], sequence[i + 1 + i % 2], sequence[i + 2 - i % 2]);
+  } else if (mode == TINYGLTF_MODE_TRIANGLE_FAN) {
+    for (size_t i = 1; i + 1 < n; ++i) emit(sequence[0], sequence[i], sequence[i + 1]);
+  }
+  return result;
+}
+
+class GltfImporter {
+public:
+  explicit GltfImporter(std::string path) : path_(std::move(path)) {}
+
+  Scene run() {
+    scene_.source = path_;
+    load();
+    checkRequiredExtensions();
+    parseLights();
+    traverse(rootNodes());
+    for (Mesh& mesh : scene_.meshes) classifyMesh(mesh);
+    size_t triangles = 0;
+    for (const Instance& instance : scene_.instances) triangles += scene_.meshes[instance.mesh].triangleCount();
+    if (triangles == 0) fail("no triangles: the scene has no triangle mesh that a node places");
+    if (degenerate_.triangles)
+      warn("dropped " + std::to_string(degenerate_.triangles) + " triangles with a repeated index in " +
+           std::to_string(degenerate_.primitives) + " primitives (the first: " + degenerate_.first + ")");
+    return std::move(scene_);
+  }
+
+private:
+  [[noreturn]] void fail(const std::string& message) const {
+    throw Error(ExitCode::InputInvalid, path_ + ": " + message);
+  }
+  void warn(const std::string& message) { scene_.warnings.push_back(path_ + ": " + message); }
+  void warnOnce(const std::string& message) {
+    if (warnedOnce_.insert(message).second) warn(message);
+  }
+
+  void load() {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path_, ec)) fail("is a directory, not a glTF file");
+    std::ifstream file(path_, std::ios::binary | std::ios::ate);
+    if (!file) fail(std::string("cannot open: ") + std::strerror(errno));
+    const std::streamoff size = file.tellg();
+    if (size < 0) fail("cannot determine the file size");
+    if (uint64_t(size) >= UINT32_MAX) fail("larger than 4 GiB, which glTF does not allow");
+    std::vector<unsigned char> bytes(static_cast<size_t>(size));
+    file.seekg(0);
+    if (!file.read(reinterpret_cast<char*>(bytes.data()), size)) fail(std::string("cannot read: ") + std::strerror(errno));
+    const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+
+    tinygltf::TinyGLTF loader;
+    loader.SetImageLoader(&skipImageDecoding, nullptr);
+    loader.SetFsCallbacks({&fileExistsBesideSceneExceptImages, &tinygltf::ExpandFilePath, &tinygltf::ReadWholeFile,
+                           &tinygltf::WriteWholeFile, nullptr});
+    // An absolute base directory, so that tinygltf's extra search in "." can be told apart and refused.
+    const std::string baseDir = std::filesystem::absolute(path_, ec).parent_path().string();
+    std::string errors, warnings;
+    const bool ok =
+        binary ? loader.LoadBinaryFromMemory(&model_, &errors, &warnings, bytes.data(), unsigned(bytes.size()), baseDir)
+               : loader.LoadASCIIFromString(&model_, &errors, &warnings, reinterpret_cast<const char*>(bytes.data()),
+                                            unsigned(bytes.size()), baseDir);
+    for (const std::string& line : lines(warnings)) {
+      // Images are skipped on purpose (see fileExistsBesideSceneExceptImages); say nothing about them.
+      if (line.find("image[") != std::string::npos) continue;
+      if (line.rfind("File not found", 0) == 0 && hasImageExtension(line)) continue;
+      warn(line);
+    }
+    // tinygltf reports some problems in `errors` and still returns true; those are errors too.
+    const std::vector<std::string> errorLines = lines(errors);
+    if (!ok || !errorLines.empty()) {
+      std::string message;
+      for (const std::string& line : errorLines) message += (message.empty() ? "" : "; ") + line;
+      fail(message.empty() ? "not a valid glTF 2.0 file" : message);
+    }
+
+    // tinygltf silently ignores optional properties of the wrong JSON type ("mesh": "0" would just lose the
+    // mesh), so the properties cpvs relies on are type-checked here. tinygltf has validated the GLB layout.
+    size_t jsonBegin = 0, jsonLength = bytes.size();
+    if (binary) {
+      uint32_t chunkLength = 0;
+      std::memcpy(&chunkLength, bytes.data() + 12, 4);
+      jsonBegin = 20;
+      jsonLength = chunkLength;
+    }
+    const nlohmann::json root =
+        nlohmann::json::parse(bytes.begin() + long(jsonBegin), bytes.begin() + long(jsonBegin + jsonLength), nullptr,
+                              /*allow_exceptions=*/false);
+    if (root.is_discarded()) fail("the JSON cannot be parsed");
+    checkJsonTypes(root);
+  }
+
+  // JSON kinds that tinygltf would otherwise coerce or drop without a word.
+  enum class JsonKind { Index, Size, Number, String, Boolean, Object, Array };
+
+  static bool isKind(const nlohmann::json& value, JsonKind kind) {
+    const bool nonNegativeInteger = value.is_number_unsigned() || (value.is_number_integer() && value.get<int64_t>() >= 0);
+    switch (kind) {
+      case JsonKind::Index: return nonNegativeInteger && value.get<uint64_t>() <= uint64_t(INT32_MAX);
+      case JsonKind::Size: return nonNegativeInteger;
+      case JsonKind::Number: return value.is_number();
+      case JsonKind::String: return value.is_string();
+      case JsonKind::Boolean: return value.is_boolean();
+      case JsonKind::Object: return value.is_object();
+      case JsonKind::Array: return value.is_array();
+    }
+    return false;
+  }
+
+  static const char* kindName(JsonKind kind) {
+    switch (kind) {
+      case JsonKind::Index: return "an index (integer in [0, 2^31))";
+      case JsonKind::Size: return "a non-negative integer";
+      case JsonKind::Number: return "a number";
+      case JsonKind::String: return "a string";
+      case JsonKind::Boolean: return "a boolean";
+      case JsonKind::Object: return "an object";
+      case JsonKind::Array: return "an array";
+    }
+    return "?";
+  }
+
+  static std::string member(const std::string& where, const std::string& key) {
+    return where.empty() ? key : where + "." + key;
+  }
+
+  void expectKind(const nlohmann::json& value, JsonKind kind, const std::string& what) const {
+    if (!isKind(value, kind)) fail(what + " is " + describeJson(value) + ", expected " + kindName(kind));
+  }
+
+  static std::string describeJson(const nlohmann::json& value) {
+    if (value.is_object()) return "an object";
+    if (value.is_array()) return "an array";
+    if (value.is_string()) {
+      const std::string text = value.get<std::string>();
+      return "the string \"" + (text.size() > 32 ? text.substr(0, 32) + "..." : text) + "\"";
+    }
+    return value.dump();  // number, boolean or null
+  }
+
+  // `object[key]`, when present, must be of `kind`.
+  void expectMember(const nlohmann::json& object, const char* key, JsonKind kind, const std::string& where) const {
+    const auto it = object.find(key);
+    if (it != object.end()) expectKind(*it, kind, member(where, key));
+  }
+
+  // `object[key]`, when present, must be an array (of `length` elements unless 0) of `kind`.
+  void expectArrayOf(const nlohmann::json& object, const char* key, JsonKind kind, size_t length,
+                     const std::string& where) const {
+    const auto it = object.find(key);
+    if (it == object.end()) return;
+    const std::string what = member(where, key);
+    expectKind(*it, JsonKind::Array, what);
+    if (length && it->size() != length)
+      fail(what + " has " + std::to_string(it->size()) + " elements, expected " + std::to_string(length));
+    for (size_t i = 0; i < it->size(); ++i) expectKind((*it)[i], kind, what + "[" + std::to_string(i) + "]");
+  }
+
+  // `object[key]`, when present, must be an array of objects; `check` looks into each.
+  template <typename Check>
+  void forEachObject(const nlohmann::json& object, const char* key, const std::string& where, Check check) const {
+    const auto it = object.find(key);
+    if (it == object.end()) return;
+    const std::string what = member(where, key);
+    expectKind(*it, JsonKind::Array, what);
+    for (size_t i = 0; i < it->size(); ++i) {
+      const std::string element = what + "[" + std::to_string(i) + "]";
+      expectKind((*it)[i], JsonKind::Object, element);
+      check((*it)[i], element);
+    }
+  }
+
+  // The properties that decide the geometry, the transforms and the lights' placement.
+  void checkJsonTypes(const nlohmann::json& root) const {
+    if (!root.is_object()) fail("the JSON top level is not an object");
+    expectMember(root, "scene", JsonKind::Index, "");
+    expectMember(root, "extensions", JsonKind::Object, "");
+    expectArrayOf(root, "extensionsUsed", JsonKind::String, 0, "");
+    expectArrayOf(root, "extensionsRequired", JsonKind::String, 0, "");
+    forEachObject(root, "scenes", "", [&](const nlohmann::json& scene, const std::string& where) {
+      expectArrayOf(scene, "nodes", JsonKind::Index, 0, where);
+    });
+    forEachObject(root, "nodes", "", [&](const nlohmann::json& node, const std::string& where) {
+      expectArrayOf(node, "children", JsonKind::Index, 0, where);
+      expectMember(node, "mesh", JsonKind::Index, where);
+      expectArrayOf(node, "matrix", JsonKind::Number, 16, where);
+      expectArrayOf(node, "translation", JsonKind::Number, 3, where);
+      expectArrayOf(node, "rotation", JsonKind::Number, 4, where);
+      expectArrayOf(node, "scale", JsonKind::Number, 3, where);
+      expectMember(node, "extensions", JsonKind::Object, where);
+    });
+    forEachObject(root, "meshes", "", [&](const nlohmann::json& mesh, const std::string& where) {
+      if (!mesh.contains("primitives")) fail(where + ".primitives is missing");
+      forEachObject(mesh, "primitives", where, [&](const nlohmann::json& primitive, const std::string& at) {
+        if (!primitive.contains("attributes")) fail(at + ".attributes is missing");
+        expectMember(primitive, "attributes", JsonKind::Object, at);
+        for (const auto& [name, value] : primitive["attributes"].items())
+          expectKind(value, JsonKind::Index, at + ".attributes." + name);
+        expectMember(primitive, "indices", JsonKind::Index, at);
+        expectMember(primitive, "mode", JsonKind::Index, at);
+        expectMember(primitive, "targets", JsonKind::Array, at);
+        expectMember(primitive, "extensions", JsonKind::Object, at);
+      });
+    });
+    forEachObject(root, "accessors", "", [&](const nlohmann::json& accessor, const std::string& where) {
+      expectMember(accessor, "bufferView", JsonKind::Index, where);
+      expectMember(accessor, "byteOffset", JsonKind::Size, where);
+      expectMember(accessor, "componentType", JsonKind::Index, where);
+      expectMember(accessor, "count", JsonKind::Size, where);
+      expectMember(accessor, "type", JsonKind::String, where);
+      expectMember(accessor, "normalized", JsonKind::Boolean, where);
+      expectMember(accessor, "sparse", JsonKind::Object, where);
+      if (!accessor.contains("sparse")) return;
+      const nlohmann::json& sparse = accessor["sparse"];
+      const std::string at = where + ".sparse";
+      expectMember(sparse, "count", JsonKind::Index, at);
+      for (const char* part : {"indices", "values"}) {
+        if (!sparse.contains(part)) fail(at + "." + part + " is missing");
+        expectMember(sparse, part, JsonKind::Object, at);
+        expectMember(sparse[part], "bufferView", JsonKind::Index, at + "." + part);
+        expectMember(sparse[part], "byteOffset", JsonKind::Index, at + "." + part);
+        expectMember(sparse[part], "componentType", JsonKind::Index, at + "." + part);
+      }
+    });
+    forEachObject(root, "bufferViews", "", [&](const nlohmann::json& view, const std::string& where) {
+      expectMember(view, "buffer", JsonKind::Index, where);
+      expectMember(view, "byteOffset", JsonKind::Size, where);
+      expectMember(view, "byteLength", JsonKind::Size, where);
+      expectMember(view, "byteStride", JsonKind::Size, where);
+    });
+    forEachObject(root, "buffers", "", [&](const nlohmann::json& buffer, const std::string& where) {
+      expectMember(buffer, "byteLength", JsonKind::Size, where);
+      expectMember(buffer, "uri", JsonKind::String, where);
+    });
+  }
+
+  void checkRequiredExtensions() {
+    for (const std::string& extension : model_.extensionsRequired) {
+      if (kUnsupportedGeometryExtensions.count(extension))
+        fail("requires extension " + extension +
+             ", which cpvs cannot import; write the file without it first (e.g. `gltf-transform copy` after "
+             "decoding, or gltfpack without -cc)");
+      if (!kSupportedExtensions.count(extension))
+        warn("requires extension " + extension + ", which cpvs ignores (geometry imported as if it were absent)");
+    }
+  }
+
+  std::string describeNode(int index) const {
+    const std::string& name = model_.nodes[size_t(index)].name;
+    return "node " + std::to_string(index) + (name.empty() ? "" : " '" + name + "'");
+  }
+
+  double finiteNumber(const tinygltf::Value& value, const std::string& what) const {
+    if (!value.IsNumber()) fail(what + " is not a number");
+    const double number = value.GetNumberAsDouble();
+    if (!std::isfinite(number)) fail(what + " is not finite");
+    return number;
+  }
+
+  // The KHR_lights_punctual light definitions (placed later by nodes).
+  void parseLights() {
+    const auto extension = model_.extensions.find(kLightsExtension);
+    if (extension == model_.extensions.end()) return;
+    const tinygltf::Value& root = extension->second;
+    const std::string prefix = std::string("extensions.") + kLightsExtension;
+    if (!root.IsObject()) fail(prefix + " is not an object");
+    if (!root.Has("lights")) return;
+    const tinygltf::Value& lights = root.Get("lights");
+    if (!lights.IsArray()) fail(prefix + ".lights is not an array");
+    for (size_t i = 0; i < lights.ArrayLen(); ++i) {
+      const tinygltf::Value& object = lights.Get(int(i));
+      const std::string what = prefix + ".lights[" + std::to_string(i) + "]";
+      if (!object.IsObject()) fail(what + " is not an object");
+      Light light;
+      if (object.Has("name")) {
+        if (!object.Get("name").IsString()) fail(what + ".name is not a string");
+        light.name = object.Get("name").Get<std::string>();
+      }
+      if (!object.Has("type") || !object.Get("type").IsString()) fail(what + ".type is missing or not a string");
+      const std::string type = object.Get("type").Get<std::string>();
+      if (type == "directional")
+        light.type = LightType::Directional;
+      else if (type == "spot")
+        light.type = LightType::Spot;
+      else if (type == "point")
+        light.type = LightType::Point;
+      else
+        fail(what + ".type '" + type + "' is not directional, spot or point");
+      if (object.Has("color")) {
+        const tinygltf::Value& color = object.Get("color");
+        if (!color.IsArray() || color.ArrayLen() != 3) fail(what + ".color is not an array of 3 numbers");
+        for (int c = 0; c < 3; ++c) {
+          light.color[c] = float(finiteNumber(color.Get(c), what + ".color[" + std::to_string(c) + "]"));
+          if (light.color[c] < 0.0f) fail(what + ".color is negative");
+        }
+      }
+      if (object.Has("intensity")) {
+        light.intensity = float(finiteNumber(object.Get("intensity"), what + ".intensity"));
+        if (light.intensity < 0.0f) fail(what + ".intensity is negative");
+      }
+      if (object.Has("range") && light.type != LightType::Directional) {
+        light.range = finiteNumber(object.Get("range"), what + ".range");
+        if (!(light.range > 0.0)) fail(what + ".range must be greater than zero");
+      }
+      if (light.type == LightType::Spot && object.Has("spot")) {
+        const tinygltf::Value& spot = object.Get("spot");
+        if (!spot.IsObject()) fail(what + ".spot is not an object");
+        if (spot.Has("innerConeAngle"))
+          light.innerConeAngle = finiteNumber(spot.Get("innerConeAngle"), what + ".spot.innerConeAngle");
+        if (spot.Has("outerConeAngle"))
+          light.outerConeAngle = finiteNumber(spot.Get("outerConeAngle"), what + ".spot.outerConeAngle");
+        if (!(light.outerConeAngle > 0.0 && light.outerConeAngle <= std::numbers::pi / 2))
+          fail(what + ".spot.outerConeAngle " + std::to_string(light.outerConeAngle) + " is not in (0, pi/2]");
+        // Exporters write inner == outer (Blender with blend 0); only the outer cone matters for shadows.
+        if (light.innerConeAngle < 0.0 || light.innerConeAngle > light.outerConeAngle) {
+          warn(what + ".spot.innerConeAngle is outside [0, outerConeAngle]; clamped");
+          light.innerConeAngle = std::clamp(light.innerConeAngle, 0.0, light.outerConeAngle);
+        }
+      }
+      lightDefinitions_.push_back(light);
+    }
+  }
+
+  std::vector<int> rootNodes() const {
+    if (model_.defaultScene >= int(model_.scenes.size()))
+      fail("default scene " + std::to_string(model_.defaultScene) + " does not exist");
+    if (model_.defaultScene >= 0) return model_.scenes[size_t(model_.defaultScene)].nodes;
+    if (!model_.scenes.empty()) return model_.scenes[0].nodes;
+    std::vector<bool> isChild(model_.nodes.size(), false);
+    for (const tinygltf::Node& node : model_.nodes)
+      for (int child : node.children)
+        if (child >= 0 && size_t(child) < isChild.size()) isChild[size_t(child)] = true;
+    std::vector<int> roots;
+    for (size_t i = 0; i < model_.nodes.size(); ++i)
+      if (!isChild[i]) roots.push_back(int(i));
+    return roots;
+  }
+
+  glm::dmat4 localTransform(int index) const {
+    const tinygltf::Node& node = model_.nodes[size_t(index)];
+    glm::dmat4 local(1.0);
+    if (!node.matrix.empty()) {
+      if (node.matrix.size() != 16)
+        fail(describeNode(index) + ": matrix has " + std::to_string(node.matrix.size()) + " numbers, expected 16");
+      local = glm::make_mat4(node.matrix.data());  // both column-major
+    } else {
+      auto checkSize = [&](const std::vector<double>& values, size_t expected, const char* what) {
+        if (!values.empty() && values.size() != expected)
+          fail(describeNode(index) + ": " + what + " has " + std::to_string(values.size()) + " numbers, expected " +
+               std::to_string(expected));
+        return !values.empty();
+      };
+      glm::dmat4 translation(1.0), rotation(1.0), scale(1.0);
+      if (checkSize(node.translation, 3, "translation"))
+        translation = glm::translate(glm::dmat4(1.0), glm::make_vec3(node.translation.data()));
+      if (checkSize(node.rotation, 4, "rotation")) {
+        const auto& r = node.rotation;  // glTF order: x, y, z, w
+        glm::dquat q(r[3], r[0], r[1], r[2]);
+        const double length = glm::length(q);
+        if (!(length > 0.0) || !std::isfinite(length))
+          fail(describeNode(index) + ": rotation is not a valid quaternion");
+        rotation = glm::mat4_cast(q / length);
+      }
+      if (checkSize(node.scale, 3, "scale")) scale = glm::scale(glm::dmat4(1.0), glm::make_vec3(node.scale.data()));
+      local = translation * rotation * scale;
+    }
+    for (int c = 0; c < 4; ++c)
+      for (int r = 0; r < 4; ++r)
+        if (!std::isfinite(local[c][r])) fail(describeNode(index) + ": transform is not finite");
+    return local;
+  }
+
+  // Depth-first over the node tree, without recursion (deep hostile trees must not overflow the stack).
+  void traverse(const std::vector<int>& roots) {
+    enum class State : uint8_t { Unvisited, Open, Done };
+    std::vector<State> state(model_.nodes.size(), State::Unvisited);
+    struct Frame {
+      int node;
+      glm::dmat4 worldFromLocal;
+      size_t nextChild;
+    };
+    auto checkIndex = [&](int index, const std::string& referrer) {
+      if (index < 0 || size_t(index) >= model_.nodes.size())
+        fail(referrer + " refers to node " + std::to_string(index) + ", which does not exist");
+    };
+    for (int root : roots) {
+      checkIndex(root, "the scene");
+      if (state[size_t(root)] != State::Unvisited)
+        fail(describeNode(root) + " is listed more than once in the scene or also is a child of another node");
+      std::vector<Frame> stack;
+      stack.push_back({root, localTransform(root), 0});
+      state[size_t(root)] = State::Open;
+      place(root, stack.back().worldFromLocal);
+      while (!stack.empty()) {
+        const int parent = stack.back().node;
+        const tinygltf::Node& node = model_.nodes[size_t(parent)];
+        if (stack.back().nextChild == node.children.size()) {
+          state[size_t(parent)] = State::Done;
+          stack.pop_back();
+          continue;
+        }
+        const int child = node.children[stack.back().nextChild++];
+        checkIndex(child, describeNode(parent));
+        if (state[size_t(child)] == State::Open)
+          fail("recursive node graph: " + describeNode(child) + " is a child of its own descendant " +
+               describeNode(parent));
+        if (state[size_t(child)] == State::Done)
+          fail(describeNode(child) + " has more than one parent (a second one is " + describeNode(parent) + ")");
+        const glm::dmat4 world = stack.back().worldFromLocal * localTransform(child);
+        state[size_t(child)] = State::Open;
+        stack.push_back({child, world, 0});
+        place(child, world);
+      }
+    }
+  }
+
+  // What a node puts into the world: instances of its mesh's primitives, and its light.
+  void place(int index, const glm::dmat4& worldFromLocal) {
+    const tinygltf::Node& node = model_.nodes[size_t(index)];
+    const std::string nodeName = node.name.empty() ? "node" + std::to_string(index) : node.name;
+    if (node.mesh >= 0) {
+      if (size_t(node.mesh) >= model_.meshes.size())
+        fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
+      if (node.skin >= 0) warnOnce("skinned meshes are imported in their bind pose (skins are ignored)");
+      if (node.extensions.count("EXT_mesh_gpu_instancing"))
+        warnOnce("EXT_mesh_gpu_instancing is ignored: each such node places its mesh once");
+      for (uint32_t mesh : meshIds(node.mesh)) scene_.instances.push_back({mesh, worldFromLocal, nodeName});
+    } else if (node.mesh < -1) {
+      fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
+    }
+
+    const auto extension = node.extensions.find(kLightsExtension);
+    if (extension == node.extensions.end()) return;
+    const tinygltf::Value& reference = extension->second;
+    const std::string what = describeNode(index) + ": extensions." + kLightsExtension + ".light";
+    if (!reference.IsObject() || !reference.Has("light")) fail(what + " is missing");
+    const double lightIndex = finiteNumber(reference.Get("light"), what);
+    if (lightIndex < 0 || lightIndex >= double(lightDefinitions_.size()) || lightIndex != std::floor(lightIndex))
+      fail(what + " " + std::to_string(lightIndex) + " is not the index of a light (the file defines " +
+           std::to_string(lightDefinitions_.size()) + ")");
+    Light light = lightDefinitions_[size_t(lightIndex)];
+    if (light.name.empty()) light.name = node.name.empty() ? "light" + std::to_string(size_t(lightIndex)) : node.name;
+    light.position = glm::dvec3(worldFromLocal * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+    const glm::dvec3 direction = glm::dmat3(worldFromLocal) * glm::dvec3(0.0, 0.0, -1.0);
+    const double length = glm::length(direction);
+    if (!(length > 0.0) || !std::isfinite(length)) fail(describeNode(index) + ": the light's transform is degenerate");
+    light.direction = direction / length;
+    scene_.lights.push_back(light);
+  }
+
+  // The cpvs meshes made of a glTF mesh's triangle primitives, decoded on first use.
+  const std::vector<uint32_t>& meshIds(int meshIndex) {
+    if (meshCache_.empty()) meshCache_.resize(model_.meshes.size());
+    auto& cached = meshCache_[size_t(meshIndex)];
+    if (cached) return *cached;
+    const tinygltf::Mesh& mesh = model_.meshes[size_t(meshIndex)];
+    const std::string name = mesh.name.empty() ? "mesh" + std::to_string(meshIndex) : mesh.name;
+    std::vector<uint32_t> ids;
+    for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+      std::optional<Mesh> primitive = importPrimitive(mesh.primitives[p], name, p, mesh.primitives.size() > 1);
+      if (!primitive) continue;
+      ids.push_back(uint32_t(scene_.meshes.size()));
+      scene_.meshes.push_back(std::move(*primitive));
+    }
+    cached = std::move(ids);
+    return *cached;
+  }
+
+  std::optional<Mesh> importPrimitive(const tinygltf::Primitive& primitive, const std::string& meshName,
+                                      size_t primitiveIndex, bool severalPrimitives) {
+    const std::string where = "mesh '" + meshName + "' primitive " + std::to_string(primitiveIndex);
+    const int mode = primitive.mode < 0 ? TINYGLTF_MODE_TRIANGLES : primitive.mode;
+    if (mode > TINYGLTF_MODE_TRIANGLE_FAN) fail(where + ": unknown primitive mode " + std::to_string(mode));
+    if (mode < TINYGLTF_MODE_TRIANGLES) {
+      warn(where + ": " + modeName(mode) + " skipped (only triangles cast shadows)");
+      return std::nullopt;
+    }
+    const auto position = primitive.attributes.find("POSITION");
+    if (position == primitive.attributes.end()) {
+      warn(where + ": no POSITION attribute; skipped");
+      return std::nullopt;
+    }
+    if (!primitive.targets.empty()) warnOnce("morph targets are ignored (meshes are imported in their base shape)");
+
+    Mesh mesh;
+    mesh.name = severalPrimitives ? meshName + "#" + std::to_string(primitiveIndex) : meshName;
+    mesh.positions = readPositions(position->second, where);
+    std::vector<uint32_t> sequence;
+    if (primitive.indices >= 0) {
+      sequence = readIndices(primitive.indices, where);
+      for (uint32_t index : sequence)
+        if (index >= mesh.positions.size())
+          fail(where + ": index " + std::to_string(index) + " out of range (POSITION accessor " +
+               std::to_string(position->second) + " has " + std::to_string(mesh.positions.size()) + " vertices)");
+    } else {
+      sequence.resize(mesh.positions.size());
+      for (size_t i = 0; i < sequence.size(); ++i) sequence[i] = uint32_t(i);
+    }
+    Triangulation triangles = triangulate(mode, sequence);
+    if (triangles.ignoredTrailing)
+      warn(where + ": " + std::to_string(triangles.ignoredTrailing) +
+           " trailing vertices ignored (TRIANGLES needs a multiple of 3)");
+    if (triangles.droppedDegenerate && mode == TINYGLTF_MODE_TRIANGLES) {
+      if (degenerate_.primitives++ == 0) degenerate_.first = where;
+      degenerate_.triangles += triangles.droppedDegenerate;
+    }
+    if (triangles.indices.empty()) {
+      warn(where + ": no triangles; skipped");
+      return std::nullopt;
+    }
+    mesh.indices = std::move(triangles.indices);
+    return mesh;
+  }
+
+  const tinygltf::Accessor& accessor(int index, const std::string& what) const {
+    if (index < 0 || size_t(index) >= model_.accessors.size())
+      fail(what + ": accessor " + std::to_string(index) + " does not exist");
+    return model_.accessors[size_t(index)];
+  }
+
+  // The bytes of `count` elements of `elementSize` bytes, `stride` apart, from `offset` in a buffer view;
+  // every bound is checked (without overflow) before anything is read.
+  const unsigned char* viewBytes(int viewIndex, size_t offset, size_t count, size_t elementSize, size_t stride,
+                                 const std::string& what) const {
+    if (viewIndex < 0 || size_t(viewIndex) >= model_.bufferViews.size())
+      fail(what + ": bufferView " + std::to_string(viewIndex) + " does not exist");
+    const tinygltf::BufferView& view = model_.bufferViews[size_t(viewIndex)];
+    const std::string viewName = "bufferView " + std::to_string(viewIndex);
+    if (view.buffer < 0 || size_t(view.buffer) >= model_.buffers.size())
+      fail(viewName + ": buffer " + std::to_string(view.buffer) + " does not exist");
+    const std::vector<unsigned char>& buffer = model_.buffers[size_t(view.buffer)].data;
+    if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+      fail(viewName + " (bytes " + std::to_string(view.byteOffset) + " + " + std::to_string(view.byteLength) +
+           ") does not fit in buffer " + std::to_string(view.buffer) + " (" + std::to_string(buffer.size()) +
+           " bytes)");
+    if (count == 0) return nullptr;
+    const size_t length = view.byteLength;
+    if (offset > length || elementSize > length - offset || (count - 1) > (length - offset - elementSize) / stride)
+      fail(what + ": " + std::to_string(count) + " elements of " + std::to_string(elementSize) + " bytes, " +
+           std::to_string(stride) + " apart from byte " + std::to_string(offset) + ", overrun " + viewName + " (" +
+           std::to_string(length) + " bytes)");
+    return buffer.data() + view.byteOffset + offset;
+  }
+
+  // All elements of an accessor, components in order, sparse substitutions applied.
+  template <typename Out, typename Convert>
+  std::vector<Out> decodeAccessor(int index, const std::string& what, Convert convert) const {
+    const tinygltf::Accessor& source = accessor(index, what);
+    const size_t components = componentCount(source.type);
+    const size_t size = componentSize(source.componentType);
+    const size_t elementSize = components * size;
+    if (elementSize == 0) fail(what + ": accessor has an unknown type or componentType");
+    if (source.count > kMaxElements) fail(what + ": count " + std::to_string(source.count) + " is too large");
+    if (source.bufferView < 0 && source.count > kMaxZeroInitialisedElements)
+      fail(what + ": count " + std::to_string(source.count) + " without a bufferView is too large");
+
+    // Validate the byte range before allocating, so a huge count in a small file fails instead of exhausting memory.
+    const unsigned char* bytes = nullptr;
+    size_t stride = elementSize;
+    if (source.bufferView >= 0 && source.count > 0) {
+      if (size_t(source.bufferView) < model_.bufferViews.size() && model_.bufferViews[size_t(source.bufferView)].byteStride)
+        stride = model_.bufferViews[size_t(source.bufferView)].byteStride;
+      if (stride < elementSize)
+        fail(what + ": byteStride " + std::to_string(stride) + " is smaller than one element (" +
+             std::to_string(elementSize) + " bytes)");
+      bytes = viewBytes(source.bufferView, source.byteOffset, source.count, elementSize, stride, what);
+    }
+    std::vector<Out> out(source.count * components, Out{});  // zeros where there is no bufferView
+    if (bytes)
+      for (size_t i = 0; i < source.count; ++i)
+        for (size_t c = 0; c < components; ++c) out[i * components + c] = convert(bytes + i * stride + c * size);
+    if (source.sparse.isSparse) {
+      const auto& sparse = source.sparse;
+      const std::string sparseWhat = what + " (sparse)";
+      if (sparse.count < 0 || size_t(sparse.count) > source.count)
+        fail(sparseWhat + ": count " + std::to_string(sparse.count) + " is not in [0, " +
+             std::to_string(source.count) + "]");
+      if (!isIndexComponentType(sparse.indices.componentType))
+        fail(sparseWhat + ": indices componentType " + std::to_string(sparse.indices.componentType) +
+             " is not an unsigned integer type");
+      if (sparse.indices.byteOffset < 0 || sparse.values.byteOffset < 0) fail(sparseWhat + ": negative byteOffset");
+      const size_t count = size_t(sparse.count);
+      const size_t indexSize = componentSize(sparse.indices.componentType);
+      const unsigned char* indices = viewBytes(sparse.indices.bufferView, size_t(sparse.indices.byteOffset), count,
+                                               indexSize, indexSize, sparseWhat + " indices");
+      const unsigned char* values = viewBytes(sparse.values.bufferView, size_t(sparse.values.byteOffset), count,
+                                              elementSize, elementSize, sparseWhat + " values");
+      for (size_t k = 0; k < count; ++k) {
+        const uint32_t target = componentAsIndex(indices + k * indexSize, sparse.indices.componentType);
+        if (target >= source.count)
+          fail(sparseWhat + ": index " + std::to_string(target) + " out of range (" + std::to_string(source.count) +
+               " elements)");
+        for (size_t c = 0; c < components; ++c)
+          out[size_t(target) * components + c] = convert(values + k * elementSize + c * size);
+      }
+    }
+    return out;
+  }
+
+  std::vector<glm::vec3> readPositions(int index, const std::string& where) const {
+    const std::string what = where + ": POSITION accessor " + std::to_string(index);
+    const tinygltf::Accessor& source = accessor(index, where + ": POSITION");
+    if (source.type != TINYGLTF_TYPE_VEC3) fail(what + " is " + typeName(source.type) + ", expected VEC3");
+    const int componentType = source.componentType;
+    const bool quantized = componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                           componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                           componentType == TINYGLTF_COMPONENT_TYPE_SHORT ||
+                           componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    if (componentType != TINYGLTF_COMPONENT_TYPE_FLOAT && !quantized)
+      fail(what + " has componentType " + componentTypeName(componentType) +
+           ", expected FLOAT (or BYTE/SHORT and unsigned under KHR_mesh_quantization)");
+    const bool normalized = source.normalized;
+    const std::vector<float> values = decodeAccessor<float>(
+        index, what, [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
+    std::vector<glm::vec3> positions(values.size() / 3);
+    for (size_t i = 0; i < positions.size(); ++i) {
+      positions[i] = glm::vec3(values[3 * i], values[3 * i + 1], values[3 * i + 2]);
+      for (int c = 0; c < 3; ++c)
+        if (!std::isfinite(positions[i][c]))
+          fail(what + ": vertex " + std::to_string(i) + " is not finite (" + std::to_string(positions[i][c]) + ")");
+    }
+    return positions;
+  }
+
+  std::vector<uint32_t> readIndices(int index, const std::string& where) const {
+    const std::string what = where + ": indices accessor " + std::to_string(index);
+    const tinygltf::Accessor& source = accessor(index, where + ": indices");
+    if (source.type != TINYGLTF_TYPE_SCALAR) fail(what + " is " + typeName(source.type) + ", expected SCALAR");
+    const int componentType = source.componentType;
+    if (!isIndexComponentType(componentType))
+      fail(what + " has componentType " + componentTypeName(componentType) +
+           ", expected UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT");
+    return decodeAccessor<uint32_t>(
+        index, what, [&](const unsigned char* bytes) { return componentAsIndex(bytes, componentType); });
+  }
+
+  std::string path_;
+  tinygltf::Model model_;
+  Scene scene_;
+  std::vector<Light> lightDefinitions_;
+  std::vector<std::optional<std::vector<uint32_t>>> meshCache_;
+  std::set<std::string> warnedOnce_;
+  struct {
+    size_t triangles = 0, primitives = 0;
+    std::string first;
+  } degenerate_;  // reported once, not per primitive
+};
+
+}  // namespace
+
+Scene importGltf(const std::string& path) { return GltfImporter(path).run(); }
+
+}  // namespace cpvs

@@ -1,0 +1,35 @@
+#pragma once
+// glTF 2.0 import (DESIGN.md §4.1): triangle geometry, node transforms, instancing and KHR_lights_punctual.
+#include <string>
+
+#include "libcpvs/scene.h"
+
+namespace cpvs {
+
+// Loads a .gltf (JSON, external or embedded buffers) or .glb (binary) file; the kind is decided by the
+// "glTF" magic at the start of the file, not by the extension.
+//
+// What becomes of the file:
+// * The default scene is imported (`scene`, else scene 0, else every node that is no node's child).
+// * Every triangle primitive (mode TRIANGLES, TRIANGLE_STRIP or TRIANGLE_FAN; strips and fans become
+//   triangle lists) of a mesh that a node of that scene uses becomes one cpvs Mesh. Points and lines are
+//   skipped with a warning; triangles that repeat an index are dropped.
+// * Mesh names: the glTF mesh name ("mesh<i>" when it has none). When a glTF mesh has several
+//   primitives, each cpvs Mesh is named "<name>#<primitive index>", e.g. "Circle#1". excludeMeshes()
+//   takes "Circle" to mean every primitive of that glTF mesh and "Circle#1" to mean just that one.
+// * Every node that uses a mesh adds one Instance per primitive (node name, else "node<i>"), with its
+//   world transform. A mesh shared by several nodes is decoded once.
+// * Positions: float VEC3, or the integer types of KHR_mesh_quantization (normalized or not). Sparse
+//   accessors are applied. Indices: unsigned byte, short or int.
+// * Each Mesh is classified by classifyMesh() (closed / open, from the geometry alone).
+// * Lights: KHR_lights_punctual lights placed by nodes of the scene, in world space (position = node
+//   origin, direction = node's local -Z), with the extension's defaults. Name: the light's name, else the
+//   node's, else "light<i>". A light used by several nodes gives several lights.
+// * Anything that cannot be imported correctly (unreadable file, index or accessor out of range, NaN/Inf
+//   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
+//   triangle) throws Error(ExitCode::InputInvalid) naming the file and the element. Things that are
+//   ignored without harm (images, skins, morph targets, non-triangle primitives) go to scene.warnings.
+// Safe on untrusted input: every offset and size is checked before it is read.
+Scene importGltf(const std::string& path);
+
+}  // namespace cpvs
