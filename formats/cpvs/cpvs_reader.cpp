@@ -1,0 +1,479 @@
+// Reads and validates the .cpvs container, version 1.x (docs/format.md). The input is untrusted: every count
+// is checked against the file size before it sizes anything, every offset before it is followed, and every
+// DAG is validated level by level so that traversal stays in bounds and terminates. Linear in the file size.
+#include <algorithm>
+#include <bit>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <initializer_list>
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <xxhash.h>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/error.h"
+
+static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
+                                                          "big-endian hosts are not supported");
+
+namespace cpvs {
+
+using namespace cpvsformat;
+
+namespace {
+
+std::string hex(uint64_t v) {
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+std::string typeName(uint32_t type) {
+  std::string s(4, ' ');
+  for (int i = 0; i < 4; ++i) s[i] = char(uint8_t(type >> (8 * i)));
+  return s;
+}
+
+bool printable(uint32_t type) {
+  for (int i = 0; i < 4; ++i) {
+    const uint8_t c = uint8_t(type >> (8 * i));
+    if (c < 0x20 || c > 0x7E) return false;
+  }
+  return true;
+}
+
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+class Reader {
+public:
+  Reader(const uint8_t* data, uint64_t size, const std::string& name) : d_(data), size_(size), name_(name) {}
+
+  [[noreturn]] void fail(const std::string& what) const { throw Error(ExitCode::InputInvalid, name_ + ": " + what); }
+
+  // Loads at absolute offsets the caller has already bounds-checked.
+  uint8_t u8(uint64_t at) const { return d_[at]; }
+  uint16_t u16(uint64_t at) const { return uint16_t(load(at, 2)); }
+  uint32_t u32(uint64_t at) const { return uint32_t(load(at, 4)); }
+  uint64_t u64(uint64_t at) const { return load(at, 8); }
+  float f32(uint64_t at) const { return std::bit_cast<float>(u32(at)); }
+  double f64(uint64_t at) const { return std::bit_cast<double>(u64(at)); }
+
+  const uint8_t* data() const { return d_; }
+  uint64_t size() const { return size_; }
+  const std::string& name() const { return name_; }
+
+private:
+  uint64_t load(uint64_t at, int n) const {
+    uint64_t v = 0;
+    std::memcpy(&v, d_ + at, size_t(n));  // little-endian host (static_assert above)
+    return v;
+  }
+  const uint8_t* d_;
+  uint64_t size_;
+  const std::string& name_;
+};
+
+struct Entry {
+  uint32_t type = 0, elementSize = 0;
+  uint64_t offset = 0, size = 0;
+};
+
+void checkMagic(const Reader& r) {
+  const uint8_t* d = r.data();
+  const uint64_t size = r.size();
+  if (size == 0) r.fail("empty file — not a .cpvs file");
+  const size_t n = size_t(std::min<uint64_t>(size, 8));
+  if (std::memcmp(d, kCpvsMagic, n) == 0) {
+    if (n == 8) return;
+    r.fail("truncated: " + std::to_string(size) + " bytes (a .cpvs header alone is " + std::to_string(kHeaderSize) +
+           ")");
+  }
+  // The name is there but the bytes around it are not: the signature of a text-mode (ASCII) transfer.
+  bool hasName = false;
+  for (size_t p = 0; p + 4 <= n; ++p) hasName = hasName || std::memcmp(d + p, "CPVS", 4) == 0;
+  if (hasName) {
+    std::string how = "line endings translated or high bit stripped";
+    if (n >= 7 && d[0] == 0x89 && d[5] == '\n' && d[6] == 0x1A) how = "CR LF became LF";
+    else if (n >= 8 && d[0] == 0x89 && d[5] == '\r' && d[6] == '\r' && d[7] == '\n') how = "LF became CR LF";
+    else if (d[0] == 0x09) how = "the high bit of byte 0 was stripped";
+    else if (d[0] != 0x89) how = "byte 0 was re-encoded as text";
+    r.fail("the file was damaged by a text-mode transfer (" + how +
+           ") — copy or download it again in binary mode, or re-bake");
+  }
+  r.fail("not a .cpvs file (it does not start with the .cpvs magic bytes 89 43 50 56 53 0D 0A 1A)");
+}
+
+// Structural validation of one view's DAG (shadow_dag.h): level by level from the root, every node header
+// uses codes 0..2 in its 16 low bits, every reference points to the start of a node of the next level (or,
+// from the leaf-parent level, to a leaf), and the per-level node counts tile the node words exactly.
+void validateDag(const Reader& r, const std::string& what, ChildCode rootCode, uint32_t levels,
+                 std::span<const uint32_t> nodes, uint64_t leafCount, std::span<const uint64_t> nodesPerLevel) {
+  const uint64_t words = nodes.size();
+  std::vector<uint64_t> levelStart(levels + 1, 0);
+  std::vector<uint64_t> isStart((words + 63) / 64, 0);  // bitmap of node starts (words <= file size / 4)
+  uint64_t offset = 0;
+  for (uint32_t l = 0; l < levels; ++l) {
+    levelStart[l] = offset;
+    const uint64_t count = nodesPerLevel[l];
+    if (count > words - offset)
+      r.fail(what + ": DAG level " + std::to_string(l) + " claims " + std::to_string(count) +
+             " nodes but only " + std::to_string(words - offset) + " node words are left");
+    for (uint64_t i = 0; i < count; ++i) {
+      if (offset >= words)
+        r.fail(what + ": DAG level " + std::to_string(l) + " node " + std::to_string(i) + " starts past the " +
+               std::to_string(words) + " node words");
+      const uint32_t header = nodes[offset];
+      if ((header >> 16) != 0 || (header & (header >> 1) & 0x5555u) != 0)
+        r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(offset) +
+               ": invalid header 0x" + hex(header).substr(8) + " (child codes must be 0..2, high bits zero)");
+      const unsigned k = nodeWordCount(header);
+      if (k > words - offset)
+        r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(offset) +
+               " runs past the end of the node words");
+      isStart[offset >> 6] |= uint64_t(1) << (offset & 63);
+      offset += k;
+    }
+  }
+  levelStart[levels] = offset;
+  if (offset != words)
+    r.fail(what + ": the DAG's per-level node counts cover " + std::to_string(offset) + " of its " +
+           std::to_string(words) + " node words");
+  const uint64_t rootLevelNodes = levels > 0 ? nodesPerLevel[0] : 0;
+  if (rootCode == ChildCode::Ref ? rootLevelNodes != 1 : rootLevelNodes != 0)
+    r.fail(what + ": the root level holds " + std::to_string(rootLevelNodes) + " nodes (expected " +
+           (rootCode == ChildCode::Ref ? "1, the root" : "0: the root code is not a reference") + ")");
+
+  for (uint32_t l = 0; l < levels; ++l) {
+    const bool leafParent = l + 1 == levels;
+    const uint64_t lo = leafParent ? 0 : levelStart[l + 1], hi = leafParent ? 0 : levelStart[l + 1 + 1];
+    for (uint64_t at = levelStart[l]; at < levelStart[l + 1];) {
+      const uint32_t header = nodes[at];
+      const unsigned k = nodeWordCount(header);
+      for (unsigned j = 1; j < k; ++j) {
+        const uint64_t ref = nodes[at + j];
+        if (leafParent) {
+          if (ref >= leafCount)
+            r.fail(what + ": DAG leaf-parent node at word " + std::to_string(at) + " references leaf " +
+                   std::to_string(ref) + " of " + std::to_string(leafCount));
+        } else if (ref < lo || ref >= hi || !((isStart[ref >> 6] >> (ref & 63)) & 1))
+          r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(at) +
+                 " references word " + std::to_string(ref) + ", which is not the start of a level-" +
+                 std::to_string(l + 1) + " node");
+      }
+      at += k;
+    }
+  }
+}
+
+}  // namespace
+
+CpvsFile::~CpvsFile() {
+  if (mapping_) ::munmap(mapping_, size_t(size_));
+}
+
+std::unique_ptr<CpvsFile> CpvsFile::open(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(ExitCode::InputInvalid, path + ": cannot open: " + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int e = errno;
+    ::close(fd);
+    throw Error(ExitCode::InputInvalid, path + ": cannot stat: " + std::strerror(e));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw Error(ExitCode::InputInvalid, path + ": not a regular file");
+  }
+  std::unique_ptr<CpvsFile> file(new CpvsFile());
+  file->size_ = uint64_t(st.st_size);
+  if (file->size_ > 0) {
+    void* m = ::mmap(nullptr, size_t(file->size_), PROT_READ, MAP_PRIVATE, fd, 0);
+    if (m == MAP_FAILED) {
+      const int e = errno;
+      ::close(fd);
+      throw Error(ExitCode::InputInvalid, path + ": cannot map: " + std::strerror(e));
+    }
+    file->mapping_ = m;
+    file->data_ = static_cast<const uint8_t*>(m);
+  }
+  ::close(fd);
+  file->parse(path);
+  return file;
+}
+
+std::unique_ptr<CpvsFile> CpvsFile::fromBytes(std::span<const uint8_t> bytes, const std::string& name) {
+  std::unique_ptr<CpvsFile> file(new CpvsFile());
+  file->owned_.resize((bytes.size() + 7) / 8);
+  if (!bytes.empty()) std::memcpy(file->owned_.data(), bytes.data(), bytes.size());
+  file->data_ = reinterpret_cast<const uint8_t*>(file->owned_.data());
+  file->size_ = bytes.size();
+  file->parse(name);
+  return file;
+}
+
+std::unique_ptr<CpvsFile> CpvsFile::fromBorrowedBytes(std::span<const uint8_t> bytes, const std::string& name) {
+  if (reinterpret_cast<uintptr_t>(bytes.data()) % 8 != 0)
+    throw Error(ExitCode::InputInvalid, name + ": bytes are not 8-byte aligned (use fromBytes)");
+  std::unique_ptr<CpvsFile> file(new CpvsFile());
+  file->data_ = bytes.data();
+  file->size_ = bytes.size();
+  file->parse(name);
+  return file;
+}
+
+void CpvsFile::parse(const std::string& name) {
+  const Reader r(data_, size_, name);
+  const uint64_t size = size_;
+
+  // Header: magic, version (before anything whose layout a future major version may change), checksum, sizes.
+  checkMagic(r);
+  if (size < kHeaderSize)
+    r.fail("truncated: " + std::to_string(size) + " bytes (a .cpvs header alone is " + std::to_string(kHeaderSize) +
+           ")");
+  major_ = r.u16(8);
+  minor_ = r.u16(10);
+  const bool headerOk = XXH3_64bits(data_, 56) == r.u64(56);
+  if (major_ != kCpvsMajorVersion)
+    r.fail("written by format version " + std::to_string(major_) + "." + std::to_string(minor_) +
+           "; this build reads " + std::to_string(kCpvsMajorVersion) + ".x — update cpvs or re-bake" +
+           (headerOk ? "" : " (or the header is corrupt: its checksum does not match)"));
+  if (!headerOk) r.fail("header checksum mismatch — the file is corrupt");
+  const bool strict = minor_ == 0;  // reserved fields are zero in 1.0; later minors may give them meaning
+  if (r.u32(12) != kHeaderSize)
+    r.fail("header size " + std::to_string(r.u32(12)) + " (expected " + std::to_string(kHeaderSize) + ")");
+  if (strict && (r.u32(20) != 0 || r.u64(48) != 0)) r.fail("reserved header fields are not zero in a 1.0 file");
+  const uint64_t declared = r.u64(32);
+  if (declared > size)
+    r.fail("truncated: the header says " + std::to_string(declared) + " bytes, the file has " + std::to_string(size));
+  if (declared < size)
+    r.fail(std::to_string(size - declared) + " bytes of trailing data after the " + std::to_string(declared) +
+           " bytes the header gives");
+
+  // Section table.
+  const uint64_t count = r.u32(16);
+  const uint64_t tableOffset = r.u64(24);
+  if (count == 0) r.fail("the section table is empty");
+  if (tableOffset % kAlignment != 0 || tableOffset < kHeaderSize || tableOffset > size ||
+      count > (size - tableOffset) / kSectionEntrySize)
+    r.fail("section table (" + std::to_string(count) + " entries at offset " + std::to_string(tableOffset) +
+           ") does not lie inside the file after the header, 64-byte aligned");
+  const uint64_t tableSize = count * kSectionEntrySize;
+  if (XXH3_64bits(data_ + tableOffset, tableSize) != r.u64(40))
+    r.fail("section table checksum mismatch — the file is corrupt");
+
+  std::vector<Entry> entries(count);
+  sections_.clear();
+  sections_.reserve(count);
+  for (uint64_t i = 0; i < count; ++i) {
+    const uint64_t e = tableOffset + i * kSectionEntrySize;
+    Entry& s = entries[i];
+    s.type = r.u32(e);
+    s.elementSize = r.u32(e + 4);
+    s.offset = r.u64(e + 8);
+    s.size = r.u64(e + 16);
+    const std::string label = "section " + std::to_string(i) + " '" + (printable(s.type) ? typeName(s.type) : "?") + "'";
+    if (!printable(s.type)) r.fail(label + ": type is not four printable characters");
+    if (s.offset % kAlignment != 0) r.fail(label + ": offset " + std::to_string(s.offset) + " is not 64-byte aligned");
+    if (s.offset > size || s.size > size - s.offset)
+      r.fail(label + ": " + std::to_string(s.size) + " bytes at offset " + std::to_string(s.offset) +
+             " run past the end of the file (" + std::to_string(size) + " bytes)");
+    const uint64_t checksum = XXH3_64bits(data_ + s.offset, size_t(s.size));
+    if (checksum != r.u64(e + 24)) r.fail(label + " checksum mismatch — the file is corrupt");
+    sections_.push_back({typeName(s.type), s.elementSize, s.offset, s.size, checksum, true});
+  }
+
+  // Header, table and sections do not overlap; every byte between them is zero padding.
+  {
+    std::vector<std::pair<uint64_t, uint64_t>> ranges;  // [begin, end)
+    ranges.reserve(count + 2);
+    ranges.push_back({0, kHeaderSize});
+    ranges.push_back({tableOffset, tableOffset + tableSize});
+    for (const Entry& s : entries)
+      if (s.size > 0) ranges.push_back({s.offset, s.offset + s.size});
+    std::sort(ranges.begin(), ranges.end());
+    uint64_t end = 0;
+    for (const auto& [b, e] : ranges) {
+      if (b < end) r.fail("sections overlap at offset " + std::to_string(b));
+      for (uint64_t p = end; p < b; ++p)
+        if (data_[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
+      end = e;
+    }
+    for (uint64_t p = end; p < size; ++p)
+      if (data_[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
+  }
+
+  // The four singleton sections; NODE and LEAF are found through the view records; others are skipped.
+  int64_t bake = -1, strs = -1, lght = -1, view = -1;
+  for (uint64_t i = 0; i < count; ++i) {
+    const Entry& s = entries[i];
+    const std::string label = "section " + std::to_string(i) + " '" + typeName(s.type) + "'";
+    auto expectElement = [&](uint32_t expected, bool extensible) {
+      const bool ok = extensible && !strict ? s.elementSize >= expected : s.elementSize == expected;
+      if (!ok)
+        r.fail(label + ": element size " + std::to_string(s.elementSize) + " (expected " + std::to_string(expected) +
+               (extensible && !strict ? " or more" : "") + ")");
+      if (s.size % s.elementSize != 0)
+        r.fail(label + ": size " + std::to_string(s.size) + " is not a multiple of its element size " +
+               std::to_string(s.elementSize));
+    };
+    auto single = [&](int64_t& slot) {
+      if (slot >= 0) r.fail("two '" + typeName(s.type) + "' sections (" + std::to_string(slot) + " and " + std::to_string(i) + ")");
+      slot = int64_t(i);
+    };
+    switch (s.type) {
+      case kBake: single(bake); expectElement(1, false); break;
+      case kStrs: single(strs); expectElement(1, false); break;
+      case kLght: single(lght); expectElement(kLightRecordSize, true); break;
+      case kView: single(view); expectElement(kViewRecordSize, true); break;
+      case kNode: expectElement(4, false); break;
+      case kLeaf: expectElement(8, false); break;
+      default: break;  // a section type from a later minor version: skipped
+    }
+  }
+  for (const auto& [slot, type] : std::initializer_list<std::pair<int64_t, uint32_t>>{
+           {bake, kBake}, {strs, kStrs}, {lght, kLght}, {view, kView}})
+    if (slot < 0) r.fail("no '" + typeName(type) + "' section");
+
+  const Entry& bakeS = entries[bake];
+  settingsJson_.assign(reinterpret_cast<const char*>(data_ + bakeS.offset), size_t(bakeS.size));
+  const Entry& strsS = entries[strs];
+  const Entry& lghtS = entries[lght];
+  const Entry& viewS = entries[view];
+  const uint64_t lightCount = lghtS.size / lghtS.elementSize;  // <= file size / 112
+  const uint64_t viewCount = viewS.size / viewS.elementSize;   // <= file size / 472
+
+  lights_.clear();
+  lights_.reserve(lightCount);
+  uint64_t nextView = 0;
+  for (uint64_t li = 0; li < lightCount; ++li) {
+    const uint64_t at = lghtS.offset + li * lghtS.elementSize;
+    const std::string what = "light " + std::to_string(li);
+    LightEntry entry;
+    Light& l = entry.light;
+    const uint32_t type = r.u32(at);
+    if (type > uint32_t(LightType::Point)) r.fail(what + ": unknown light type " + std::to_string(type));
+    l.type = LightType(type);
+    const uint64_t nameOffset = r.u32(at + 4), nameLength = r.u32(at + 8);
+    if (nameOffset > strsS.size || nameLength > strsS.size - nameOffset)
+      r.fail(what + ": name (" + std::to_string(nameLength) + " bytes at " + std::to_string(nameOffset) +
+             ") lies outside the string pool (" + std::to_string(strsS.size) + " bytes)");
+    l.name.assign(reinterpret_cast<const char*>(data_ + strsS.offset + nameOffset), size_t(nameLength));
+    const std::string named = what + " '" + l.name + "'";
+    const uint64_t firstView = r.u32(at + 12), views = r.u32(at + 16);
+    if (firstView != nextView || views > viewCount - nextView)
+      r.fail(named + ": views " + std::to_string(firstView) + ".." + std::to_string(firstView + views) +
+             " do not follow the previous light's within the " + std::to_string(viewCount) + " view records");
+    nextView += views;
+    for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + 20 + 4 * c);
+    l.intensity = r.f32(at + 32);
+    if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a 1.0 file");
+    l.range = r.f64(at + 40);
+    l.innerConeAngle = r.f64(at + 48);
+    l.outerConeAngle = r.f64(at + 56);
+    for (int c = 0; c < 3; ++c) l.position[c] = r.f64(at + 64 + 8 * c);
+    for (int c = 0; c < 3; ++c) l.direction[c] = r.f64(at + 88 + 8 * c);
+    bool finite = std::isfinite(l.intensity) && std::isfinite(l.innerConeAngle) && std::isfinite(l.outerConeAngle);
+    for (int c = 0; c < 3; ++c)
+      finite = finite && std::isfinite(l.color[c]) && std::isfinite(l.position[c]) && std::isfinite(l.direction[c]);
+    if (!finite) r.fail(named + ": a colour, intensity, cone, position or direction value is not finite");
+    if (!(l.range > 0)) r.fail(named + ": range " + num(l.range) + " (expected > 0 or +inf)");
+
+    entry.views.reserve(views);
+    for (uint64_t vi = 0; vi < views; ++vi) {
+      const uint64_t index = firstView + vi;
+      const uint64_t w = viewS.offset + index * viewS.elementSize;
+      const std::string vwhat = named + " view " + std::to_string(vi) + " (record " + std::to_string(index) + ")";
+      View out;
+      LightView& v = out.view;
+      const uint8_t projection = r.u8(w), mapping = r.u8(w + 1), flags = r.u8(w + 3);
+      const int face = int(int8_t(r.u8(w + 2)));
+      if (projection > 1) r.fail(vwhat + ": unknown projection " + std::to_string(projection));
+      if (mapping > 1) r.fail(vwhat + ": unknown depth mapping " + std::to_string(mapping));
+      if (face < -1 || face > 5) r.fail(vwhat + ": cube face " + std::to_string(face) + " (expected -1..5)");
+      if (strict && (flags & ~1u) != 0) r.fail(vwhat + ": unknown flags " + std::to_string(flags) + " in a 1.0 file");
+      v.projection = Projection(projection);
+      v.mapping = DepthMapping(mapping);
+      v.face = face;
+      v.empty = flags & 1u;
+      v.resolution = r.u32(w + 4);
+      if (v.resolution < 8 || v.resolution > kMaxResolution || !std::has_single_bit(v.resolution))
+        r.fail(vwhat + ": resolution " + std::to_string(v.resolution) + " (expected a power of two from 8 to " +
+               std::to_string(kMaxResolution) + ")");
+      const uint32_t levels = uint32_t(std::countr_zero(v.resolution)) - 2;
+      const uint8_t rootCode = r.u8(w + 8);
+      if (rootCode > 2) r.fail(vwhat + ": root code " + std::to_string(rootCode) + " (expected 0..2)");
+      if (r.u8(w + 9) != levels)
+        r.fail(vwhat + ": " + std::to_string(r.u8(w + 9)) + " DAG levels for resolution " +
+               std::to_string(v.resolution) + " (expected " + std::to_string(levels) + ")");
+      if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a 1.0 file");
+      if (r.u32(w + 12) != li)
+        r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + 12)) + ", not " + std::to_string(li));
+      const uint64_t nodeSection = r.u32(w + 16), leafSection = r.u32(w + 20);
+      if (nodeSection >= count || entries[nodeSection].type != kNode)
+        r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
+      if (leafSection >= count || entries[leafSection].type != kLeaf)
+        r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
+      const Entry& nodeS = entries[nodeSection];
+      const Entry& leafS = entries[leafSection];
+      const uint64_t words = r.u64(w + 24), leafCount = r.u64(w + 32);
+      if (words != nodeS.size / 4)
+        r.fail(vwhat + ": " + std::to_string(words) + " node words, but section " + std::to_string(nodeSection) +
+               " 'NODE' holds " + std::to_string(nodeS.size / 4));
+      if (leafCount != leafS.size / 8)
+        r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
+               " 'LEAF' holds " + std::to_string(leafS.size / 8));
+      if (words > (uint64_t(1) << 32) || leafCount > (uint64_t(1) << 32))
+        r.fail(vwhat + ": DAG too large for 32-bit references");
+      bool finite = true;
+      for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row) {
+          v.viewFromWorld[c][row] = r.f64(w + 40 + 8 * (4 * c + row));
+          finite = finite && std::isfinite(v.viewFromWorld[c][row]);
+        }
+      if (!finite) r.fail(vwhat + ": viewFromWorld has a non-finite element");
+      v.xMin = r.f64(w + 168);
+      v.xMax = r.f64(w + 176);
+      v.yMin = r.f64(w + 184);
+      v.yMax = r.f64(w + 192);
+      v.near = r.f64(w + 200);
+      v.far = r.f64(w + 208);
+      for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
+        if (!std::isfinite(x)) r.fail(vwhat + ": a lateral or depth bound is not finite");
+      if (!(v.xMin < v.xMax) || !(v.yMin < v.yMax))
+        r.fail(vwhat + ": empty lateral extent x [" + num(v.xMin) + ", " + num(v.xMax) + "] y [" + num(v.yMin) + ", " +
+               num(v.yMax) + "]");
+      if (!(v.near < v.far)) r.fail(vwhat + ": near " + num(v.near) + " is not before far " + num(v.far));
+      if (v.mapping == DepthMapping::Logarithmic && !(v.near > 0))
+        r.fail(vwhat + ": logarithmic depth needs near > 0 (near is " + num(v.near) + ")");
+      out.nodesPerLevel.resize(levels);
+      for (uint32_t k = 0; k < kMaxLevels; ++k) {
+        const uint64_t c = r.u64(w + 216 + 8 * k);
+        if (k < levels) out.nodesPerLevel[k] = c;
+        else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
+                                std::to_string(levels) + " levels");
+      }
+      // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
+      const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data_ + nodeS.offset), size_t(words));
+      const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data_ + leafS.offset),
+                                             size_t(leafCount));
+      validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
+      out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
+      entry.views.push_back(std::move(out));
+    }
+    lights_.push_back(std::move(entry));
+  }
+  if (nextView != viewCount)
+    r.fail(std::to_string(viewCount - nextView) + " view records belong to no light");
+}
+
+}  // namespace cpvs

@@ -1,0 +1,68 @@
+#pragma once
+// cpvs-bake's pipeline (DESIGN.md §4): per light, per view, per region: depth maps -> tile chains -> DAG.
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/raster/depth_renderer.h"
+#include "libcpvs/scene.h"
+#include "libcpvs/tiles/tile_masks.h"
+
+namespace cpvs {
+
+struct BakeSettings {
+  uint32_t resolution = 4096;
+  UndefinedMode undefinedMode = UndefinedMode::Kampe;
+  bool nodeReuse = true;           // seed 004 §3.2; off only to measure it
+  unsigned threads = 2;            // tile chains and DAG building overlap with rendering when > 1
+  RasterBackend backend = RasterBackend::OSMesa;
+  uint32_t regionSize = 4096;      // clamped to the renderer's limit and to N
+  PeelSettings peel;
+};
+
+struct ViewReport {
+  uint32_t resolution = 0;
+  int face = -1;
+  bool empty = false;
+  double depthMs = 0, peelMs = 0, masksMs = 0, dagMs = 0, writeMs = 0;
+  uint32_t regions = 0;
+  uint64_t trianglesSubmitted = 0;
+  uint32_t peelIterations = 0;       // most iterations any region needed
+  uint64_t texelsAtPeelCap = 0;
+  uint64_t tileMasks = 0;            // chain entries over all tiles
+  std::vector<uint64_t> nodesPerLevel;
+  uint64_t uniqueLeaves = 0;
+  uint64_t nodesBuilt = 0, nodesReused = 0;
+  uint64_t bytes = 0;                // node words + leaf masks as stored
+  uint64_t shadowMapBytes = 0;       // a 16-bit shadow map of the same resolution
+};
+
+struct LightReport {
+  std::string name;
+  LightType type = LightType::Directional;
+  std::vector<ViewReport> views;
+};
+
+struct BakeReport {
+  std::string renderer;  // GL_RENDERER of the backend
+  std::vector<LightReport> lights;
+  uint64_t inputHash = 0;
+};
+
+struct BakeCallbacks {
+  // Fraction of the whole bake done, in [0, 1].
+  std::function<void(double)> progress;
+  // Called for each rendered region, e.g. to dump depth maps.
+  std::function<void(size_t light, size_t view, const LightView&, const DepthRegion&)> depthRegion;
+};
+
+// Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
+uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings);
+
+// Bakes every light of the scene. Throws Error (NotSupported when the backend is missing).
+CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report = nullptr,
+                      const BakeCallbacks& callbacks = {});
+
+}  // namespace cpvs

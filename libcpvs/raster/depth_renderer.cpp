@@ -1,0 +1,826 @@
+// Enter and exit depth maps with OpenGL (docs/depth-maps.md).
+//
+// Per region, all in GL textures of the region's size:
+//  1. enter pass: closed and open triangles, depth test LESS into a 32-bit float depth texture holding
+//     t / 2 (t = the view's normalised depth in [0, 1], so 1.0 = the clear value means "nothing"), and the kind
+//     of the nearest surface (closed front / closed back / open) into an R8UI texture.
+//  2. init pass: per texel state (front cursor, back cursor) + count; texels whose first surface is a closed
+//     front face start active with count 1.
+//  3. peel iterations: closed front faces and closed back faces peeled separately beyond their cursors, the
+//     multiplicity of the nearest back layer counted, then a fullscreen pass consumes the nearer event
+//     (ties: back first) into the other ping-pong state.
+//  4. resolve pass: integer enter and exit slices, read back once.
+#include "libcpvs/raster/depth_renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <limits>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "libcpvs/error.h"
+#include "libcpvs/raster/gl_context.h"
+
+namespace cpvs {
+
+RasterBackend parseRasterBackend(const std::string& name) {
+  if (name == "osmesa") return RasterBackend::OSMesa;
+  if (name == "egl") return RasterBackend::EGL;
+  throw Error(ExitCode::Usage, "unknown raster backend '" + name + "' (expected osmesa or egl)");
+}
+
+const char* rasterBackendName(RasterBackend backend) {
+  return backend == RasterBackend::EGL ? "egl" : "osmesa";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Kinds of the nearest surface (enter pass colour attachment).
+constexpr unsigned kKindNone = 0, kKindClosedFront = 1, kKindClosedBack = 2, kKindOpen = 3;
+static_assert(kKindNone == 0 && kKindClosedFront == 1 && kKindClosedBack == 2 && kKindOpen == 3);
+
+// ------------------------------------------------------------------------------------------------ shaders
+
+// Geometry vertices carry window positions computed on the CPU (snapped to 1/256 texel, exact up to the
+// region's integer offset, so every region rasterises a triangle identically) and, flat, the triangle's depth
+// as an affine function of the texel coordinates around an integer reference texel.
+const char* kGeometryVS = R"(#version 330 core
+layout(location = 0) in vec4 clipPosition;
+layout(location = 1) in vec3 plane;     // q0, dq/du, dq/dv
+layout(location = 2) in ivec2 origin;   // reference texel (u0, v0), view texel coordinates
+layout(location = 3) in vec2 range;     // q of the triangle lies in [range.x, range.y]
+flat out vec3 vPlane;
+flat out ivec2 vOrigin;
+flat out vec2 vRange;
+void main() {
+  gl_Position = clipPosition;
+  vPlane = plane;
+  vOrigin = origin;
+  vRange = range;
+}
+)";
+
+// Shared by every geometry fragment shader: the stored depth t / 2 with t = clamp(slice / N, 0, 1), evaluated
+// from the triangle's plane at the exact texel centre (u0 + du, v0 + dv) -- region-independent.
+//  depthMode 0: q = t (orthographic, linear)      1: q = d (orthographic, logarithmic)
+//            2: q = 1/d (perspective, linear)     3: q = 1/d (perspective, logarithmic)
+const char* kDepthFunction = R"(
+uniform ivec2 regionOrigin;
+uniform int depthMode;
+uniform float nearDepth;
+uniform float invNear;
+uniform float depthScale;   // linear: 1 / (far - near); logarithmic: 1 / log2(far / near)
+flat in vec3 vPlane;
+flat in ivec2 vOrigin;
+flat in vec2 vRange;
+float storedDepth() {
+  vec2 du = vec2(ivec2(gl_FragCoord.xy) + regionOrigin - vOrigin) + 0.5;
+  float q = clamp(vPlane.x + vPlane.y * du.x + vPlane.z * du.y, vRange.x, vRange.y);
+  float t;
+  if (depthMode == 0) t = q;
+  else if (depthMode == 1) t = log2(max(q * invNear, 1e-30)) * depthScale;
+  else if (depthMode == 2) t = (1.0 / max(q, 1e-30) - nearDepth) * depthScale;
+  else t = -log2(max(q * nearDepth, 1e-30)) * depthScale;
+  return 0.5 * clamp(t, 0.0, 1.0);
+}
+)";
+
+const char* kEnterFS = R"(
+uniform int closedGeometry;
+layout(location = 0) out uint kind;
+void main() {
+  gl_FragDepth = storedDepth();
+  kind = closedGeometry != 0 ? (gl_FrontFacing ? 1u : 2u) : 3u;
+}
+)";
+
+// Peels the closed faces of one side (the draw culls the other) beyond that side's cursor, for active texels.
+const char* kPeelFS = R"(
+uniform sampler2D cursors;   // RG32F: front cursor, back cursor (stored depth of the last consumed event)
+uniform sampler2D counts;    // R32F: > 0 while active
+uniform int side;            // 0 = front faces, 1 = back faces
+layout(location = 0) out float one;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  if (texelFetch(counts, p, 0).r <= 0.0) discard;
+  float z = storedDepth();
+  vec2 c = texelFetch(cursors, p, 0).rg;
+  if (z <= (side == 0 ? c.x : c.y)) discard;
+  gl_FragDepth = z;
+  one = 1.0;
+}
+)";
+
+const char* kFullscreenVS = R"(#version 330 core
+void main() {
+  gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0);
+}
+)";
+
+// Count values of finished texels: > -500 normal (exit found or never active), kCapped, kStuck.
+const char* kStateConstants = R"(#version 330 core
+const float kCapped = -1000.0;   // still inside at the peel cap: exit = last consumed event
+const float kStuck = -2000.0;    // inside but no closed surface left (beyond far, or cracks)
+)";
+
+const char* kInitFS = R"(
+uniform sampler2D enterDepth;
+uniform usampler2D kinds;
+uniform int noPeel;
+layout(location = 0) out vec2 cursor;
+layout(location = 1) out float count;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  float z = texelFetch(enterDepth, p, 0).r;
+  uint k = texelFetch(kinds, p, 0).r;
+  // Front faces at the enter depth are the enter itself; back faces at the enter depth (silhouettes,
+  // zero-thickness parts) must still be seen, so the back cursor starts one float below it.
+  cursor = vec2(z, z > 0.0 ? uintBitsToFloat(floatBitsToUint(z) - 1u) : -1.0);
+  count = k == 1u ? (noPeel != 0 ? kCapped : 1.0) : 0.0;
+}
+)";
+
+const char* kUpdateFS = R"(
+uniform sampler2D cursors;
+uniform sampler2D counts;
+uniform sampler2D frontDepth;
+uniform sampler2D backDepth;
+uniform sampler2D backCount;
+uniform int lastIteration;
+layout(location = 0) out vec2 cursor;
+layout(location = 1) out float count;
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  vec2 c = texelFetch(cursors, p, 0).rg;
+  float n = texelFetch(counts, p, 0).r;
+  if (n > 0.0) {
+    float f = texelFetch(frontDepth, p, 0).r;
+    float b = texelFetch(backDepth, p, 0).r;
+    bool hasF = f < 1.0, hasB = b < 1.0;
+    if (!hasF && !hasB) {
+      n = kStuck;
+    } else if (hasB && (!hasF || b <= f)) {   // ties: back first (an earlier exit is the safe side)
+      c.y = b;
+      n -= max(texelFetch(backCount, p, 0).r, 1.0);   // coincident back faces all leave at once
+      if (n <= 0.0) n = 0.0;
+    } else {
+      c.x = f;
+      n += 1.0;   // coincident front faces count once: the exit can only come earlier
+    }
+    if (n > 0.0 && lastIteration != 0) n = kCapped;
+  }
+  cursor = c;
+  count = n;
+}
+)";
+
+const char* kResolveFS = R"(
+uniform sampler2D enterDepth;
+uniform usampler2D kinds;
+uniform sampler2D cursors;
+uniform sampler2D counts;
+uniform float resolution;
+layout(location = 0) out vec2 slices;   // (enter, exit); exit = -(x + 1) flags a texel capped by the peel limit
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  uint k = texelFetch(kinds, p, 0).r;
+  float N = resolution;
+  float e = N, x = N;
+  if (k != 0u) {
+    float z = texelFetch(enterDepth, p, 0).r;
+    e = min(N - 1.0, floor(2.0 * z * N));
+    x = e + 1.0;
+    if (k == 1u) {
+      vec2 c = texelFetch(cursors, p, 0).rg;
+      float n = texelFetch(counts, p, 0).r;
+      x = min(N, max(e + 1.0, floor(2.0 * max(c.x, c.y) * N)));
+      if (n < kCapped + 0.5 && n > kStuck + 0.5) x = -x - 1.0;
+    }
+  }
+  slices = vec2(e, x);
+}
+)";
+
+// -------------------------------------------------------------------------------------------- renderer
+
+struct GpuVertex {
+  float clip[4];
+  float plane[3];  // q0, dq/du, dq/dv
+  float pad;
+  int32_t origin[2];
+  float range[2];
+};
+static_assert(sizeof(GpuVertex) == 48);
+
+int depthMode(const LightView& view) {
+  const bool logarithmic = view.mapping == DepthMapping::Logarithmic;
+  if (view.projection == Projection::Orthographic) return logarithmic ? 1 : 0;
+  return logarithmic ? 3 : 2;
+}
+
+// Per triangle of `geometry` (closed, then open): three vertices with
+//  * clip positions: for triangles wholly at d >= near / 2 (every orthographic one) the texel position is
+//    computed here in double and snapped to 1/256 texel (the rasteriser's sub-pixel grid); p = u - block.x0
+//    makes ndc = p * 2 / block.size - 1 exact in float, and GL's viewport transform (origin block.x0 - x0)
+//    gives back exactly u - x0: a triangle covers the same texels whatever region of the block it is drawn
+//    in. Triangles that reach closer than near / 2 to a perspective light are sent homogeneously (w = d) so
+//    GL clips them (also the same in every region of the block).
+//  * the depth plane: q (see kDepthFunction) is affine in the texel coordinates (u, v) over a planar triangle
+//    (orthographic: d; perspective: 1 / d), stored around an integer reference texel near the triangle.
+//  * the range of q over the triangle (vertex values), to clamp evaluations at pixels just outside a grazing
+//    triangle.
+struct ViewportBlock {
+  uint32_t x0 = 0, y0 = 0, size = 0;  // texels [x0, x0 + size) x [y0, y0 + size) of the view
+};
+
+void buildVertices(const ViewGeometry& geometry, const LightView& view, const ViewportBlock& block, GpuVertex* out) {
+  const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
+  const bool perspective = view.projection == Projection::Perspective;
+  const int mode = depthMode(view);
+  const double nearClip = 0.5 * view.near;
+  const double ortLinearScale = 1.0 / (view.far - view.near);
+  const double halfViewport = 0.5 * block.size;
+  const double sx = 2.0 * n / (block.size * ex), sy = 2.0 * n / (block.size * ey);
+  const double ac = view.xMin + (double(block.x0) + halfViewport) * ex / n;
+  const double bc = view.yMin + (double(block.y0) + halfViewport) * ey / n;
+  const size_t closedCount = geometry.closedIndices.size() / 3;
+  const size_t count = closedCount + geometry.openIndices.size() / 3;
+  constexpr double kLimit = double(1 << 24);
+  auto qOfDepth = [&](double d) {
+    if (mode == 0) return (d - view.near) * ortLinearScale;
+    if (mode == 1) return d;
+    return 1.0 / d;
+  };
+
+  auto one = [&](size_t t) {
+    const uint32_t* idx = t < closedCount ? &geometry.closedIndices[3 * t]
+                                          : &geometry.openIndices[3 * (t - closedCount)];
+    glm::dvec3 p[3];
+    double d[3], u[3], v[3];
+    bool safe = true;
+    for (int k = 0; k < 3; ++k) {
+      p[k] = glm::dvec3(geometry.positions[idx[k]]);
+      d[k] = -p[k].z;
+      if (perspective && !(d[k] >= nearClip)) safe = false;
+      const double a = perspective ? p[k].x / d[k] : p[k].x, b = perspective ? p[k].y / d[k] : p[k].y;
+      u[k] = n * (a - view.xMin) / ex;
+      v[k] = n * (b - view.yMin) / ey;
+    }
+    // Depth plane q(u, v) = k0 + ku u + kv v.
+    const glm::dvec3 normal = glm::cross(p[1] - p[0], p[2] - p[0]);
+    double k0 = 0, ku = 0, kv = 0;
+    bool planar = false;
+    if (!perspective) {
+      if (normal.z != 0) {  // d = (nx x + ny y - c) / nz with x = xMin + u ex / N
+        const double c = glm::dot(normal, p[0]);
+        ku = normal.x * ex / (n * normal.z);
+        kv = normal.y * ey / (n * normal.z);
+        k0 = (normal.x * view.xMin + normal.y * view.yMin - c) / normal.z;
+        if (mode == 0) {
+          k0 = (k0 - view.near) * ortLinearScale;
+          ku *= ortLinearScale;
+          kv *= ortLinearScale;
+        }
+        planar = true;
+      }
+    } else {
+      const double c = glm::dot(normal, p[0]);
+      if (c != 0) {  // 1 / d = (nx a + ny b - nz) / c with a = xMin + u ex / N
+        ku = normal.x * ex / (n * c);
+        kv = normal.y * ey / (n * c);
+        k0 = (normal.x * view.xMin + normal.y * view.yMin - normal.z) / c;
+        planar = true;
+      }
+    }
+    // Reference texel: the rounded centroid of the projected vertices in front of the light.
+    double su = 0, sv = 0;
+    int visible = 0;
+    for (int k = 0; k < 3; ++k)
+      if (!perspective || d[k] >= nearClip) {
+        su += u[k];
+        sv += v[k];
+        ++visible;
+      }
+    const double u0 = visible ? std::clamp(std::round(su / visible), -kLimit, kLimit) : 0.0;
+    const double v0 = visible ? std::clamp(std::round(sv / visible), -kLimit, kLimit) : 0.0;
+    double qMin = -std::numeric_limits<float>::max(), qMax = std::numeric_limits<float>::max();
+    if (safe) {
+      qMin = std::min({qOfDepth(d[0]), qOfDepth(d[1]), qOfDepth(d[2])});
+      qMax = std::max({qOfDepth(d[0]), qOfDepth(d[1]), qOfDepth(d[2])});
+    }
+    const double q0 = planar ? k0 + ku * u0 + kv * v0 : (safe ? qMin : 0.0);
+    if (!planar) ku = kv = 0;
+    for (int k = 0; k < 3; ++k) {
+      GpuVertex& out3 = out[3 * t + size_t(k)];
+      if (safe) {
+        const double px = std::round(u[k] * 256.0) / 256.0 - block.x0;
+        const double py = std::round(v[k] * 256.0) / 256.0 - block.y0;
+        out3.clip[0] = float(px / halfViewport - 1.0);
+        out3.clip[1] = float(py / halfViewport - 1.0);
+        out3.clip[2] = 0.0f;
+        out3.clip[3] = 1.0f;
+      } else {
+        out3.clip[0] = float(sx * (p[k].x - ac * d[k]));
+        out3.clip[1] = float(sy * (p[k].y - bc * d[k]));
+        out3.clip[2] = float(d[k] - view.near);
+        out3.clip[3] = float(d[k]);
+      }
+      out3.plane[0] = float(q0);
+      out3.plane[1] = float(ku);
+      out3.plane[2] = float(kv);
+      out3.pad = 0.0f;
+      out3.origin[0] = int32_t(u0);
+      out3.origin[1] = int32_t(v0);
+      out3.range[0] = float(qMin);
+      out3.range[1] = float(qMax);
+    }
+  };
+  if (count >= 16384) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t t = r.begin(); t != r.end(); ++t) one(t);
+    });
+  } else {
+    for (size_t t = 0; t < count; ++t) one(t);
+  }
+}
+
+
+class GlDepthRenderer final : public DepthRenderer {
+public:
+  explicit GlDepthRenderer(std::unique_ptr<gl::Context> context) : context_(std::move(context)) {
+    gl::CurrentContext current(*context_);
+    const gl::Functions& g = context_->gl();
+    GLint maxTexture = 0, maxRenderbuffer = 0, maxViewport[2] = {0, 0};
+    g.GetIntegerv(GL_MAX_TEXTURE_SIZE, &maxTexture);
+    g.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &maxRenderbuffer);
+    g.GetIntegerv(GL_MAX_VIEWPORT_DIMS, maxViewport);
+    // A power of two, so the (power-of-two) viewport of any region fits the limits too.
+    const int limit = std::max(1, std::min({maxTexture, maxRenderbuffer, maxViewport[0], maxViewport[1], 8192}));
+    maxRegion_ = 1;
+    while (int(maxRegion_) * 2 <= limit) maxRegion_ *= 2;
+    // The viewport: as large as allowed (a power of two), placed so that it covers an aligned block of the
+    // view that contains the region (see render()).
+    viewportSize_ = 1;
+    while (int64_t(viewportSize_) * 2 <= std::min(maxViewport[0], maxViewport[1])) viewportSize_ *= 2;
+    viewportMin_ = -int64_t(viewportSize_);
+    if (context_->majorVersion() > 4 || (context_->majorVersion() == 4 && context_->minorVersion() >= 1)) {
+      GLint bounds[2] = {0, 0};
+      g.GetIntegerv(GL_VIEWPORT_BOUNDS_RANGE, bounds);
+      viewportMin_ = bounds[0];
+    }
+
+    const std::string geomFS = std::string("#version 330 core\n") + kDepthFunction;
+    enterProgram_ = link(kGeometryVS, geomFS + kEnterFS, "enter");
+    peelProgram_ = link(kGeometryVS, geomFS + kPeelFS, "peel");
+    initProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kInitFS, "init");
+    updateProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kUpdateFS, "update");
+    resolveProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kResolveFS, "resolve");
+
+    g.GenVertexArrays(1, &geometryVao_);
+    g.GenVertexArrays(1, &emptyVao_);
+    g.GenBuffers(1, &vertexBuffer_);
+    g.BindVertexArray(geometryVao_);
+    g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer_);
+    const GLsizei stride = sizeof(GpuVertex);
+    g.VertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, clip)));
+    g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, plane)));
+    g.VertexAttribIPointer(2, 2, GL_INT, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, origin)));
+    g.VertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, range)));
+    for (GLuint a = 0; a < 4; ++a) g.EnableVertexAttribArray(a);
+    g.BindVertexArray(0);
+    g.GenQueries(2, queries_);
+    checkError("creating the depth renderer");
+  }
+
+  ~GlDepthRenderer() override {
+    try {
+      gl::CurrentContext current(*context_);
+      const gl::Functions& g = context_->gl();
+      freeTargets();
+      for (GLuint p : {enterProgram_, peelProgram_, initProgram_, updateProgram_, resolveProgram_})
+        if (p) g.DeleteProgram(p);
+      g.DeleteQueries(2, queries_);
+      g.DeleteBuffers(1, &vertexBuffer_);
+      g.DeleteVertexArrays(1, &geometryVao_);
+      g.DeleteVertexArrays(1, &emptyVao_);
+    } catch (...) {
+      // The context is going away with everything in it.
+    }
+  }
+
+  uint32_t maxRegionSize() const override { return maxRegion_; }
+  std::string description() const override { return context_->description(); }
+
+  DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                     const PeelSettings& peel, RenderStats* stats) override;
+
+private:
+  struct Targets {
+    uint32_t width = 0, height = 0;
+    GLuint enterDepth = 0, frontDepth = 0, backDepth = 0, kinds = 0, backCount = 0;
+    GLuint cursors[2] = {0, 0}, counts[2] = {0, 0};
+    GLuint enterFbo = 0, frontFbo = 0, backFbo = 0, stateFbo[2] = {0, 0};
+  };
+
+  void checkError(const char* what) const {
+    const GLenum e = context_->gl().GetError();
+    if (e == GL_NO_ERROR) return;
+    char code[16];
+    std::snprintf(code, sizeof code, "0x%04X", unsigned(e));
+    const std::string message = std::string("OpenGL error ") + code +
+                                (e == GL_OUT_OF_MEMORY ? " (out of memory)" : "") + " while " + what + " on " +
+                                context_->description();
+    throw Error(ExitCode::RuntimeFailure, message);
+  }
+
+  GLuint compile(GLenum type, const std::string& source, const char* name) const {
+    const gl::Functions& g = context_->gl();
+    const GLuint shader = g.CreateShader(type);
+    const char* text = source.c_str();
+    g.ShaderSource(shader, 1, &text, nullptr);
+    g.CompileShader(shader);
+    GLint ok = 0;
+    g.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      char log[4096] = {};
+      g.GetShaderInfoLog(shader, sizeof log, nullptr, log);
+      g.DeleteShader(shader);
+      throw Error(ExitCode::RuntimeFailure, std::string("cannot compile the ") + name + " shader: " + log);
+    }
+    return shader;
+  }
+
+  GLuint link(const std::string& vs, const std::string& fs, const char* name) const {
+    const gl::Functions& g = context_->gl();
+    const GLuint v = compile(GL_VERTEX_SHADER, vs, name);
+    const GLuint f = compile(GL_FRAGMENT_SHADER, fs, name);
+    const GLuint program = g.CreateProgram();
+    g.AttachShader(program, v);
+    g.AttachShader(program, f);
+    g.LinkProgram(program);
+    g.DeleteShader(v);
+    g.DeleteShader(f);
+    GLint ok = 0;
+    g.GetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (!ok) {
+      char log[4096] = {};
+      g.GetProgramInfoLog(program, sizeof log, nullptr, log);
+      g.DeleteProgram(program);
+      throw Error(ExitCode::RuntimeFailure, std::string("cannot link the ") + name + " program: " + log);
+    }
+    return program;
+  }
+
+  GLint uniform(GLuint program, const char* name) const { return context_->gl().GetUniformLocation(program, name); }
+
+  GLuint makeTexture(GLenum internalFormat, GLenum format, GLenum type, uint32_t w, uint32_t h) const {
+    const gl::Functions& g = context_->gl();
+    GLuint tex = 0;
+    g.GenTextures(1, &tex);
+    g.BindTexture(GL_TEXTURE_2D, tex);
+    g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    g.TexImage2D(GL_TEXTURE_2D, 0, GLint(internalFormat), GLsizei(w), GLsizei(h), 0, format, type, nullptr);
+    g.BindTexture(GL_TEXTURE_2D, 0);
+    return tex;
+  }
+
+  GLuint makeFramebuffer(GLuint depth, std::initializer_list<GLuint> colours) const {
+    const gl::Functions& g = context_->gl();
+    GLuint fbo = 0;
+    g.GenFramebuffers(1, &fbo);
+    g.BindFramebuffer(GL_FRAMEBUFFER, fbo);
+    if (depth) g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, depth, 0);
+    std::vector<GLenum> buffers;
+    for (GLuint c : colours) {
+      const GLenum attachment = GLenum(GL_COLOR_ATTACHMENT0 + buffers.size());
+      g.FramebufferTexture2D(GL_FRAMEBUFFER, attachment, GL_TEXTURE_2D, c, 0);
+      buffers.push_back(attachment);
+    }
+    if (buffers.empty()) {
+      const GLenum none = GL_NONE;
+      g.DrawBuffers(1, &none);
+      g.ReadBuffer(GL_NONE);
+    } else {
+      g.DrawBuffers(GLsizei(buffers.size()), buffers.data());
+      g.ReadBuffer(GL_COLOR_ATTACHMENT0);
+    }
+    const GLenum status = g.CheckFramebufferStatus(GL_FRAMEBUFFER);
+    g.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+      char code[16];
+      std::snprintf(code, sizeof code, "0x%04X", unsigned(status));
+      throw Error(ExitCode::RuntimeFailure, std::string("incomplete framebuffer (") + code + ") on " +
+                                                context_->description());
+    }
+    return fbo;
+  }
+
+  void ensureTargets(uint32_t w, uint32_t h) {
+    if (targets_.width == w && targets_.height == h) return;
+    freeTargets();
+    context_->gl().GetError();
+    Targets& t = targets_;
+    t.enterDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
+    t.frontDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
+    t.backDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
+    t.kinds = makeTexture(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, w, h);
+    t.backCount = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
+    for (int i = 0; i < 2; ++i) {
+      t.cursors[i] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);
+      t.counts[i] = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
+    }
+    checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " region buffers").c_str());
+    t.width = w;
+    t.height = h;
+    t.enterFbo = makeFramebuffer(t.enterDepth, {t.kinds});
+    t.frontFbo = makeFramebuffer(t.frontDepth, {});
+    t.backFbo = makeFramebuffer(t.backDepth, {t.backCount});
+    for (int i = 0; i < 2; ++i) t.stateFbo[i] = makeFramebuffer(0, {t.cursors[i], t.counts[i]});
+    checkError("creating region framebuffers");
+  }
+
+  void freeTargets() {
+    const gl::Functions& g = context_->gl();
+    Targets& t = targets_;
+    for (GLuint* fbo : {&t.enterFbo, &t.frontFbo, &t.backFbo, &t.stateFbo[0], &t.stateFbo[1]})
+      if (*fbo) g.DeleteFramebuffers(1, fbo), *fbo = 0;
+    for (GLuint* tex : {&t.enterDepth, &t.frontDepth, &t.backDepth, &t.kinds, &t.backCount, &t.cursors[0],
+                        &t.cursors[1], &t.counts[0], &t.counts[1]})
+      if (*tex) g.DeleteTextures(1, tex), *tex = 0;
+    t.width = t.height = 0;
+  }
+
+  void bindTexture(GLuint program, const char* name, int unit, GLuint texture) const {
+    const gl::Functions& g = context_->gl();
+    g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
+    g.BindTexture(GL_TEXTURE_2D, texture);
+    g.Uniform1i(uniform(program, name), unit);
+  }
+
+  void setDepthUniforms(GLuint program, const LightView& view, const RegionRect& rect) const {
+    const gl::Functions& g = context_->gl();
+    const bool logarithmic = view.mapping == DepthMapping::Logarithmic;
+    g.Uniform2i(uniform(program, "regionOrigin"), GLint(rect.x0), GLint(rect.y0));
+    g.Uniform1i(uniform(program, "depthMode"), depthMode(view));
+    g.Uniform1f(uniform(program, "nearDepth"), float(view.near));
+    g.Uniform1f(uniform(program, "invNear"), float(1.0 / view.near));
+    g.Uniform1f(uniform(program, "depthScale"),
+                float(logarithmic ? 1.0 / std::log2(view.far / view.near) : 1.0 / (view.far - view.near)));
+  }
+
+  std::unique_ptr<gl::Context> context_;
+  uint32_t maxRegion_ = 0;
+  uint32_t viewportSize_ = 0;
+  int64_t viewportMin_ = 0;  // lowest viewport origin GL accepts
+  GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0;
+  GLuint geometryVao_ = 0, emptyVao_ = 0, vertexBuffer_ = 0;
+  GLuint queries_[2] = {0, 0};
+  Targets targets_;
+};
+
+DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                                    const PeelSettings& peel, RenderStats* stats) {
+  const uint32_t n = view.resolution;
+  if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
+      uint64_t(rect.y0) + rect.height > n)
+    throw Error(ExitCode::Usage, "depth renderer: region " + std::to_string(rect.x0) + "," + std::to_string(rect.y0) +
+                                     " " + std::to_string(rect.width) + "x" + std::to_string(rect.height) +
+                                     " is empty or outside the " + std::to_string(n) + "^2 view");
+  if (rect.width > maxRegion_ || rect.height > maxRegion_)
+    throw Error(ExitCode::Usage, "depth renderer: region " + std::to_string(rect.width) + "x" +
+                                     std::to_string(rect.height) + " exceeds the largest this context renders (" +
+                                     std::to_string(maxRegion_) + ")");
+  if (n > (1u << 24))
+    throw Error(ExitCode::NotSupported, "depth renderer: resolutions above 2^24 are not supported");
+
+  DepthRegion region;
+  region.rect = rect;
+  region.resolution = n;
+  const size_t texels = size_t(rect.width) * rect.height;
+  RenderStats local;
+
+  const ViewGeometry culled = cullToRegion(geometry, rect);
+  const size_t closedCount = culled.closedIndices.size() / 3, openCount = culled.openIndices.size() / 3;
+  local.trianglesSubmitted = closedCount + openCount;
+  if (view.empty || local.trianglesSubmitted == 0) {
+    region.enter.assign(texels, n);
+    region.exit.assign(texels, n);
+    if (stats) *stats = local;
+    return region;
+  }
+
+  gl::CurrentContext current(*context_);
+  const gl::Functions& g = context_->gl();
+  g.GetError();
+  ensureTargets(rect.width, rect.height);
+  const Targets& t = targets_;
+
+  g.Finish();
+  auto start = Clock::now();
+
+  // The viewport covers the aligned block of viewportSize_ texels that holds the region, so vertices and GL's
+  // clipping are the same for every region of the block (the whole view when N <= viewportSize_); only the
+  // viewport's integer origin differs. A region that straddles blocks gets a viewport at its own origin.
+  ViewportBlock block;
+  block.size = viewportSize_;
+  block.x0 = rect.x0 / viewportSize_ * viewportSize_;
+  block.y0 = rect.y0 / viewportSize_ * viewportSize_;
+  if (rect.x0 + rect.width > block.x0 + block.size || rect.y0 + rect.height > block.y0 + block.size ||
+      int64_t(block.x0) - int64_t(rect.x0) < viewportMin_ || int64_t(block.y0) - int64_t(rect.y0) < viewportMin_) {
+    block.x0 = rect.x0;
+    block.y0 = rect.y0;
+  }
+  std::vector<GpuVertex> vertices(3 * (closedCount + openCount));
+  buildVertices(culled, view, block, vertices.data());
+  g.BindVertexArray(geometryVao_);
+  g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer_);
+  g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(GpuVertex)), vertices.data(), GL_STREAM_DRAW);
+  checkError("uploading geometry");
+  auto drawClosed = [&] {
+    if (closedCount) g.DrawArrays(GL_TRIANGLES, 0, GLsizei(3 * closedCount));
+  };
+  auto drawOpen = [&] {
+    if (openCount) g.DrawArrays(GL_TRIANGLES, GLint(3 * closedCount), GLsizei(3 * openCount));
+  };
+
+  // A view transform with a reflection would swap what GL calls front (CCW in the window).
+  const double det = glm::determinant(glm::dmat3(view.viewFromWorld));
+  g.FrontFace(det < 0 ? GL_CW : GL_CCW);
+  // Window x = texel u - x0 exactly; the scissor keeps the region.
+  g.Viewport(GLint(int64_t(block.x0) - int64_t(rect.x0)), GLint(int64_t(block.y0) - int64_t(rect.y0)),
+             GLsizei(block.size), GLsizei(block.size));
+  g.Enable(GL_SCISSOR_TEST);
+  g.Scissor(0, 0, GLsizei(rect.width), GLsizei(rect.height));
+  g.Disable(GL_BLEND);
+  g.ColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  const GLfloat clearDepth = 1.0f, zero[4] = {0, 0, 0, 0};
+  const GLuint zeroU[4] = {0, 0, 0, 0};
+
+  // 1. Enter pass. Draw order decides exact ties (GL_LESS keeps the first): open, closed back, closed front,
+  //    so a tie never makes the exit later.
+  g.BindFramebuffer(GL_FRAMEBUFFER, t.enterFbo);
+  g.ClearBufferfv(GL_DEPTH, 0, &clearDepth);
+  g.ClearBufferuiv(GL_COLOR, 0, zeroU);
+  g.Enable(GL_DEPTH_TEST);
+  g.DepthFunc(GL_LESS);
+  g.DepthMask(GL_TRUE);
+  g.UseProgram(enterProgram_);
+  setDepthUniforms(enterProgram_, view, rect);
+  g.Disable(GL_CULL_FACE);
+  g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 0);
+  drawOpen();
+  g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 1);
+  g.Enable(GL_CULL_FACE);
+  g.CullFace(GL_FRONT);
+  drawClosed();
+  g.CullFace(GL_BACK);
+  drawClosed();
+  g.Finish();
+  checkError("rendering enter depth");
+  local.enterMs = msSince(start);
+  start = Clock::now();
+
+  // 2. Init state.
+  auto fullscreen = [&](GLuint program) {
+    g.UseProgram(program);
+    g.BindVertexArray(emptyVao_);
+    g.DrawArrays(GL_TRIANGLES, 0, 3);
+    g.BindVertexArray(geometryVao_);
+  };
+  g.Disable(GL_DEPTH_TEST);
+  g.Disable(GL_CULL_FACE);
+  g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[0]);
+  g.UseProgram(initProgram_);
+  bindTexture(initProgram_, "enterDepth", 0, t.enterDepth);
+  bindTexture(initProgram_, "kinds", 1, t.kinds);
+  g.Uniform1i(uniform(initProgram_, "noPeel"), peel.maxPeels == 0 ? 1 : 0);
+  fullscreen(initProgram_);
+  int cur = 0;
+
+  // 3. Peel iterations (only when there are closed triangles to peel).
+  if (closedCount > 0) {
+    for (uint32_t iteration = 0; iteration < peel.maxPeels; ++iteration) {
+      ++local.peelIterations;
+      g.Enable(GL_DEPTH_TEST);
+      g.DepthFunc(GL_LESS);
+      g.DepthMask(GL_TRUE);
+      g.Enable(GL_CULL_FACE);
+      g.UseProgram(peelProgram_);
+      setDepthUniforms(peelProgram_, view, rect);
+      bindTexture(peelProgram_, "cursors", 0, t.cursors[cur]);
+      bindTexture(peelProgram_, "counts", 1, t.counts[cur]);
+      // Front faces.
+      g.BindFramebuffer(GL_FRAMEBUFFER, t.frontFbo);
+      g.ClearBufferfv(GL_DEPTH, 0, &clearDepth);
+      g.CullFace(GL_BACK);
+      g.Uniform1i(uniform(peelProgram_, "side"), 0);
+      g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[0]);
+      drawClosed();
+      g.EndQuery(GL_ANY_SAMPLES_PASSED);
+      // Back faces: nearest layer, then its multiplicity (depth EQUAL, additive).
+      g.BindFramebuffer(GL_FRAMEBUFFER, t.backFbo);
+      g.ClearBufferfv(GL_DEPTH, 0, &clearDepth);
+      g.ClearBufferfv(GL_COLOR, 0, zero);
+      g.CullFace(GL_FRONT);
+      g.Uniform1i(uniform(peelProgram_, "side"), 1);
+      g.ColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+      g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[1]);
+      drawClosed();
+      g.EndQuery(GL_ANY_SAMPLES_PASSED);
+      g.ColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+      GLuint anyFront = 0, anyBack = 0;
+      g.GetQueryObjectuiv(queries_[0], GL_QUERY_RESULT, &anyFront);
+      g.GetQueryObjectuiv(queries_[1], GL_QUERY_RESULT, &anyBack);
+      if (anyBack) {
+        g.DepthFunc(GL_EQUAL);
+        g.DepthMask(GL_FALSE);
+        g.Enable(GL_BLEND);
+        g.BlendEquation(GL_FUNC_ADD);
+        g.BlendFunc(GL_ONE, GL_ONE);
+        drawClosed();
+        g.Disable(GL_BLEND);
+        g.DepthMask(GL_TRUE);
+        g.DepthFunc(GL_LESS);
+      }
+      // Consume one event per active texel.
+      const bool last = iteration + 1 == peel.maxPeels || (!anyFront && !anyBack);
+      g.Disable(GL_DEPTH_TEST);
+      g.Disable(GL_CULL_FACE);
+      g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[1 - cur]);
+      g.UseProgram(updateProgram_);
+      bindTexture(updateProgram_, "cursors", 0, t.cursors[cur]);
+      bindTexture(updateProgram_, "counts", 1, t.counts[cur]);
+      bindTexture(updateProgram_, "frontDepth", 2, t.frontDepth);
+      bindTexture(updateProgram_, "backDepth", 3, t.backDepth);
+      bindTexture(updateProgram_, "backCount", 4, t.backCount);
+      // When nothing was peeled no texel can progress: this update only retires the stuck ones.
+      g.Uniform1i(uniform(updateProgram_, "lastIteration"), iteration + 1 == peel.maxPeels ? 1 : 0);
+      fullscreen(updateProgram_);
+      cur = 1 - cur;
+      if (last) break;
+    }
+  }
+
+  // 4. Resolve into the spare state texture and read back once.
+  g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[1 - cur]);
+  g.UseProgram(resolveProgram_);
+  bindTexture(resolveProgram_, "enterDepth", 0, t.enterDepth);
+  bindTexture(resolveProgram_, "kinds", 1, t.kinds);
+  bindTexture(resolveProgram_, "cursors", 2, t.cursors[cur]);
+  bindTexture(resolveProgram_, "counts", 3, t.counts[cur]);
+  g.Uniform1f(uniform(resolveProgram_, "resolution"), float(n));
+  fullscreen(resolveProgram_);
+  std::vector<float> slices(2 * texels);
+  g.ReadBuffer(GL_COLOR_ATTACHMENT0);
+  g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+  g.ReadPixels(0, 0, GLsizei(rect.width), GLsizei(rect.height), GL_RG, GL_FLOAT, slices.data());
+  for (int unit = 4; unit >= 0; --unit) {
+    g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
+    g.BindTexture(GL_TEXTURE_2D, 0);
+  }
+  g.BindFramebuffer(GL_FRAMEBUFFER, 0);
+  g.BindVertexArray(0);
+  g.UseProgram(0);
+  g.Disable(GL_SCISSOR_TEST);
+  checkError("peeling exit depth");
+
+  region.enter.resize(texels);
+  region.exit.resize(texels);
+  for (size_t i = 0; i < texels; ++i) {
+    const float e = slices[2 * i], x = slices[2 * i + 1];
+    region.enter[i] = uint32_t(e);
+    if (x < 0) {
+      region.exit[i] = uint32_t(-x - 1.0f);
+      ++local.texelsAtPeelCap;
+    } else {
+      region.exit[i] = uint32_t(x);
+    }
+  }
+  local.peelMs = msSince(start);
+  if (stats) *stats = local;
+  return region;
+}
+
+}  // namespace
+
+std::unique_ptr<DepthRenderer> DepthRenderer::create(RasterBackend backend) {
+  std::unique_ptr<gl::Context> context =
+      backend == RasterBackend::EGL ? gl::createEGLContext() : gl::createOSMesaContext();
+  return std::make_unique<GlDepthRenderer>(std::move(context));
+}
+
+}  // namespace cpvs

@@ -1,0 +1,858 @@
+// The .cpvs container (docs/format.md): round trip of baked DAGs, determinism, golden bytes that pin version
+// 1.0, and a reader that rejects every corrupt, truncated or foreign input with Error(InputInvalid) — never a
+// crash — while opening later 1.x files.
+//
+// Regenerate the golden file after a deliberate format change (which must also bump the version):
+//   CPVS_UPDATE_GOLDEN=1 ./format_test --gtest_filter='*Golden*'
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <random>
+#include <regex>
+#include <set>
+
+#include <xxhash.h>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/dag/dag_builder.h"
+#include "libcpvs/error.h"
+#include "libcpvs/tiles/tile_masks.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+using namespace cpvsformat;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// ---------------------------------------------------------------------------------------------------------------
+// Content
+
+// A synthetic depth map with blocky casters, solids and an open slope (as in dag_test.cpp).
+DepthRegion syntheticDepth(uint32_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  struct Block {
+    uint32_t x0, y0, x1, y1, e, thickness;
+  };
+  std::vector<Block> blocks;
+  for (int i = 0; i < 10; ++i) {
+    const uint32_t x0 = rng() % n, y0 = rng() % n;
+    const uint32_t w = 1 + rng() % (n / 3), h = 1 + rng() % (n / 3);
+    const uint32_t e = rng() % (n - 2);
+    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e - 1);
+    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
+  }
+  DepthRegion d;
+  d.rect = {0, 0, n, n};
+  d.resolution = n;
+  d.enter.assign(size_t(n) * n, n);
+  d.exit.assign(size_t(n) * n, n);
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) {
+      uint32_t e = n, xs = n;
+      for (const Block& b : blocks)
+        if (x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1 && b.e < e) {
+          e = b.e;
+          xs = std::min(n, b.e + b.thickness);
+        }
+      if (x + y < n / 2 && (x + 2 * y) % n < e) {
+        e = (x + 2 * y) % n;
+        xs = std::min(n, e + 1);
+      }
+      d.enter[size_t(y) * n + x] = e;
+      d.exit[size_t(y) * n + x] = std::max(xs, std::min(n, e + 1));
+    }
+  return d;
+}
+
+ShadowDag bakedDag(uint32_t n, uint32_t seed) {
+  return buildDag(buildTileChains(syntheticDepth(n, seed), UndefinedMode::Kampe), true);
+}
+
+// A DAG with no nodes: every voxel lit (or shadowed).
+ShadowDag uniformDag(uint32_t n, ChildCode code) {
+  ShadowDag dag;
+  dag.resolution = n;
+  dag.rootCode = code;
+  dag.nodesPerLevel.assign(std::countr_zero(n) - 2, 0);
+  dag.levelOffsets.assign(dag.nodesPerLevel.size(), 0);
+  return dag;
+}
+
+LightView makeView(Projection projection, DepthMapping mapping, uint32_t n, int face, double k) {
+  LightView v;
+  v.projection = projection;
+  v.mapping = mapping;
+  v.resolution = n;
+  v.face = face;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) v.viewFromWorld[c][r] = (c == r ? 1.0 : 0.0) + 0.125 * k * (c - r) + (c == 3 ? k : 0);
+  v.xMin = -1.5 - k;
+  v.xMax = 2.25 + k;
+  v.yMin = -0.75;
+  v.yMax = 1.0 / 3.0 + k;
+  v.near = mapping == DepthMapping::Logarithmic ? 0.01 * (1 + k) : -2.5 + k;
+  v.far = 40.0 + 0.1 * k;
+  return v;
+}
+
+Light makeLight(LightType type, const std::string& name) {
+  Light l;
+  l.name = name;
+  l.type = type;
+  l.color = {1.0f, 0.9f, 0.75f};
+  l.intensity = type == LightType::Directional ? 3.5f : 120.0f;
+  l.range = type == LightType::Spot ? 25.5 : std::numeric_limits<double>::infinity();
+  l.innerConeAngle = type == LightType::Spot ? kPi / 8 : 0.0;
+  l.outerConeAngle = type == LightType::Spot ? kPi / 6 : kPi / 4;
+  l.position = {1.25, 7.5, -0.1};
+  l.direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
+  return l;
+}
+
+// Baked DAGs from synthetic depth maps: a sun (1 view), a spot (1 view) and a point light (6 views).
+CpvsContent bakedContent() {
+  CpvsContent c;
+  c.settingsJson = R"({"resolution":64,"undefined":"kampe","nodeReuse":true,"tool":"format_test"})";
+  BakedLight sun{makeLight(LightType::Directional, "sun"), {}};
+  sun.views.push_back({makeView(Projection::Orthographic, DepthMapping::Linear, 64, -1, 0), bakedDag(64, 1)});
+  BakedLight spot{makeLight(LightType::Spot, "spot light"), {}};
+  spot.views.push_back({makeView(Projection::Perspective, DepthMapping::Logarithmic, 32, -1, 1), bakedDag(32, 2)});
+  BakedLight point{makeLight(LightType::Point, "bulb \xC3\xBC"), {}};
+  for (int face = 0; face < 6; ++face) {
+    BakedView v{makeView(Projection::Perspective, DepthMapping::Logarithmic, 16, face, 2 + face),
+                face == 5 ? uniformDag(16, ChildCode::Lit) : bakedDag(16, 3 + face)};
+    v.view.empty = face == 5;
+    point.views.push_back(v);
+  }
+  c.lights = {sun, spot, point};
+  return c;
+}
+
+// Hand-made DAGs, small and fixed: the content of the golden file.
+CpvsContent tinyContent() {
+  CpvsContent c;
+  c.settingsJson = R"({"resolution":16,"undefined":"kampe","tool":"cpvs golden"})";
+  // Sun, N = 16 (levels 0 and 1). Root: child 0 and child 4 -> node A (shared), child 1 shadowed, others lit.
+  // A (leaf-parent): slice 0 -> leaf 0, slice 1 -> leaf 1, slice 2 shadowed, others lit.
+  ShadowDag sun;
+  sun.resolution = 16;
+  sun.rootCode = ChildCode::Ref;
+  sun.nodes = {0x206, 3, 3, 0x1A, 0, 1};
+  sun.leaves = {0x8100000000000081ull, 0x00FF00FF00FF00FFull};
+  sun.nodesPerLevel = {1, 1};
+  sun.levelOffsets = {0, 3};
+  // Spot, N = 8: one leaf-parent root: slice 3 -> leaf 0, slice 5 shadowed.
+  ShadowDag spot;
+  spot.resolution = 8;
+  spot.rootCode = ChildCode::Ref;
+  spot.nodes = {0x480, 0};
+  spot.leaves = {0x123456789ABCDEF0ull};
+  spot.nodesPerLevel = {1};
+  spot.levelOffsets = {0};
+  // Point faces, N = 8: a two-leaf root, an all-shadowed face, and empty (all-lit) faces.
+  ShadowDag face0;
+  face0.resolution = 8;
+  face0.rootCode = ChildCode::Ref;
+  face0.nodes = {0x8002 | 0x10, 0, 1};  // slice 0 -> leaf 0, slice 2 shadowed, slice 7 -> leaf 1
+  face0.leaves = {0xF0F0F0F0F0F0F0F0ull, 0x1ull};
+  face0.nodesPerLevel = {1};
+  face0.levelOffsets = {0};
+
+  BakedLight l0{makeLight(LightType::Directional, "sun"), {}};
+  l0.views.push_back({makeView(Projection::Orthographic, DepthMapping::Linear, 16, -1, 0), sun});
+  BakedLight l1{makeLight(LightType::Spot, "spot"), {}};
+  l1.views.push_back({makeView(Projection::Perspective, DepthMapping::Logarithmic, 8, -1, 1), spot});
+  BakedLight l2{makeLight(LightType::Point, "bulb"), {}};
+  for (int face = 0; face < 6; ++face) {
+    BakedView v{makeView(Projection::Perspective, DepthMapping::Logarithmic, 8, face, 2 + face),
+                face == 0 ? face0 : uniformDag(8, face == 1 ? ChildCode::Shadowed : ChildCode::Lit)};
+    v.view.empty = face >= 2;
+    l2.views.push_back(v);
+  }
+  c.lights = {l0, l1, l2};
+  return c;
+}
+
+Bytes toBytes(const std::string& s) { return Bytes(s.begin(), s.end()); }
+
+Bytes readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return Bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+void writeFile(const std::string& path, const Bytes& bytes) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+}
+
+// Opens bytes and returns the Error's message; fails the test when it opens or throws anything else.
+std::string openError(const Bytes& bytes, const std::string& name = "t.cpvs") {
+  try {
+    CpvsFile::fromBytes(bytes, name);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+    return e.what();
+  }
+  ADD_FAILURE() << "opened although invalid";
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Comparisons
+
+void expectSameLight(const Light& a, const Light& b) {
+  EXPECT_EQ(a.name, b.name);
+  EXPECT_EQ(a.type, b.type);
+  EXPECT_EQ(a.color, b.color);
+  EXPECT_EQ(a.intensity, b.intensity);
+  EXPECT_EQ(a.range, b.range);
+  EXPECT_EQ(a.innerConeAngle, b.innerConeAngle);
+  EXPECT_EQ(a.outerConeAngle, b.outerConeAngle);
+  EXPECT_EQ(a.position, b.position);
+  EXPECT_EQ(a.direction, b.direction);
+}
+
+void expectSameView(const LightView& a, const LightView& b) {
+  EXPECT_EQ(a.projection, b.projection);
+  EXPECT_EQ(a.mapping, b.mapping);
+  EXPECT_EQ(a.resolution, b.resolution);
+  EXPECT_EQ(a.viewFromWorld, b.viewFromWorld);
+  EXPECT_EQ(a.xMin, b.xMin);
+  EXPECT_EQ(a.xMax, b.xMax);
+  EXPECT_EQ(a.yMin, b.yMin);
+  EXPECT_EQ(a.yMax, b.yMax);
+  EXPECT_EQ(a.near, b.near);
+  EXPECT_EQ(a.far, b.far);
+  EXPECT_EQ(a.face, b.face);
+  EXPECT_EQ(a.empty, b.empty);
+}
+
+void expectSameContent(const CpvsContent& content, const CpvsFile& file) {
+  EXPECT_EQ(file.majorVersion(), kCpvsMajorVersion);
+  EXPECT_EQ(file.settingsJson(), content.settingsJson);
+  ASSERT_EQ(file.lights().size(), content.lights.size());
+  for (size_t li = 0; li < content.lights.size(); ++li) {
+    const BakedLight& in = content.lights[li];
+    const CpvsFile::LightEntry& out = file.lights()[li];
+    expectSameLight(in.light, out.light);
+    ASSERT_EQ(out.views.size(), in.views.size());
+    for (size_t vi = 0; vi < in.views.size(); ++vi) {
+      const BakedView& v = in.views[vi];
+      const CpvsFile::View& w = out.views[vi];
+      expectSameView(v.view, w.view);
+      EXPECT_EQ(w.dag.resolution, v.view.resolution);
+      EXPECT_EQ(w.dag.rootCode, v.dag.rootCode);
+      EXPECT_TRUE(std::ranges::equal(w.dag.nodes, v.dag.nodes));
+      EXPECT_TRUE(std::ranges::equal(w.dag.leaves, v.dag.leaves));
+      EXPECT_EQ(w.nodesPerLevel, v.dag.nodesPerLevel);
+      // Every voxel decodes the same.
+      const DagView before{v.view.resolution, v.dag.rootCode, v.dag.nodes, v.dag.leaves};
+      const uint32_t n = v.view.resolution;
+      uint64_t differences = 0, shadowed = 0;
+      for (uint32_t z = 0; z < n; ++z)
+        for (uint32_t y = 0; y < n; ++y)
+          for (uint32_t x = 0; x < n; ++x) {
+            const bool s = before.shadowed(x, y, z);
+            differences += s != w.dag.shadowed(x, y, z);
+            shadowed += s;
+          }
+      EXPECT_EQ(differences, 0u) << "light " << li << " view " << vi;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// An independent packer (written from docs/format.md, not from the writer) to build files the writer never
+// makes: other versions, unknown sections, extended records, and structurally bad DAGs with valid checksums.
+
+struct RawSection {
+  uint32_t type = 0, elementSize = 0;
+  Bytes bytes;
+};
+struct RawFile {
+  uint16_t major = 1, minor = 0;
+  std::vector<RawSection> sections;
+};
+
+uint64_t getLE(const Bytes& b, size_t at, int n) {
+  uint64_t v = 0;
+  for (int i = 0; i < n; ++i) v |= uint64_t(b[at + i]) << (8 * i);
+  return v;
+}
+void putLE(Bytes& b, size_t at, uint64_t v, int n) {
+  if (at > b.size() || size_t(n) > b.size() - at) throw std::out_of_range("putLE past the end");
+  for (int i = 0; i < n; ++i) b.at(at + i) = uint8_t(v >> (8 * i));
+}
+void putF64(Bytes& b, size_t at, double v) { putLE(b, at, std::bit_cast<uint64_t>(v), 8); }
+
+RawFile unpack(const Bytes& b) {
+  RawFile f;
+  f.major = uint16_t(getLE(b, 8, 2));
+  f.minor = uint16_t(getLE(b, 10, 2));
+  const uint32_t count = uint32_t(getLE(b, 16, 4));
+  const uint64_t table = getLE(b, 24, 8);
+  for (uint32_t i = 0; i < count; ++i) {
+    const size_t e = table + 32 * i;
+    RawSection s;
+    s.type = uint32_t(getLE(b, e, 4));
+    s.elementSize = uint32_t(getLE(b, e + 4, 4));
+    const uint64_t offset = getLE(b, e + 8, 8), size = getLE(b, e + 16, 8);
+    s.bytes.assign(b.begin() + offset, b.begin() + offset + size);
+    f.sections.push_back(std::move(s));
+  }
+  return f;
+}
+
+// Sections first (64-byte aligned), the table last: a layout the writer does not use but the spec allows.
+Bytes pack(const RawFile& f) {
+  auto align = [](uint64_t v) { return (v + 63) / 64 * 64; };
+  Bytes b(64, 0);
+  std::vector<uint64_t> offsets;
+  for (const RawSection& s : f.sections) {
+    b.resize(align(b.size()), 0);
+    offsets.push_back(b.size());
+    b.insert(b.end(), s.bytes.begin(), s.bytes.end());
+  }
+  b.resize(align(b.size()), 0);
+  const uint64_t table = b.size();
+  b.resize(table + 32 * f.sections.size(), 0);
+  for (size_t i = 0; i < f.sections.size(); ++i) {
+    const RawSection& s = f.sections[i];
+    putLE(b, table + 32 * i, s.type, 4);
+    putLE(b, table + 32 * i + 4, s.elementSize, 4);
+    putLE(b, table + 32 * i + 8, offsets[i], 8);
+    putLE(b, table + 32 * i + 16, s.bytes.size(), 8);
+    putLE(b, table + 32 * i + 24, XXH3_64bits(s.bytes.data(), s.bytes.size()), 8);
+  }
+  std::memcpy(b.data(), kCpvsMagic, 8);
+  putLE(b, 8, f.major, 2);
+  putLE(b, 10, f.minor, 2);
+  putLE(b, 12, 64, 4);
+  putLE(b, 16, f.sections.size(), 4);
+  putLE(b, 24, table, 8);
+  putLE(b, 32, b.size(), 8);
+  putLE(b, 40, XXH3_64bits(b.data() + table, 32 * f.sections.size()), 8);
+  putLE(b, 56, XXH3_64bits(b.data(), 56), 8);
+  return b;
+}
+
+RawSection& sectionOf(RawFile& f, uint32_t type) {
+  for (RawSection& s : f.sections)
+    if (s.type == type) return s;
+  throw std::runtime_error("no such section");
+}
+
+const std::string& goldenPath() {
+  static const std::string path = test::sourcePath("tests/golden/tiny_v1.cpvs");
+  return path;
+}
+
+Bytes goldenBytes() {
+  const Bytes golden = readFile(goldenPath());
+  if (golden.empty()) ADD_FAILURE() << goldenPath() << " is missing; run with CPVS_UPDATE_GOLDEN=1 to create it";
+  return golden;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Round trip, determinism, golden bytes
+
+TEST(Format, BakedDagsRoundTripThroughAMappedFile) {
+  const CpvsContent content = bakedContent();
+  const std::string bytes = writeCpvs(content);
+  const std::string path = test::tempDir() + "/baked.cpvs";
+  writeFile(path, toBytes(bytes));
+  const auto mapped = CpvsFile::open(path);
+  expectSameContent(content, *mapped);
+  EXPECT_EQ(mapped->fileSize(), bytes.size());
+  const auto copied = CpvsFile::fromBytes(toBytes(bytes), "baked.cpvs");
+  expectSameContent(content, *copied);
+  // Node words and leaf masks are used in place, not copied.
+  const auto span = mapped->bytes();
+  const auto& dag = mapped->lights()[0].views[0].dag;
+  EXPECT_GE(reinterpret_cast<const uint8_t*>(dag.nodes.data()), span.data());
+  EXPECT_LE(reinterpret_cast<const uint8_t*>(dag.leaves.data() + dag.leaves.size()), span.data() + span.size());
+  // The baked content is not trivial.
+  EXPECT_EQ(mapped->lights()[0].views[0].dag.rootCode, ChildCode::Ref);
+  EXPECT_GT(mapped->lights()[0].views[0].dag.leaves.size(), 10u);
+}
+
+TEST(Format, SectionsAreAlignedAndNamed) {
+  const auto file = CpvsFile::fromBytes(toBytes(writeCpvs(bakedContent())), "baked.cpvs");
+  ASSERT_EQ(file->sections().size(), 4u + 2u * 8u);
+  EXPECT_EQ(file->sections()[0].type, "BAKE");
+  EXPECT_EQ(file->sections()[1].type, "STRS");
+  EXPECT_EQ(file->sections()[2].type, "LGHT");
+  EXPECT_EQ(file->sections()[3].type, "VIEW");
+  for (size_t i = 4; i < file->sections().size(); ++i) EXPECT_EQ(file->sections()[i].type, i % 2 ? "LEAF" : "NODE");
+  for (const auto& s : file->sections()) {
+    EXPECT_EQ(s.offset % 64, 0u);
+    EXPECT_TRUE(s.checksumOk);
+  }
+}
+
+TEST(Format, WritingIsDeterministic) {
+  const std::string a = writeCpvs(bakedContent());
+  const std::string b = writeCpvs(bakedContent());
+  EXPECT_EQ(a, b);
+  // Writing what was read gives the same bytes again.
+  const auto file = CpvsFile::fromBytes(toBytes(a), "a.cpvs");
+  CpvsContent again;
+  again.settingsJson = file->settingsJson();
+  for (const auto& l : file->lights()) {
+    BakedLight bl{l.light, {}};
+    for (const auto& v : l.views) {
+      ShadowDag dag;
+      dag.resolution = v.dag.resolution;
+      dag.rootCode = v.dag.rootCode;
+      dag.nodes.assign(v.dag.nodes.begin(), v.dag.nodes.end());
+      dag.leaves.assign(v.dag.leaves.begin(), v.dag.leaves.end());
+      dag.nodesPerLevel = v.nodesPerLevel;
+      bl.views.push_back({v.view, dag});
+    }
+    again.lights.push_back(bl);
+  }
+  EXPECT_EQ(writeCpvs(again), a);
+}
+
+TEST(Format, GoldenBytesPinVersion1_0) {
+  const std::string bytes = writeCpvs(tinyContent());
+  if (const char* update = std::getenv("CPVS_UPDATE_GOLDEN"); update && std::string(update) == "1") {
+    std::filesystem::create_directories(std::filesystem::path(goldenPath()).parent_path());
+    writeFile(goldenPath(), toBytes(bytes));
+    GTEST_SKIP() << "wrote " << goldenPath() << " (" << bytes.size() << " bytes)";
+  }
+  const Bytes golden = goldenBytes();
+  // A change that alters these bytes changes the format: bump kCpvsMinorVersion (compatible additions) or
+  // kCpvsMajorVersion, update docs/format.md, and regenerate the golden file.
+  ASSERT_EQ(toBytes(bytes), golden) << "writeCpvs no longer produces tests/golden/tiny_v1.cpvs";
+}
+
+TEST(Format, GoldenFileReadsBack) {
+  const auto file = CpvsFile::open(goldenPath());
+  EXPECT_EQ(file->majorVersion(), 1);
+  EXPECT_EQ(file->minorVersion(), 0);
+  expectSameContent(tinyContent(), *file);
+  // Hand-decoded voxels of the sun's DAG (N = 16).
+  const DagView& sun = file->lights()[0].views[0].dag;
+  EXPECT_TRUE(sun.shadowed(0, 0, 0));    // root child 0 -> A, slice 0 -> leaf 0 bit 0
+  EXPECT_FALSE(sun.shadowed(1, 0, 0));   // leaf 0 bit 1
+  EXPECT_TRUE(sun.shadowed(7, 7, 0));    // leaf 0 bit 63
+  EXPECT_TRUE(sun.shadowed(0, 0, 1));    // leaf 1 bit 0
+  EXPECT_FALSE(sun.shadowed(0, 1, 1));   // leaf 1 bit 8
+  EXPECT_TRUE(sun.shadowed(5, 5, 2));    // A slice 2 shadowed
+  EXPECT_FALSE(sun.shadowed(5, 5, 3));   // A slice 3 lit
+  EXPECT_TRUE(sun.shadowed(9, 3, 6));    // root child 1 shadowed
+  EXPECT_FALSE(sun.shadowed(3, 9, 6));   // root child 2 lit
+  EXPECT_TRUE(sun.shadowed(0, 0, 8));    // root child 4 -> A again
+  EXPECT_TRUE(file->lights()[2].views[1].dag.shadowed(3, 4, 5));  // all-shadowed face
+  EXPECT_FALSE(file->lights()[2].views[3].dag.shadowed(3, 4, 5)); // empty face
+  EXPECT_EQ(file->lights()[2].light.name, "bulb");
+  EXPECT_TRUE(std::isinf(file->lights()[2].light.range));
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Corruption: every byte is covered by a checksum or must be zero padding.
+
+TEST(Format, EveryFlippedByteOfTheGoldenFileIsRejected) {
+  const Bytes golden = goldenBytes();
+  ASSERT_FALSE(golden.empty());
+  for (size_t i = 0; i < golden.size(); ++i)
+    for (uint8_t flip : {uint8_t(0x01), uint8_t(0x80), uint8_t(0xFF)}) {
+      Bytes bad = golden;
+      bad[i] ^= flip;
+      try {
+        CpvsFile::fromBytes(bad, "golden");
+        ADD_FAILURE() << "byte " << i << " ^ " << int(flip) << " was not detected";
+      } catch (const Error& e) {
+        ASSERT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+        ASSERT_EQ(std::string(e.what()).rfind("golden: ", 0), 0u) << e.what();
+      }
+    }
+}
+
+TEST(Format, ChecksumMismatchNamesTheSection) {
+  const Bytes golden = goldenBytes();
+  const auto file = CpvsFile::fromBytes(golden, "g.cpvs");
+  const auto& node = file->sections()[4];
+  ASSERT_EQ(node.type, "NODE");
+  Bytes bad = golden;
+  bad[node.offset + 1] ^= 0x10;
+  EXPECT_EQ(openError(bad, "g.cpvs"), "g.cpvs: section 4 'NODE' checksum mismatch \u2014 the file is corrupt");
+}
+
+TEST(Format, EveryTruncationIsRejected) {
+  const Bytes golden = goldenBytes();
+  for (size_t n = 0; n < golden.size(); ++n) {
+    const std::string message = openError(Bytes(golden.begin(), golden.begin() + n));
+    if (n >= 64) {
+      EXPECT_NE(message.find("truncated"), std::string::npos) << message;
+    }
+  }
+  // And a bigger file at every section boundary and just around it.
+  const Bytes baked = toBytes(writeCpvs(bakedContent()));
+  const auto file = CpvsFile::fromBytes(baked, "baked");
+  std::set<uint64_t> cuts;
+  for (const auto& s : file->sections())
+    for (uint64_t at : {s.offset, s.offset + s.size})
+      for (uint64_t d : {0, 1, 63})
+        if (at >= d) cuts.insert(at - d);
+  for (uint64_t n : cuts)
+    if (n < baked.size()) openError(Bytes(baked.begin(), baked.begin() + n));
+  // Trailing bytes are rejected too.
+  Bytes longer = baked;
+  longer.push_back(0);
+  EXPECT_NE(openError(longer).find("trailing"), std::string::npos);
+}
+
+TEST(Format, ForeignAndTextModeDamagedFilesAreToldApart) {
+  EXPECT_NE(openError({}).find("not a .cpvs file"), std::string::npos);
+  const Bytes png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n', 0, 0, 0, 13};
+  EXPECT_NE(openError(png).find("not a .cpvs file"), std::string::npos);
+  const std::string json = R"({"asset":{"version":"2.0"}})";
+  EXPECT_NE(openError(Bytes(json.begin(), json.end())).find("not a .cpvs file"), std::string::npos);
+
+  const Bytes golden = goldenBytes();
+  // CR LF -> LF, as a text-mode download on Windows or a dos2unix would do.
+  Bytes unix;
+  for (size_t i = 0; i < golden.size(); ++i)
+    if (!(golden[i] == '\r' && i + 1 < golden.size() && golden[i + 1] == '\n')) unix.push_back(golden[i]);
+  const std::string m1 = openError(unix);
+  EXPECT_NE(m1.find("text-mode"), std::string::npos) << m1;
+  EXPECT_NE(m1.find("CR LF became LF"), std::string::npos) << m1;
+  // LF -> CR LF.
+  Bytes dos;
+  for (uint8_t c : golden) {
+    if (c == '\n') dos.push_back('\r');
+    dos.push_back(c);
+  }
+  EXPECT_NE(openError(dos).find("LF became CR LF"), std::string::npos);
+  // 7-bit transfer.
+  Bytes stripped = golden;
+  for (uint8_t& c : stripped) c &= 0x7F;
+  EXPECT_NE(openError(stripped).find("high bit"), std::string::npos);
+  // Wrong magic in a file that is otherwise fine.
+  Bytes renamed = golden;
+  std::memcpy(renamed.data() + 1, "KTX2", 4);
+  EXPECT_NE(openError(renamed).find("not a .cpvs file"), std::string::npos);
+}
+
+TEST(Format, AnotherMajorVersionIsRejectedWithWhatToDo) {
+  RawFile raw = unpack(goldenBytes());
+  raw.major = 2;
+  EXPECT_EQ(openError(pack(raw), "scene.cpvs"),
+            "scene.cpvs: written by format version 2.0; this build reads 1.x \u2014 update cpvs or re-bake");
+  raw.major = 0;
+  raw.minor = 9;
+  EXPECT_EQ(openError(pack(raw), "old.cpvs"),
+            "old.cpvs: written by format version 0.9; this build reads 1.x \u2014 update cpvs or re-bake");
+}
+
+TEST(Format, ALaterMinorVersionOpensAndSkipsWhatItAdds) {
+  const Bytes golden = goldenBytes();
+  RawFile raw = unpack(golden);
+  // The packer's layout (table last) differs from the writer's: still a valid 1.0 file.
+  expectSameContent(tinyContent(), *CpvsFile::fromBytes(pack(raw), "repacked"));
+
+  raw.minor = 1;
+  // A new section type, and 16 more bytes at the end of every light and view record.
+  const std::string extra = "a section from the future";
+  raw.sections.push_back({fourcc('X', 'T', 'R', 'A'), 1, Bytes(extra.begin(), extra.end())});
+  raw.sections.insert(raw.sections.begin() + 2, RawSection{fourcc('Z', 'Z', 'Z', 'Z'), 0, Bytes(100, 0xAB)});
+  // (inserting before LGHT shifts the NODE/LEAF indices the views hold: fix them up)
+  for (uint32_t type : {kLght, kView}) {
+    RawSection& s = sectionOf(raw, type);
+    const size_t oldSize = s.elementSize, newSize = oldSize + 16;
+    Bytes grown;
+    for (size_t r = 0; r < s.bytes.size() / oldSize; ++r) {
+      grown.insert(grown.end(), s.bytes.begin() + r * oldSize, s.bytes.begin() + (r + 1) * oldSize);
+      grown.insert(grown.end(), 16, uint8_t(0x5A));
+    }
+    s.bytes = grown;
+    s.elementSize = uint32_t(newSize);
+  }
+  RawSection& views = sectionOf(raw, kView);
+  for (size_t r = 0; r < views.bytes.size() / views.elementSize; ++r)
+    for (size_t field : {16, 20}) {
+      const size_t at = r * views.elementSize + field;
+      putLE(views.bytes, at, getLE(views.bytes, at, 4) + 1, 4);
+    }
+  // Reserved fields may be used by a later minor version.
+  putLE(views.bytes, 10, 0x7777, 2);
+  const Bytes future = pack(raw);
+  const auto file = CpvsFile::fromBytes(future, "future.cpvs");
+  EXPECT_EQ(file->minorVersion(), 1);
+  expectSameContent(tinyContent(), *file);
+  EXPECT_EQ(file->sections().size(), unpack(golden).sections.size() + 2);
+  EXPECT_EQ(file->sections().back().type, "XTRA");
+
+  // The same additions claimed by a 1.0 file are errors: 1.0 records have exactly the 1.0 size.
+  raw.minor = 0;
+  EXPECT_NE(openError(pack(raw)).find("element size"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Structural validation behind valid checksums (what a buggy writer could produce).
+
+struct Mutation {
+  std::string name;
+  std::function<void(RawFile&)> apply;
+  std::string expected;  // a substring of the message
+};
+
+uint32_t nodeWord(RawFile& f, size_t section, size_t word) { return uint32_t(getLE(f.sections[section].bytes, 4 * word, 4)); }
+void setNodeWord(RawFile& f, size_t section, size_t word, uint32_t v) { putLE(f.sections[section].bytes, 4 * word, v, 4); }
+void setView(RawFile& f, size_t view, size_t field, uint64_t v, int n) {
+  putLE(sectionOf(f, kView).bytes, view * kViewRecordSize + field, v, n);
+}
+void setViewF64(RawFile& f, size_t view, size_t field, double v) {
+  putF64(sectionOf(f, kView).bytes, view * kViewRecordSize + field, v);
+}
+void setLight(RawFile& f, size_t light, size_t field, uint64_t v, int n) {
+  putLE(sectionOf(f, kLght).bytes, light * kLightRecordSize + field, v, n);
+}
+
+TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
+  const Bytes golden = goldenBytes();
+  // Golden layout: sections 0..3 BAKE STRS LGHT VIEW, then NODE/LEAF per view; the sun's NODE is section 4:
+  // words {0x206, 3, 3, 0x1A, 0, 1}, levels {1, 1}, 2 leaves. The spot's NODE is section 6.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Mutation> mutations = {
+      {"reference into the middle of a node", [](RawFile& f) { setNodeWord(f, 4, 1, 4); }, "not the start"},
+      {"reference back to the root (a loop)", [](RawFile& f) { setNodeWord(f, 4, 2, 0); }, "not the start"},
+      {"reference past the nodes", [](RawFile& f) { setNodeWord(f, 4, 1, 1000000); }, "not the start"},
+      {"leaf index out of range", [](RawFile& f) { setNodeWord(f, 4, 5, 2); }, "references leaf 2 of 2"},
+      {"leaf index huge", [](RawFile& f) { setNodeWord(f, 6, 1, 0xFFFFFFFFu); }, "references leaf"},
+      {"header high bits", [](RawFile& f) { setNodeWord(f, 4, 3, 0x1A | 0x10000); }, "invalid header"},
+      {"child code 3", [](RawFile& f) { setNodeWord(f, 4, 0, 0x206 | 0x3000); }, "invalid header"},
+      {"node runs past the words",
+       [](RawFile& f) { setNodeWord(f, 4, 3, nodeWord(f, 4, 3) | 0x8000); }, "runs past"},
+      {"level counts do not tile the words", [](RawFile& f) { setView(f, 0, 216, 2, 8); }, "level"},
+      {"level count absurd", [](RawFile& f) { setView(f, 0, 224, uint64_t(1) << 62, 8); }, "claims"},
+      {"level count missing", [](RawFile& f) { setView(f, 0, 224, 0, 8); }, "cover"},
+      {"count beyond the levels", [](RawFile& f) { setView(f, 0, 216 + 8 * 5, 1, 8); }, "beyond"},
+      {"root not a node but nodes at level 0", [](RawFile& f) { setView(f, 0, 8, 1, 1); }, "root level"},
+      {"root code 3", [](RawFile& f) { setView(f, 0, 8, 3, 1); }, "root code"},
+      {"resolution not a power of two", [](RawFile& f) { setView(f, 0, 4, 24, 4); }, "resolution 24"},
+      {"resolution too large", [](RawFile& f) { setView(f, 0, 4, 1u << 21, 4); }, "resolution"},
+      {"resolution vs levels", [](RawFile& f) { setView(f, 0, 4, 32, 4); }, "DAG levels"},
+      {"projection", [](RawFile& f) { setView(f, 0, 0, 2, 1); }, "projection"},
+      {"mapping", [](RawFile& f) { setView(f, 0, 1, 7, 1); }, "mapping"},
+      {"face", [](RawFile& f) { setView(f, 0, 2, 6, 1); }, "cube face"},
+      {"unknown view flag in 1.0", [](RawFile& f) { setView(f, 0, 3, 2, 1); }, "flags"},
+      {"near after far", [](RawFile& f) { setViewF64(f, 0, 200, 100.0); }, "near"},
+      {"NaN bound", [nan](RawFile& f) { setViewF64(f, 0, 168, nan); }, "not finite"},
+      {"empty lateral extent", [](RawFile& f) { setViewF64(f, 0, 176, -1.5); }, "lateral extent"},
+      {"infinite matrix", [](RawFile& f) { setViewF64(f, 0, 40, INFINITY); }, "viewFromWorld"},
+      {"log depth with near 0", [](RawFile& f) { setViewF64(f, 1, 200, 0.0); }, "near > 0"},
+      {"node section index", [](RawFile& f) { setView(f, 0, 16, 5, 4); }, "'NODE'"},
+      {"leaf section index", [](RawFile& f) { setView(f, 0, 20, 99, 4); }, "'LEAF'"},
+      {"node word count", [](RawFile& f) { setView(f, 0, 24, 7, 8); }, "node words"},
+      {"leaf count", [](RawFile& f) { setView(f, 0, 32, uint64_t(1) << 40, 8); }, "leaves"},
+      {"view of another light", [](RawFile& f) { setView(f, 0, 12, 1, 4); }, "belongs to light"},
+      {"light type", [](RawFile& f) { setLight(f, 0, 0, 3, 4); }, "light type"},
+      {"name outside the pool", [](RawFile& f) { setLight(f, 1, 4, 1000, 4); }, "string pool"},
+      {"name length overflow", [](RawFile& f) { setLight(f, 1, 8, 0xFFFFFFFFu, 4); }, "string pool"},
+      {"views out of order", [](RawFile& f) { setLight(f, 1, 12, 0, 4); }, "do not follow"},
+      {"too many views", [](RawFile& f) { setLight(f, 2, 16, 7, 4); }, "do not follow"},
+      {"orphan views", [](RawFile& f) { setLight(f, 2, 16, 5, 4); }, "belong to no light"},
+      {"NaN range", [nan](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, nan); }, "range"},
+      {"zero range", [](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, 0.0); }, "range"},
+      {"NaN colour", [](RawFile& f) { setLight(f, 0, 24, 0x7FC00000u, 4); }, "not finite"},
+      {"reserved light field in 1.0", [](RawFile& f) { setLight(f, 0, 36, 1, 4); }, "reserved"},
+      {"record size", [](RawFile& f) { sectionOf(f, kView).bytes.push_back(0); }, "multiple"},
+      {"NODE element size", [](RawFile& f) { f.sections[4].elementSize = 8; }, "element size"},
+      {"odd NODE size", [](RawFile& f) { f.sections[4].bytes.push_back(0); }, "multiple"},
+      {"two LGHT sections", [](RawFile& f) { f.sections.push_back(sectionOf(f, kLght)); }, "two 'LGHT'"},
+      {"no VIEW section", [](RawFile& f) { sectionOf(f, kView).type = fourcc('W', 'E', 'I', 'V'); }, "no 'VIEW'"},
+      {"unprintable type", [](RawFile& f) { f.sections[0].type = 0x01020304; }, "printable"},
+  };
+  for (const Mutation& m : mutations) {
+    RawFile raw = unpack(golden);
+    m.apply(raw);
+    const std::string message = openError(pack(raw), "bad.cpvs");
+    EXPECT_EQ(message.rfind("bad.cpvs: ", 0), 0u) << m.name << ": " << message;
+    EXPECT_NE(message.find(m.expected), std::string::npos) << m.name << ": " << message;
+  }
+}
+
+TEST(Format, RandomDamageBehindValidChecksumsNeverBreaksTraversal) {
+  // Random bytes of the records and DAGs changed, checksums made valid again: the reader either rejects the
+  // file or every voxel of every view can be looked up (run under ASan/UBSan to see out-of-bounds reads).
+  const RawFile original = unpack(goldenBytes());
+  std::mt19937 rng(12345);
+  int opened = 0, rejected = 0;
+  for (int iteration = 0; iteration < 4000; ++iteration) {
+    RawFile raw = original;
+    const int edits = 1 + int(rng() % 3);
+    for (int k = 0; k < edits; ++k) {
+      RawSection& s = raw.sections[2 + rng() % (raw.sections.size() - 2)];  // LGHT, VIEW, NODE, LEAF
+      if (s.bytes.empty()) continue;
+      uint8_t& byte = s.bytes[rng() % s.bytes.size()];
+      byte = rng() % 2 ? uint8_t(rng()) : uint8_t(byte ^ (1u << (rng() % 8)));
+    }
+    std::unique_ptr<CpvsFile> file;
+    try {
+      file = CpvsFile::fromBytes(pack(raw), "fuzz");
+    } catch (const Error& e) {
+      ASSERT_EQ(e.code(), ExitCode::InputInvalid);
+      ++rejected;
+      continue;
+    }
+    ++opened;
+    uint64_t shadowed = 0;
+    for (const auto& light : file->lights())
+      for (const auto& view : light.views) {
+        const uint32_t n = view.dag.resolution;
+        if (n > 32) {  // a damaged resolution that still validates: sample it
+          for (int i = 0; i < 10000; ++i) shadowed += view.dag.shadowed(rng() % n, rng() % n, rng() % n);
+          continue;
+        }
+        for (uint32_t z = 0; z < n; ++z)
+          for (uint32_t y = 0; y < n; ++y)
+            for (uint32_t x = 0; x < n; ++x) shadowed += view.dag.shadowed(x, y, z);
+      }
+    EXPECT_GT(shadowed, 0u);
+  }
+  // Both outcomes happen: float fields and leaf masks take any value, structure does not.
+  EXPECT_GT(opened, 100);
+  EXPECT_GT(rejected, 100);
+}
+
+TEST(Format, LayoutErrorsInTheTableAreRejected) {
+  const Bytes golden = goldenBytes();
+  // Rewrites one table entry and fixes the table and header checksums, so only the layout is wrong.
+  auto withEntry = [&](size_t index, size_t field, uint64_t value, int n) {
+    Bytes b = golden;
+    const uint64_t table = getLE(b, 24, 8), count = getLE(b, 16, 4);
+    putLE(b, table + 32 * index + field, value, n);
+    putLE(b, 40, XXH3_64bits(b.data() + table, 32 * count), 8);
+    putLE(b, 56, XXH3_64bits(b.data(), 56), 8);
+    return b;
+  };
+  const auto file = CpvsFile::fromBytes(golden, "g");
+  const auto& s = file->sections();
+  EXPECT_NE(openError(withEntry(4, 8, s[4].offset + 8, 8)).find("aligned"), std::string::npos);
+  EXPECT_NE(openError(withEntry(4, 8, 1ull << 40, 8)).find("past the end"), std::string::npos);
+  EXPECT_NE(openError(withEntry(4, 16, ~0ull - 3, 8)).find("past the end"), std::string::npos);
+  // Section 4 made to cover section 5 as well: overlap (its checksum is recomputed to match).
+  {
+    Bytes b = withEntry(4, 16, s[5].offset + s[5].size - s[4].offset, 8);
+    const uint64_t table = getLE(b, 24, 8), count = getLE(b, 16, 4);
+    putLE(b, table + 32 * 4 + 24, XXH3_64bits(b.data() + s[4].offset, s[5].offset + s[5].size - s[4].offset), 8);
+    putLE(b, 40, XXH3_64bits(b.data() + table, 32 * count), 8);
+    putLE(b, 56, XXH3_64bits(b.data(), 56), 8);
+    EXPECT_NE(openError(b).find("overlap"), std::string::npos);
+  }
+  // Section count or table offset beyond the file.
+  auto withHeader = [&](size_t field, uint64_t value, int n) {
+    Bytes b = golden;
+    putLE(b, field, value, n);
+    putLE(b, 56, XXH3_64bits(b.data(), 56), 8);
+    return b;
+  };
+  EXPECT_NE(openError(withHeader(16, 0xFFFFFFFFu, 4)).find("section table"), std::string::npos);
+  EXPECT_NE(openError(withHeader(24, 1ull << 63, 8)).find("section table"), std::string::npos);
+  EXPECT_NE(openError(withHeader(24, 0, 8)).find("section table"), std::string::npos);
+  EXPECT_NE(openError(withHeader(12, 128, 4)).find("header size"), std::string::npos);
+  EXPECT_NE(openError(withHeader(20, 1, 4)).find("reserved"), std::string::npos);
+  // Non-zero padding between sections (not covered by a checksum, so it must be zero).
+  Bytes padded = golden;
+  const uint64_t gap = s[0].offset + s[0].size;
+  ASSERT_LT(gap, s[1].offset);
+  padded[gap] = 1;
+  EXPECT_NE(openError(padded).find("padding byte at offset " + std::to_string(gap)), std::string::npos);
+}
+
+TEST(Format, TheWriterRefusesContentThatWouldNotReadBack) {
+  auto expectRefused = [](const CpvsContent& c, const std::string& expected) {
+    try {
+      writeCpvs(c);
+      ADD_FAILURE() << "written: " << expected;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), ExitCode::RuntimeFailure);
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  CpvsContent c = tinyContent();
+  c.lights[0].views[0].dag.nodes[1] = 4;
+  expectRefused(c, "not the start");
+  c = tinyContent();
+  c.lights[1].views[0].view.near = 0;
+  expectRefused(c, "near > 0");
+  c = tinyContent();
+  c.lights[1].views[0].view.resolution = 16;
+  expectRefused(c, "differs from the view's");
+  c = tinyContent();
+  c.lights[2].views[0].view.face = 9;
+  expectRefused(c, "cube face");
+}
+
+TEST(Format, OpenNamesTheFile) {
+  const std::string dir = test::tempDir();
+  try {
+    CpvsFile::open(dir + "/missing.cpvs");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::InputInvalid);
+    EXPECT_EQ(std::string(e.what()).rfind(dir + "/missing.cpvs: cannot open", 0), 0u) << e.what();
+  }
+  EXPECT_THROW(CpvsFile::open(dir), Error);
+  writeFile(dir + "/empty.cpvs", {});
+  try {
+    CpvsFile::open(dir + "/empty.cpvs");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a .cpvs file"), std::string::npos);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The runtime side (cpvs_runtime: formats/cpvs) needs no GL, Embree, glTF or JSON: follow its includes.
+
+TEST(Format, RuntimeSourcesIncludeNoBakerDependencies) {
+  const std::filesystem::path root = CPVS_SOURCE_DIR;
+  std::vector<std::string> pending;
+  for (const auto& entry : std::filesystem::directory_iterator(root / "formats/cpvs"))
+    pending.push_back(std::filesystem::relative(entry.path(), root).string());
+  std::set<std::string> seen, system;
+  const std::regex include(R"re(^\s*#\s*include\s*([<"])([^>"]+)[>"])re");
+  while (!pending.empty()) {
+    const std::string file = pending.back();
+    pending.pop_back();
+    if (!seen.insert(file).second) continue;
+    std::ifstream in(root / file);
+    ASSERT_TRUE(in) << file;
+    std::string line;
+    std::smatch m;
+    while (std::getline(in, line))
+      if (std::regex_search(line, m, include)) {
+        if (m[1] == "\"" && std::filesystem::exists(root / m[2].str()))
+          pending.push_back(m[2].str());
+        else
+          system.insert(m[2].str());
+      }
+  }
+  EXPECT_TRUE(seen.count("libcpvs/dag/shadow_dag.h"));
+  EXPECT_TRUE(system.count("xxhash.h"));
+  for (const std::string& header : system)
+    for (const char* banned : {"embree", "GL/", "EGL", "GLES", "osmesa", "nlohmann", "tiny_gltf", "OpenEXR", "Imf",
+                               "tbb", "CLI/", "depth_renderer", "gltf"})
+      EXPECT_EQ(header.find(banned), std::string::npos) << header << " reached from formats/cpvs";
+  for (const std::string& file : seen)
+    for (const char* banned : {"raster/", "reference/", "formats/gltf", "tools/"})
+      EXPECT_EQ(file.find(banned), std::string::npos) << file << " reached from formats/cpvs";
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -1,0 +1,467 @@
+// Runtime lookups (libcpvs/lookup): the one-traversal PCF equals K^2 single-voxel lookups, the bias rule
+// keeps lit surfaces lit without acne, influence and view selection, and a baked scene agrees with the
+// voxel convention (a surface point lands in its enter voxel).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "libcpvs/bake.h"
+#include "libcpvs/dag/dag_builder.h"
+#include "libcpvs/error.h"
+#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/reference/embree_scene.h"
+#include "libcpvs/tiles/tile_masks.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+// ---- synthetic DAGs -------------------------------------------------------------------------------------
+
+// Random blocky casters (some thin, some solid), a sloped open surface, empty texels.
+DepthRegion randomDepth(uint32_t n, uint32_t seed) {
+  std::mt19937 rng(seed);
+  struct Block {
+    uint32_t x0, y0, x1, y1, e, thickness;
+  };
+  std::vector<Block> blocks;
+  const int count = 4 + int(rng() % 12);
+  for (int i = 0; i < count; ++i) {
+    const uint32_t x0 = rng() % n, y0 = rng() % n;
+    const uint32_t w = 1 + rng() % std::max(1u, n / 3), h = 1 + rng() % std::max(1u, n / 3);
+    const uint32_t e = rng() % (n - 1);
+    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e);
+    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
+  }
+  DepthRegion d;
+  d.rect = {0, 0, n, n};
+  d.resolution = n;
+  d.enter.assign(size_t(n) * n, n);
+  d.exit.assign(size_t(n) * n, n);
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) {
+      uint32_t e = n, xs = n;
+      for (const Block& b : blocks)
+        if (x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1 && b.e < e) {
+          e = b.e;
+          xs = std::min(n, b.e + b.thickness);
+        }
+      if ((x ^ y) % 7 == 0 && x + y < n) {  // speckle: single-texel open surfaces
+        const uint32_t s = (3 * x + y) % n;
+        if (s < e) e = s, xs = std::min(n, s + 1);
+      }
+      d.enter[size_t(y) * n + x] = e;
+      d.exit[size_t(y) * n + x] = std::max(xs, std::min(n, e + 1));
+    }
+  return d;
+}
+
+ShadowDag dagFrom(const DepthRegion& depth, UndefinedMode mode = UndefinedMode::Kampe) {
+  return buildDag(buildTileChains(depth, mode), true);
+}
+
+// The reference: K^2 single-voxel lookups (texels outside [0, N) are lit).
+uint32_t referenceShadowed(const DagView& dag, int32_t x, int32_t y, uint32_t z, int k) {
+  const int32_t n = int32_t(dag.resolution), h = k / 2;
+  uint32_t count = 0;
+  for (int32_t dy = -h; dy <= h; ++dy)
+    for (int32_t dx = -h; dx <= h; ++dx) {
+      const int32_t tx = x + dx, ty = y + dy;
+      if (tx < 0 || ty < 0 || tx >= n || ty >= n) continue;
+      count += dag.shadowed(uint32_t(tx), uint32_t(ty), z) ? 1 : 0;
+    }
+  return count;
+}
+
+// An orthographic view whose grid is world space itself: u = x, v = y, s = -z (the light travels along -Z).
+LightView identityView(uint32_t n) {
+  LightView view;
+  view.projection = Projection::Orthographic;
+  view.mapping = DepthMapping::Linear;
+  view.resolution = n;
+  view.xMin = 0;
+  view.xMax = n;
+  view.yMin = 0;
+  view.yMax = n;
+  view.near = 0;
+  view.far = n;
+  return view;
+}
+
+Light sun() {
+  Light light;
+  light.name = "sun";
+  light.type = LightType::Directional;
+  light.direction = {0, 0, -1};
+  return light;
+}
+
+TEST(Pcf, OneTraversalEqualsKSquaredLookups) {
+  for (uint32_t n : {8u, 16u, 64u, 128u}) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      const ShadowDag dag = dagFrom(randomDepth(n, seed * 31 + n));
+      const DagView view = dag.view();
+      std::mt19937 rng(seed);
+      std::uniform_int_distribution<int32_t> coord(-6, int32_t(n) + 5);
+      std::uniform_int_distribution<uint32_t> slice(0, n - 1);
+      for (int k : {1, 3, 5, 9, 11, 17}) {
+        for (int i = 0; i < 3000; ++i) {
+          const int32_t x = coord(rng), y = coord(rng);
+          const uint32_t z = slice(rng);
+          ASSERT_EQ(shadowedTexels(view, x, y, z, k), referenceShadowed(view, x, y, z, k))
+              << "N=" << n << " K=" << k << " at " << x << "," << y << "," << z;
+        }
+      }
+    }
+  }
+}
+
+TEST(Pcf, HomogeneousRootsAndWholeGridKernels) {
+  ShadowDag lit, shadowed;
+  lit.resolution = shadowed.resolution = 32;
+  lit.rootCode = ChildCode::Lit;
+  shadowed.rootCode = ChildCode::Shadowed;
+  EXPECT_EQ(shadowedTexels(lit.view(), 5, 5, 3, 9), 0u);
+  EXPECT_EQ(shadowedTexels(shadowed.view(), 5, 5, 3, 9), 81u);
+  EXPECT_EQ(shadowedTexels(shadowed.view(), 0, 0, 3, 9), 25u);    // corner: 5 x 5 inside
+  EXPECT_EQ(shadowedTexels(shadowed.view(), 16, 16, 0, 255), 1024u);  // kernel larger than the grid
+  EXPECT_EQ(shadowedTexels(shadowed.view(), -1, 4, 0, 1), 0u);
+}
+
+TEST(Lookup, VisibilityMatchesReferenceOnRandomPointsAndNormals) {
+  const uint32_t n = 64;
+  const ShadowDag dag = dagFrom(randomDepth(n, 5));
+  const LightView view = identityView(n);
+  const Light light = sun();
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> pos(-4.0, n + 4.0), dir(-1.0, 1.0);
+  for (int k : {1, 3, 5, 9, 11}) {
+    for (int i = 0; i < 4000; ++i) {
+      const glm::dvec3 p(pos(rng), pos(rng), -pos(rng));
+      const glm::dvec3 normal = i % 5 == 0 ? glm::dvec3(0.0) : glm::dvec3(dir(rng), dir(rng), dir(rng));
+      const float v = visibility(view, dag.view(), light, p, normal, k);
+      const LookupCell cell = lookupCell(view, p, normal, {k, NormalOrientation::AsGiven});
+      float expected = 1.0f;
+      if (cell.kind == LookupCell::Kind::Voxel)
+        expected = float(1.0 - double(referenceShadowed(dag.view(), cell.x, cell.y, uint32_t(cell.z), k)) / (k * k));
+      ASSERT_EQ(v, expected) << "K=" << k << " point " << p.x << "," << p.y << "," << p.z;
+      ASSERT_GE(v, 0.0f);
+      ASSERT_LE(v, 1.0f);
+    }
+  }
+}
+
+TEST(Lookup, SpecialCases) {
+  const uint32_t n = 32;
+  ShadowDag allShadow;
+  allShadow.resolution = n;
+  allShadow.rootCode = ChildCode::Shadowed;
+  LightView view = identityView(n);
+  const Light light = sun();
+  const glm::dvec3 inside(10.5, 10.5, -10.5), none(0.0);
+  EXPECT_EQ(visibility(view, allShadow.view(), light, inside, none, 1), 0.0f);
+  // Outside the lateral grid: no caster there.
+  EXPECT_EQ(visibility(view, allShadow.view(), light, glm::dvec3(-0.5, 10, -10), none, 1), 1.0f);
+  EXPECT_EQ(visibility(view, allShadow.view(), light, glm::dvec3(10, 32.0, -10), none, 9), 1.0f);
+  // Non-finite input is answered 0.
+  const double nan = std::nan("");
+  EXPECT_EQ(visibility(view, allShadow.view(), light, glm::dvec3(nan, 1, 1), none, 1), 0.0f);
+  EXPECT_EQ(visibility(view, allShadow.view(), light, inside, glm::dvec3(0, INFINITY, 0), 1), 0.0f);
+  // An empty view is lit everywhere.
+  view.empty = true;
+  EXPECT_EQ(visibility(view, allShadow.view(), light, inside, none, 1), 1.0f);
+  // Depth beyond the grid clamps to the last slice (behind everything: shadowed here).
+  view.empty = false;
+  EXPECT_EQ(visibility(view, allShadow.view(), light, glm::dvec3(3, 3, -1000), none, 1), 0.0f);
+  EXPECT_THROW(checkPcfKernel(4), Error);
+  EXPECT_THROW(checkPcfKernel(0), Error);
+  EXPECT_NO_THROW(checkPcfKernel(9));
+}
+
+TEST(Lookup, JacobianMatchesFiniteDifferences) {
+  WorldGeometry world;
+  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
+  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
+  for (const auto& p : world.positions) world.bounds.extend(p);
+  Light spot;
+  spot.type = LightType::Spot;
+  spot.position = {1, 6, 2};
+  spot.direction = glm::normalize(glm::dvec3(-0.2, -1, -0.1));
+  spot.outerConeAngle = 1.0;
+  Light directional;
+  directional.direction = glm::normalize(glm::dvec3(0.3, -1, 0.5));
+  for (const Light& light : {spot, directional}) {
+    const LightView view = makeLightViews(light, world, 256)[0];
+    for (const glm::dvec3& p : {glm::dvec3(0.3, 0.1, -0.7), glm::dvec3(-2, 0, 3), glm::dvec3(1, 1, 1)}) {
+      const glm::dmat3 j = gridJacobian(view, p);
+      const double h = 1e-5;
+      for (int axis = 0; axis < 3; ++axis) {
+        glm::dvec3 e(0.0);
+        e[axis] = h;
+        const glm::dvec3 fd = (toGrid(view, p + e).uvs - toGrid(view, p - e).uvs) / (2 * h);
+        for (int c = 0; c < 3; ++c) EXPECT_NEAR(j[axis][c], fd[c], 1e-4 * (1 + std::abs(fd[c])));
+      }
+      // The grid normal is perpendicular to the grid image of every tangent.
+      const glm::dvec3 normal = glm::normalize(glm::dvec3(0.2, 1, -0.3));
+      const glm::dvec3 m = gridNormal(view, p, normal);
+      const glm::dvec3 t1 = glm::cross(normal, glm::dvec3(1, 0, 0)), t2 = glm::cross(normal, t1);
+      EXPECT_NEAR(glm::dot(m, j * t1) / (glm::length(m) * glm::length(j * t1)), 0.0, 1e-9);
+      EXPECT_NEAR(glm::dot(m, j * t2) / (glm::length(m) * glm::length(j * t2)), 0.0, 1e-9);
+    }
+  }
+}
+
+// A tilted open plane s = c + a u + b v in the identity view, rasterised the baker's way (enter at texel
+// centres, floor), with the plane's world normal facing the light.
+struct TiltedPlane {
+  double c, a, b;
+  double s(double u, double v) const { return c + a * u + b * v; }
+  glm::dvec3 normal() const { return glm::normalize(glm::dvec3(a, b, 1.0)); }
+};
+
+DepthRegion planeDepth(uint32_t n, const TiltedPlane& plane) {
+  DepthRegion d;
+  d.rect = {0, 0, n, n};
+  d.resolution = n;
+  d.enter.resize(size_t(n) * n);
+  d.exit.resize(size_t(n) * n);
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) {
+      const double s = plane.s(x + 0.5, y + 0.5);
+      const uint32_t e = s < 0 ? 0 : (s >= n ? n : uint32_t(std::floor(s)));
+      d.enter[size_t(y) * n + x] = e;
+      d.exit[size_t(y) * n + x] = std::min(n, e + 1);
+    }
+  return d;
+}
+
+TEST(Bias, TiltedLitPlaneHasNoAcneWithNormalBias) {
+  const uint32_t n = 128;
+  const LightView view = identityView(n);
+  const Light light = sun();
+  // Slopes up to 2.5 slices per texel (a sun ~70 degrees off the normal), including diagonal tilts.
+  for (const TiltedPlane& plane : {TiltedPlane{30, 0.0, 0.0}, TiltedPlane{4, 0.5, 0.35}, TiltedPlane{2, 0.9, 0.0},
+                                   TiltedPlane{110, 0.0, -0.8}, TiltedPlane{10, 2.5, 0.0}, TiltedPlane{5, 1.2, 1.2}}) {
+    const ShadowDag dag = dagFrom(planeDepth(n, plane));
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> lateral(12.0, n - 12.0);
+    int tested = 0, acneUnbiased = 0;
+    for (int i = 0; i < 4000; ++i) {
+      const double u = lateral(rng), v = lateral(rng);
+      const double s = plane.s(u, v);
+      if (s < 12 || s > n - 12) continue;  // keep the footprint and its bias inside the grid
+      const glm::dvec3 p(u, v, -s);
+      ++tested;
+      for (int k : {1, 3, 9}) {
+        ASSERT_EQ(visibility(view, dag.view(), light, p, plane.normal(), k), 1.0f)
+            << "K=" << k << " slope " << plane.a << "," << plane.b << " at " << u << "," << v;
+      }
+      if (visibility(view, dag.view(), light, p, glm::dvec3(0.0), 9) < 1.0f) ++acneUnbiased;
+      // Flipping an already light-facing normal changes nothing.
+      ASSERT_EQ(visibility(view, dag.view(), light, p, plane.normal(), 9, NormalOrientation::TowardLight), 1.0f);
+      // A normal facing away from the light is flipped only on request.
+      ASSERT_EQ(visibility(view, dag.view(), light, p, -plane.normal(), 1, NormalOrientation::TowardLight), 1.0f);
+      if (plane.a != 0 || plane.b != 0) {
+        ASSERT_EQ(visibility(view, dag.view(), light, p, -plane.normal(), 1), 0.0f);
+      }
+    }
+    EXPECT_GT(tested, 200) << "slope " << plane.a << "," << plane.b;
+    // Without the bias a tilted plane self-shadows under a 9x9 kernel: the test above means something.
+    if (plane.a != 0 || plane.b != 0) {
+      EXPECT_GT(acneUnbiased, tested / 4);
+    }
+  }
+}
+
+TEST(Bias, BiasIsHalfAFilterWidthPlusOneVoxel) {
+  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 1), 1.0);
+  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 9), 1.0);
+  EXPECT_DOUBLE_EQ(biasDistance({1, 0, 0}, 9), 5.5);
+  EXPECT_NEAR(biasDistance(glm::normalize(glm::dvec3(1, 1, 0)), 9), 1 + 4.5 * std::sqrt(2.0), 1e-12);
+}
+
+TEST(Bias, CasterAboveAPlaneShadowsItAndItsSurroundIsLit) {
+  const uint32_t n = 64;
+  // Ground at slice 50; a slab at slice 20 over texels [20, 40) x [20, 40).
+  DepthRegion d = planeDepth(n, {50.5, 0, 0});
+  for (uint32_t y = 20; y < 40; ++y)
+    for (uint32_t x = 20; x < 40; ++x) d.enter[y * n + x] = 20, d.exit[y * n + x] = 21;
+  const ShadowDag dag = dagFrom(d);
+  const LightView view = identityView(n);
+  const glm::dvec3 up(0, 0, 1);
+  EXPECT_EQ(visibility(view, dag.view(), sun(), {30, 30, -50.5}, up, 1), 0.0f);
+  EXPECT_EQ(visibility(view, dag.view(), sun(), {30, 30, -50.5}, up, 9), 0.0f);
+  EXPECT_EQ(visibility(view, dag.view(), sun(), {10, 10, -50.5}, up, 9), 1.0f);
+  // On the shadow's edge, PCF gives the covered fraction: texels 16..24 in x, 20..24 shadowed -> 5/9.
+  EXPECT_FLOAT_EQ(visibility(view, dag.view(), sun(), {20.5, 30.5, -50.5}, up, 9), 1.0f - 5.0f / 9.0f);
+  // The top of the slab is lit.
+  EXPECT_EQ(visibility(view, dag.view(), sun(), {30, 30, -20.2}, up, 9), 1.0f);
+}
+
+// ---- influence and view selection ---------------------------------------------------------------------
+
+WorldGeometry boxWorld() {
+  Scene scene;
+  test::addBox(scene, "box", {-3, -3, -3}, {3, 3, 3});
+  test::classifyMeshes(scene);
+  return flatten(scene);
+}
+
+TEST(Influence, OutsideRangeOrConeIsZero) {
+  const WorldGeometry world = boxWorld();
+  Light spot;
+  spot.type = LightType::Spot;
+  spot.position = {0, 10, 0};
+  spot.direction = {0, -1, 0};
+  spot.outerConeAngle = 0.5;
+  spot.range = 14;
+  auto views = makeLightViews(spot, world, 64);
+  ShadowDag lit;
+  lit.resolution = 64;
+  const LightShadow shadow(spot, views, {lit.view()});
+  const glm::dvec3 up(0, 1, 0);
+  EXPECT_EQ(shadow.visibility({0, 3, 0}, up, {}), 1.0f);
+  EXPECT_EQ(shadow.visibility({0, -5, 0}, up, {}), 0.0f);   // beyond range (15 > 14)
+  EXPECT_EQ(shadow.visibility({4, 3, 0}, up, {}), 0.0f);    // outside the cone (atan(4/7) > 0.5)
+  EXPECT_EQ(shadow.visibility({0, 11, 0}, up, {}), 0.0f);   // behind the spot
+  EXPECT_EQ(visibility(views[0], lit.view(), spot, {0, -5, 0}, up, 1), 0.0f);
+  EXPECT_EQ(visibility(views[0], lit.view(), spot, {0, 3, 0}, up, 1), 1.0f);
+
+  Light point;
+  point.type = LightType::Point;
+  point.position = {0, 0, 10};
+  point.range = 20;
+  views = makeLightViews(point, world, 64);
+  ASSERT_EQ(views.size(), 6u);
+  // Face i is all shadowed for odd i, all lit for even i: the answer tells which face was used.
+  ShadowDag faces[2];
+  faces[0].resolution = faces[1].resolution = 64;
+  faces[1].rootCode = ChildCode::Shadowed;
+  std::vector<DagView> dags;
+  for (const LightView& v : views) {
+    (void)v;
+    dags.push_back(faces[dags.size() % 2].view());
+  }
+  views[5].empty = false;  // -Z face sees the box
+  const LightShadow pointShadow(point, views, dags);
+  EXPECT_EQ(pointShadow.viewIndex({0, 0, 0}), 5);
+  EXPECT_EQ(pointShadow.viewIndex({5, 0, 9}), 0);
+  EXPECT_EQ(pointShadow.viewIndex({0, 0, -11}), -1);  // beyond range
+  EXPECT_EQ(pointShadow.visibility({0, 0, 3}, glm::dvec3(0, 0, 1), {}), 0.0f);  // face 5: shadowed root
+  EXPECT_EQ(pointShadow.visibility({0, 0, 31}, glm::dvec3(0.0), {}), 0.0f);    // beyond range
+}
+
+// ---- a baked scene ------------------------------------------------------------------------------------
+
+struct BakedScene {
+  Scene scene;
+  CpvsContent content;
+  std::vector<DepthRegion> depth;  // per view of light 0 (one region each)
+  bool available = false;
+  std::string why;
+};
+
+const BakedScene& groundAndBox() {
+  static BakedScene baked = [] {
+    BakedScene b;
+    test::addQuad(b.scene, "ground", {-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
+    test::addBox(b.scene, "box", {-2, 0, -2}, {2, 3, 2});
+    test::classifyMeshes(b.scene);
+    Light light = sun();
+    light.direction = glm::normalize(glm::dvec3(0.8, -1.0, 0.3));
+    b.scene.lights.push_back(light);
+    BakeSettings settings;
+    settings.resolution = 256;
+    settings.threads = 1;
+    BakeCallbacks callbacks;
+    callbacks.depthRegion = [&](size_t li, size_t, const LightView&, const DepthRegion& region) {
+      if (li == 0) b.depth.push_back(region);
+    };
+    try {
+      b.content = bakeScene(b.scene, settings, nullptr, callbacks);
+      b.available = true;
+    } catch (const Error& e) {
+      b.why = e.what();
+    }
+    return b;
+  }();
+  return baked;
+}
+
+TEST(Baked, SurfacePointLandsInItsEnterVoxelAndIsLit) {
+  const BakedScene& baked = groundAndBox();
+  if (!baked.available) GTEST_SKIP() << "no depth renderer here: " << baked.why;
+  ASSERT_EQ(baked.depth.size(), 1u);
+  const BakedView& bv = baked.content.lights[0].views[0];
+  const DepthRegion& depth = baked.depth[0];
+  const EmbreeScene rt(flatten(baked.scene));
+  const uint32_t n = bv.view.resolution;
+  int hits = 0, exact = 0, litOwnVoxel = 0;
+  for (uint32_t y = 0; y < n; y += 3)
+    for (uint32_t x = 0; x < n; x += 3) {
+      const Ray ray = texelRay(bv.view, x + 0.5, y + 0.5);
+      const auto hit = rt.firstHit(ray);
+      if (!hit) {
+        EXPECT_EQ(depth.enterAt(x, y), n);
+        continue;
+      }
+      ++hits;
+      const glm::dvec3 p = ray.origin + hit->t * ray.direction;
+      const Voxel voxel = worldToVoxel(bv.view, p);
+      EXPECT_EQ(voxel.x, int32_t(x));
+      EXPECT_EQ(voxel.y, int32_t(y));
+      if (uint32_t(voxel.z) == depth.enterAt(x, y)) ++exact;
+      if (!bv.dag.view().shadowed(voxel.x, voxel.y, voxel.z)) ++litOwnVoxel;
+    }
+  ASSERT_GT(hits, 1000);
+  // Depth rasterised in float may round a surface sitting on a slice boundary into the neighbour slice.
+  EXPECT_GE(exact, hits * 995 / 1000) << exact << " of " << hits;
+  EXPECT_GE(litOwnVoxel, hits * 995 / 1000) << litOwnVoxel << " of " << hits;
+}
+
+TEST(Baked, GroundUnderSlantedSunIsLitWithBiasAndShadowedBehindTheBox) {
+  const BakedScene& baked = groundAndBox();
+  if (!baked.available) GTEST_SKIP() << "no depth renderer here: " << baked.why;
+  const BakedLight& bl = baked.content.lights[0];
+  const LightShadow shadow(bl.light, {bl.views[0].view}, {bl.views[0].dag.view()});
+  const EmbreeScene rt(flatten(baked.scene));
+  const glm::dvec3 up(0, 1, 0), toLight = -bl.light.direction;
+  const double texel = (bl.views[0].view.xMax - bl.views[0].view.xMin) / bl.views[0].view.resolution;
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> coord(-9.5, 9.5);
+  int lit = 0, shadowed = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const glm::dvec3 p(coord(rng), 0.0, coord(rng));
+    if (std::abs(p.x) < 2 && std::abs(p.z) < 2) continue;  // under the box
+    // Ground truth with a margin: rays from a ring of 14 texels (for "lit", wide enough for a 9x9 kernel
+    // and its bias) or 3 texels (for "shadowed") all agree with the centre.
+    auto blockedOnRing = [&](double radius) {
+      int blocked = 0;
+      for (int s = 0; s < 9; ++s) {
+        const double a = s * 0.6981317;
+        const glm::dvec3 q = p + (s ? radius * texel : 0.0) * glm::dvec3(std::cos(a), 0, std::sin(a));
+        blocked += rt.occluded(q + 1e-4 * up, toLight) ? 1 : 0;
+      }
+      return blocked;
+    };
+    if (blockedOnRing(14.0) == 0) {
+      ++lit;
+      ASSERT_EQ(shadow.visibility(p, up, {1}), 1.0f) << p.x << "," << p.z;
+      ASSERT_EQ(shadow.visibility(p, up, {9}), 1.0f) << p.x << "," << p.z;
+    } else if (blockedOnRing(3.0) == 9) {
+      ++shadowed;
+      ASSERT_EQ(shadow.visibility(p, up, {1}), 0.0f) << p.x << "," << p.z;
+    }
+  }
+  EXPECT_GT(lit, 1000);
+  EXPECT_GT(shadowed, 50);
+  // The lit top of the box (a closed solid) and its lit side facing the sun.
+  EXPECT_EQ(shadow.visibility({0.3, 3.0, 0.4}, up, {9}), 1.0f);
+  EXPECT_EQ(shadow.visibility({-2.0, 1.5, 0.0}, glm::dvec3(-1, 0, 0), {9}), 1.0f);
+  // The side facing away is in the box's own shadow.
+  EXPECT_EQ(shadow.visibility({2.0, 1.5, 0.0}, glm::dvec3(1, 0, 0), {1}), 0.0f);
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -1,0 +1,211 @@
+// cpvs-bake: scene (glTF) -> one .cpvs with a shadow DAG per light view (DESIGN.md §1, §4).
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include <sys/resource.h>
+
+#include <nlohmann/json.hpp>
+
+#include "formats/gltf/gltf_import.h"
+#include "formats/io/exr_image.h"
+#include "libcpvs/bake.h"
+#include "libcpvs/version.h"
+#include "tools/common/cli.h"
+#include "tools/common/progress.h"
+
+namespace {
+
+using namespace cpvs;
+
+struct Options {
+  std::string scene;
+  std::string output;
+  std::string resolution = "4k";
+  std::string undefinedMode = "kampe";
+  bool noNodeReuse = false;
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  std::string backend = "osmesa";
+  std::string regionSize = "4k";
+  uint32_t maxPeels = 16;
+  std::string report;
+  std::string dumpDepth;
+  bool quiet = false;
+  tools::LightOptions lights;
+};
+
+uint64_t peakRssBytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return uint64_t(usage.ru_maxrss) * 1024;
+}
+
+void dumpDepthRegion(const std::string& dir, size_t light, size_t view, const DepthRegion& depth) {
+  const size_t count = size_t(depth.rect.width) * depth.rect.height;
+  ExrImage image;
+  image.width = depth.rect.width;
+  image.height = depth.rect.height;
+  image.channels = {"enter", "exit"};
+  image.pixels.resize(count * 2);
+  for (size_t i = 0; i < count; ++i) {
+    image.pixels[2 * i] = float(depth.enter[i]);
+    image.pixels[2 * i + 1] = float(depth.exit[i]);
+  }
+  char name[128];
+  std::snprintf(name, sizeof name, "light%zu_view%zu_region%u_%u.exr", light, view, depth.rect.x0, depth.rect.y0);
+  writeExr((std::filesystem::path(dir) / name).string(), image);
+}
+
+nlohmann::json reportJson(const Options& options, const Scene& scene, const BakeSettings& settings,
+                          const BakeReport& report, double totalMs, double writeMs, uint64_t fileBytes) {
+  uint64_t dagBytes = 0;
+  for (const LightReport& l : report.lights)
+    for (const ViewReport& v : l.views) dagBytes += v.bytes;
+  nlohmann::json lights = nlohmann::json::array();
+  for (const LightReport& l : report.lights) {
+    nlohmann::json views = nlohmann::json::array();
+    for (const ViewReport& v : l.views) {
+      // The file is written once for all views; its time is shared out by each view's bytes.
+      const double share = dagBytes ? double(v.bytes) / double(dagBytes) : 0.0;
+      views.push_back({{"resolution", v.resolution},
+                       {"face", v.face},
+                       {"empty", v.empty},
+                       {"regions", v.regions},
+                       {"phases_ms",
+                        {{"depth", v.depthMs}, {"peel", v.peelMs}, {"masks", v.masksMs}, {"dag", v.dagMs},
+                         {"write", writeMs * share}}},
+                       {"triangles_submitted", v.trianglesSubmitted},
+                       {"peel_iterations", v.peelIterations},
+                       {"texels_at_peel_cap", v.texelsAtPeelCap},
+                       {"tile_masks", v.tileMasks},
+                       {"nodes_per_level", v.nodesPerLevel},
+                       {"nodes_built", v.nodesBuilt},
+                       {"nodes_reused", v.nodesReused},
+                       {"unique_leaves", v.uniqueLeaves},
+                       {"bytes", v.bytes},
+                       {"shadow_map_bytes", v.shadowMapBytes}});
+    }
+    lights.push_back({{"name", l.name}, {"type", lightTypeName(l.type)}, {"views", views}});
+  }
+  return {{"version", kVersion},
+          {"tool", "cpvs-bake"},
+          {"inputs", {{"scene", options.scene}, {"excluded_meshes", options.lights.excludedMeshes}}},
+          {"output", options.output},
+          {"settings",
+           {{"resolution", settings.resolution},
+            {"undefined", undefinedModeName(settings.undefinedMode)},
+            {"node_reuse", settings.nodeReuse},
+            {"threads", settings.threads},
+            {"backend", rasterBackendName(settings.backend)},
+            {"region_size", settings.regionSize},
+            {"max_peels", settings.peel.maxPeels}}},
+          {"renderer", report.renderer},
+          {"triangles", flatten(scene).triangleCount()},
+          {"total_ms", totalMs},
+          {"peak_rss_bytes", peakRssBytes()},
+          {"file_bytes", fileBytes},
+          {"lights", lights}};
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  CLI::App app{"cpvs-bake: bake Compact Precomputed Voxelized Shadows for every light of a glTF scene.\n"
+               "Lights come from the scene (KHR_lights_punctual) unless given with --sun/--spot/--point."};
+  app.footer(tools::exitCodeHelp());
+  tools::addVersionFlag(app, "cpvs-bake");
+  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
+  app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
+  app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 1k..64k (e.g. 4k, 16k)")
+      ->capture_default_str();
+  o.lights.addTo(app);
+  app.add_option("--undefined", o.undefinedMode,
+                 "Free voxels inside closed solids: kampe (seed 004 §3.4), sintorn (2014), none")
+      ->capture_default_str();
+  app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip seed 004 §3.2), to measure it");
+  app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
+  app.add_option("--backend", o.backend, "Depth rendering: osmesa (default, no GPU or display) or egl")
+      ->capture_default_str();
+  app.add_option("--region", o.regionSize, "Largest region rendered at once (power of two); bounds memory")
+      ->capture_default_str();
+  app.add_option("--max-peels", o.maxPeels, "Cap on exit-depth peel iterations (conservative beyond)")
+      ->capture_default_str();
+  app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
+  app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
+  app.add_flag("-q,--quiet", o.quiet, "No progress bar");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+  }
+  if (o.output.empty() && o.dumpDepth.empty())
+    throw Error(ExitCode::Usage, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
+  if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
+  if (o.maxPeels < 1 || o.maxPeels > 1024) throw Error(ExitCode::Usage, "--max-peels must be in 1..1024");
+
+  BakeSettings settings;
+  settings.resolution = parseResolution(o.resolution);
+  settings.undefinedMode = parseUndefinedMode(o.undefinedMode);
+  settings.nodeReuse = !o.noNodeReuse;
+  settings.threads = o.threads;
+  settings.backend = parseRasterBackend(o.backend);
+  settings.regionSize = parseResolution(o.regionSize);
+  settings.peel.maxPeels = o.maxPeels;
+
+  const auto start = std::chrono::steady_clock::now();
+  Scene scene = importGltf(o.scene);
+  o.lights.applyTo(scene);
+  for (const std::string& w : scene.warnings)
+    if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";
+  if (scene.lights.empty())
+    throw Error(ExitCode::Usage, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
+  if (!o.dumpDepth.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.dumpDepth, ec);
+    if (ec) throw Error(ExitCode::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
+  }
+
+  tools::ProgressBar progress("baking", o.quiet);
+  BakeCallbacks callbacks;
+  callbacks.progress = [&](double f) { progress.update(f); };
+  if (!o.dumpDepth.empty())
+    callbacks.depthRegion = [&](size_t light, size_t view, const LightView&, const DepthRegion& depth) {
+      dumpDepthRegion(o.dumpDepth, light, view, depth);
+    };
+  BakeReport report;
+  const CpvsContent content = bakeScene(scene, settings, &report, callbacks);
+  progress.finish();
+
+  double writeMs = 0;
+  uint64_t fileBytes = 0;
+  if (!o.output.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string bytes = writeCpvs(content);
+    tools::writeFileAtomically(o.output, bytes);
+    writeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    fileBytes = bytes.size();
+  }
+  const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+
+  if (!o.report.empty()) {
+    const nlohmann::json j = reportJson(o, scene, settings, report, totalMs, writeMs, fileBytes);
+    tools::writeFileAtomically(o.report, j.dump(2) + "\n");
+  }
+  if (!o.quiet) {
+    size_t views = 0;
+    for (const auto& l : report.lights) views += l.views.size();
+    std::fprintf(stderr, "cpvs-bake: %zu light(s), %zu view(s) at %u^3 in %.2f s", report.lights.size(), views,
+                 settings.resolution, totalMs / 1000.0);
+    if (!o.output.empty()) std::fprintf(stderr, " -> %s (%llu bytes)", o.output.c_str(), (unsigned long long)fileBytes);
+    std::fprintf(stderr, "\n");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return tools::runMain("cpvs-bake", [&] { return run(argc, argv); });
+}

@@ -1,0 +1,629 @@
+// cpvs-query: .cpvs + points (CSV / PLY / EXR G-buffer) -> visibility per point per light, unfiltered or
+// PCF-filtered; with --reference SCENE also Embree shadow rays and the error figures (DESIGN.md §1, §5).
+// Manual: docs/query.md.
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <thread>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "formats/io/exr_image.h"
+#include "formats/io/points.h"
+#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/version.h"
+#include "tools/common/cli.h"
+#include "tools/common/progress.h"
+#include "tools/cpvs-query/reference.h"
+
+namespace {
+
+using namespace cpvs;
+using Clock = std::chrono::steady_clock;
+
+constexpr size_t kChunk = 1 << 16;  // points per streamed chunk (also the timing set)
+
+struct Options {
+  std::string cpvs;
+  std::string points;
+  std::string normals;
+  std::string output;
+  int pcf = 1;
+  std::vector<std::string> lights;
+  std::string reference;
+  std::vector<std::string> excludedMeshes;
+  std::string report;
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  bool towardLight = false;
+  bool quiet = false;
+};
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+bool isFinite(const QueryPoint& p) {
+  return std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
+         std::isfinite(p.normal.x) && std::isfinite(p.normal.y) && std::isfinite(p.normal.z);
+}
+
+// Runs fn(begin, end) over [0, count) split into contiguous ranges, one per thread.
+template <class Fn>
+void parallelRanges(size_t count, unsigned threads, Fn&& fn) {
+  threads = unsigned(std::min<size_t>(threads, std::max<size_t>(1, count / 1024)));
+  if (threads <= 1) {
+    fn(size_t(0), count);
+    return;
+  }
+  std::vector<std::thread> pool;
+  std::exception_ptr error;
+  std::atomic<bool> failed{false};
+  for (unsigned t = 0; t < threads; ++t) {
+    const size_t begin = count * t / threads, end = count * (t + 1) / threads;
+    pool.emplace_back([&, begin, end] {
+      try {
+        fn(begin, end);
+      } catch (...) {
+        if (!failed.exchange(true)) error = std::current_exception();
+      }
+    });
+  }
+  for (auto& thread : pool) thread.join();
+  if (error) std::rethrow_exception(error);
+}
+
+// A file written in pieces under a temporary name and renamed into place by commit(); removed otherwise.
+class AtomicOutput {
+public:
+  explicit AtomicOutput(const std::string& path) : path_(path) {
+    namespace fs = std::filesystem;
+    const fs::path target(path);
+    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+    temp_ = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+    fd_ = ::mkstemp(temp_.data());
+    if (fd_ < 0) throw Error(ExitCode::OutputFailed, path + ": cannot create a file beside it: " + std::strerror(errno));
+    buffer_.reserve(1 << 20);
+  }
+  ~AtomicOutput() {
+    if (fd_ >= 0) {
+      ::close(fd_);
+      ::unlink(temp_.c_str());
+    }
+  }
+  std::string& buffer() { return buffer_; }
+  void flushIfFull() {
+    if (buffer_.size() >= (1u << 20)) flush();
+  }
+  void flush() {
+    size_t written = 0;
+    while (written < buffer_.size()) {
+      const ssize_t n = ::write(fd_, buffer_.data() + written, buffer_.size() - written);
+      if (n < 0) {
+        if (errno == EINTR) continue;
+        throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + std::strerror(errno));
+      }
+      written += size_t(n);
+    }
+    buffer_.clear();
+  }
+  void commit() {
+    flush();
+    ::fchmod(fd_, 0644);
+    if (::fsync(fd_) != 0 || ::close(fd_) != 0) {
+      fd_ = -1;
+      ::unlink(temp_.c_str());
+      throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + std::strerror(errno));
+    }
+    fd_ = -1;
+    if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
+      const std::string reason = std::strerror(errno);
+      ::unlink(temp_.c_str());
+      throw Error(ExitCode::OutputFailed, path_ + ": cannot rename the finished file into place: " + reason);
+    }
+  }
+
+private:
+  std::string path_, temp_;
+  int fd_ = -1;
+  std::string buffer_;
+};
+
+std::string csvField(const std::string& name) {
+  if (name.find_first_of(",\"\r\n") == std::string::npos) return name;
+  std::string out = "\"";
+  for (char c : name) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+void appendValue(std::string& out, float v) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, v);
+  out.append(buffer, result.ptr);
+}
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (size_t i = 0; i < suffix.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i]) return false;
+  return true;
+}
+
+// ---- the selected lights -----------------------------------------------------------------------------
+
+struct SelectedLight {
+  size_t index = 0;       // in the file
+  std::string column;     // output column / channel name
+  LightShadow shadow;
+};
+
+std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<std::string>& wanted) {
+  const auto& lights = file.lights();
+  std::vector<size_t> indices;
+  if (wanted.empty()) {
+    for (size_t i = 0; i < lights.size(); ++i) indices.push_back(i);
+  } else {
+    for (const std::string& w : wanted) {
+      size_t found = lights.size();
+      for (size_t i = 0; i < lights.size() && found == lights.size(); ++i)
+        if (lights[i].light.name == w) found = i;
+      if (found == lights.size() && !w.empty() && std::all_of(w.begin(), w.end(), ::isdigit) && w.size() < 9) {
+        const size_t i = std::stoul(w);
+        if (i < lights.size()) found = i;
+      }
+      if (found == lights.size()) {
+        std::string names;
+        for (size_t i = 0; i < lights.size(); ++i)
+          names += (i ? ", " : "") + std::to_string(i) + " '" + lights[i].light.name + "'";
+        throw Error(ExitCode::Usage, "--light '" + w + "': no such light (the file has " +
+                                         (names.empty() ? std::string("none") : names) + ")");
+      }
+      indices.push_back(found);
+    }
+  }
+  if (indices.empty()) throw Error(ExitCode::InputInvalid, "the .cpvs file holds no lights");
+  std::vector<SelectedLight> selected;
+  for (size_t i : indices) {
+    SelectedLight s;
+    s.index = i;
+    s.column = lights[i].light.name.empty() ? "light" + std::to_string(i) : lights[i].light.name;
+    for (const SelectedLight& other : selected)
+      if (other.column == s.column) s.column += "#" + std::to_string(i);
+    std::vector<LightView> views;
+    std::vector<DagView> dags;
+    for (const CpvsFile::View& v : lights[i].views) {
+      views.push_back(v.view);
+      dags.push_back(v.dag);
+    }
+    s.shadow = LightShadow(lights[i].light, std::move(views), std::move(dags));
+    selected.push_back(std::move(s));
+  }
+  return selected;
+}
+
+// ---- evaluation --------------------------------------------------------------------------------------
+
+struct Totals {
+  uint64_t points = 0;
+  uint64_t invalid = 0;
+  std::vector<uint64_t> firstInvalid;  // indices of the first few invalid points
+  std::vector<double> visibilitySum;   // per light
+  std::vector<query::ErrorStats> errors;  // per light
+};
+
+// values[i * L + l] for the chunk; reference stats accumulated into totals.
+void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
+                   const LookupOptions& lookup, const query::Reference* reference, unsigned threads,
+                   std::vector<float>& values, Totals& totals) {
+  const size_t count = points.size(), nl = lights.size();
+  values.assign(count * nl, 0.0f);
+  std::vector<uint8_t> valid(count);
+  std::vector<uint8_t> refValues(reference ? count * nl : 0), uniform(reference ? count * nl : 0);
+  parallelRanges(count, threads, [&](size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+      valid[i] = isFinite(points[i]);
+      if (!valid[i]) continue;
+      for (size_t l = 0; l < nl; ++l) {
+        values[i * nl + l] = lights[l].shadow.visibility(points[i].position, points[i].normal, lookup);
+        if (reference) {
+          bool isUniform = false;
+          refValues[i * nl + l] = reference->visibility(lights[l].shadow, points[i], isUniform);
+          uniform[i * nl + l] = isUniform;
+        }
+      }
+    }
+  });
+  for (size_t i = 0; i < count; ++i) {
+    if (!valid[i]) {
+      if (totals.firstInvalid.size() < 10) totals.firstInvalid.push_back(totals.points + i);
+      ++totals.invalid;
+      continue;
+    }
+    for (size_t l = 0; l < nl; ++l) {
+      const float v = values[i * nl + l];
+      totals.visibilitySum[l] += v;
+      if (!reference) continue;
+      query::ErrorStats& e = totals.errors[l];
+      const uint8_t ref = refValues[i * nl + l];
+      const bool cpvsLit = v >= 0.5f;
+      const bool wrong = cpvsLit != (ref != 0);
+      ++e.samples;
+      e.misclassified += wrong;
+      e.absDiffSum += std::abs(double(v) - double(ref));
+      e.referenceLit += ref;
+      e.cpvsLit += cpvsLit;
+      if (uniform[i * nl + l]) {
+        ++e.uniform;
+        e.misclassifiedUniform += wrong;
+      }
+    }
+  }
+  totals.points += count;
+}
+
+// Single-threaded throughput over `points`, repeated until at least `seconds` have passed.
+template <class Fn>
+double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
+  if (workPerPass == 0) return 0.0;
+  uint64_t work = 0;
+  const auto start = Clock::now();
+  double elapsed = 0;
+  do {
+    pass();
+    work += workPerPass;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < seconds);
+  return double(work) / elapsed;
+}
+
+volatile float gSink;  // keeps the timed loops from being optimised away
+
+double lookupsPerSecond(const std::vector<QueryPoint>& points, const std::vector<const SelectedLight*>& lights,
+                        const LookupOptions& lookup, double seconds) {
+  std::vector<QueryPoint> valid;
+  for (const QueryPoint& p : points)
+    if (isFinite(p)) valid.push_back(p);
+  return perSecond(valid.size() * lights.size(), seconds, [&] {
+    float sum = 0;
+    for (const SelectedLight* light : lights)
+      for (const QueryPoint& p : valid) sum += light->shadow.visibility(p.position, p.normal, lookup);
+    gSink = sum;
+  });
+}
+
+double raysPerSecond(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
+                     const query::Reference& reference, double seconds) {
+  std::vector<QueryPoint> valid;
+  for (const QueryPoint& p : points)
+    if (isFinite(p)) valid.push_back(p);
+  return perSecond(valid.size() * lights.size(), seconds, [&] {
+    unsigned sum = 0;
+    for (const SelectedLight& light : lights)
+      for (const QueryPoint& p : valid) sum += reference.visibility(light.shadow.light(), p);
+    gSink = float(sum);
+  });
+}
+
+// ---- EXR G-buffers -----------------------------------------------------------------------------------
+
+int findChannel(const ExrImage& image, std::initializer_list<const char*> names) {
+  for (const char* name : names)
+    for (size_t c = 0; c < image.channels.size(); ++c) {
+      const std::string& have = image.channels[c];
+      if (have.size() == std::strlen(name) &&
+          std::equal(have.begin(), have.end(), name, [](char a, char b) { return std::tolower(a) == std::tolower(b); }))
+        return int(c);
+    }
+  return -1;
+}
+
+// Positions from P.X/P.Y/P.Z (else R/G/B); normals from N.X/N.Y/N.Z of the same file, or from --normals
+// (N.X/N.Y/N.Z, else R/G/B).
+std::vector<QueryPoint> readGBuffer(const std::string& path, const std::string& normalsPath, uint32_t& width,
+                                    uint32_t& height, bool& hasNormals) {
+  const ExrImage image = readExr(path);
+  width = image.width;
+  height = image.height;
+  int p[3] = {findChannel(image, {"P.X", "position.X", "P.R"}), findChannel(image, {"P.Y", "position.Y", "P.G"}),
+              findChannel(image, {"P.Z", "position.Z", "P.B"})};
+  if (p[0] < 0 || p[1] < 0 || p[2] < 0) {
+    p[0] = findChannel(image, {"R"});
+    p[1] = findChannel(image, {"G"});
+    p[2] = findChannel(image, {"B"});
+  }
+  if (p[0] < 0 || p[1] < 0 || p[2] < 0) {
+    std::string have;
+    for (const auto& c : image.channels) have += (have.empty() ? "" : ", ") + c;
+    throw Error(ExitCode::InputInvalid, path + ": no position channels (expected P.X, P.Y, P.Z or R, G, B; the image has " +
+                                            (have.empty() ? std::string("none") : have) + ")");
+  }
+  const ExrImage* normalImage = &image;
+  ExrImage other;
+  int n[3] = {-1, -1, -1};
+  if (!normalsPath.empty()) {
+    other = readExr(normalsPath);
+    if (other.width != image.width || other.height != image.height)
+      throw Error(ExitCode::InputInvalid, normalsPath + ": " + std::to_string(other.width) + "x" +
+                                              std::to_string(other.height) + " pixels, but " + path + " has " +
+                                              std::to_string(image.width) + "x" + std::to_string(image.height));
+    normalImage = &other;
+    n[0] = findChannel(other, {"N.X", "normal.X", "N.R"});
+    n[1] = findChannel(other, {"N.Y", "normal.Y", "N.G"});
+    n[2] = findChannel(other, {"N.Z", "normal.Z", "N.B"});
+    if (n[0] < 0 || n[1] < 0 || n[2] < 0) {
+      n[0] = findChannel(other, {"R"});
+      n[1] = findChannel(other, {"G"});
+      n[2] = findChannel(other, {"B"});
+    }
+    if (n[0] < 0 || n[1] < 0 || n[2] < 0)
+      throw Error(ExitCode::InputInvalid, normalsPath + ": no normal channels (expected N.X, N.Y, N.Z or R, G, B)");
+  } else {
+    n[0] = findChannel(image, {"N.X", "normal.X", "N.R"});
+    n[1] = findChannel(image, {"N.Y", "normal.Y", "N.G"});
+    n[2] = findChannel(image, {"N.Z", "normal.Z", "N.B"});
+  }
+  hasNormals = n[0] >= 0 && n[1] >= 0 && n[2] >= 0;
+  std::vector<QueryPoint> points(size_t(width) * height);
+  for (uint32_t y = 0; y < height; ++y)
+    for (uint32_t x = 0; x < width; ++x) {
+      QueryPoint& q = points[size_t(y) * width + x];
+      q.position = {image.at(x, y, size_t(p[0])), image.at(x, y, size_t(p[1])), image.at(x, y, size_t(p[2]))};
+      if (hasNormals)
+        q.normal = {normalImage->at(x, y, size_t(n[0])), normalImage->at(x, y, size_t(n[1])),
+                    normalImage->at(x, y, size_t(n[2]))};
+    }
+  return points;
+}
+
+// ---- main --------------------------------------------------------------------------------------------
+
+nlohmann::json errorJson(const query::ErrorStats& e) {
+  return {{"samples", e.samples},
+          {"misclassified", e.rate(e.misclassified, e.samples)},
+          {"misclassified_count", e.misclassified},
+          {"uniform_points", e.uniform},
+          {"uniform_fraction", e.rate(e.uniform, e.samples)},
+          {"misclassified_uniform", e.rate(e.misclassifiedUniform, e.uniform)},
+          {"misclassified_uniform_count", e.misclassifiedUniform},
+          {"mean_abs_diff", e.samples ? e.absDiffSum / double(e.samples) : 0.0},
+          {"reference_lit_fraction", e.rate(e.referenceLit, e.samples)},
+          {"cpvs_lit_fraction", e.rate(e.cpvsLit, e.samples)}};
+}
+
+int run(const Options& options) {
+  const auto start = Clock::now();
+  checkPcfKernel(options.pcf);
+  if (!options.excludedMeshes.empty() && options.reference.empty())
+    throw Error(ExitCode::Usage, "--exclude-mesh only applies to the --reference scene");
+  if (options.threads == 0) throw Error(ExitCode::Usage, "--threads must be at least 1");
+  const LookupOptions lookup{options.pcf,
+                             options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven};
+
+  const std::unique_ptr<CpvsFile> file = CpvsFile::open(options.cpvs);
+  const std::vector<SelectedLight> lights = selectLights(*file, options.lights);
+  const size_t nl = lights.size();
+
+  const PointFormat format = detectPointFormat(options.points);
+  if (!options.normals.empty() && format != PointFormat::Exr)
+    throw Error(ExitCode::Usage, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
+  const bool exrOutput = endsWith(options.output, ".exr");
+  if (exrOutput && format != PointFormat::Exr)
+    throw Error(ExitCode::Usage, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
+
+  std::unique_ptr<query::Reference> reference;
+  double referenceLoadMs = 0;
+  if (!options.reference.empty()) {
+    const auto t = Clock::now();
+    reference = std::make_unique<query::Reference>(options.reference, options.excludedMeshes, lookup.orientation);
+    referenceLoadMs = msSince(t);
+    if (!options.quiet)
+      for (const std::string& w : reference->warnings()) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
+  }
+
+  Totals totals;
+  totals.visibilitySum.assign(nl, 0.0);
+  totals.errors.assign(nl, {});
+  std::vector<QueryPoint> timingSet;
+  bool hasNormals = false;
+  double evalMs = 0;
+  tools::ProgressBar progress("query", options.quiet);
+
+  if (format == PointFormat::Exr) {
+    uint32_t width = 0, height = 0;
+    std::vector<QueryPoint> points = readGBuffer(options.points, options.normals, width, height, hasNormals);
+    std::vector<float> values, chunkValues;
+    values.resize(points.size() * nl);
+    std::vector<QueryPoint> chunk;
+    for (size_t begin = 0; begin < points.size(); begin += kChunk) {
+      const size_t end = std::min(points.size(), begin + kChunk);
+      chunk.assign(points.begin() + ptrdiff_t(begin), points.begin() + ptrdiff_t(end));
+      const auto t = Clock::now();
+      evaluateChunk(chunk, lights, lookup, reference.get(), options.threads, chunkValues, totals);
+      evalMs += msSince(t);
+      std::copy(chunkValues.begin(), chunkValues.end(), values.begin() + ptrdiff_t(begin * nl));
+      if (timingSet.empty()) timingSet = chunk;
+      progress.update(double(end) / double(points.size()));
+    }
+    if (exrOutput) {
+      ExrImage out;
+      out.width = width;
+      out.height = height;
+      for (const SelectedLight& l : lights) out.channels.push_back(l.column);
+      out.pixels = std::move(values);
+      writeExr(options.output, out);
+    } else {
+      AtomicOutput csv(options.output);
+      for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
+      csv.buffer() += '\n';
+      for (size_t i = 0; i < points.size(); ++i) {
+        for (size_t l = 0; l < nl; ++l) {
+          if (l) csv.buffer() += ',';
+          appendValue(csv.buffer(), values[i * nl + l]);
+        }
+        csv.buffer() += '\n';
+        csv.flushIfFull();
+      }
+      csv.commit();
+    }
+  } else {
+    std::unique_ptr<PointReader> reader = PointReader::open(options.points);
+    hasNormals = reader->hasNormals();
+    AtomicOutput csv(options.output);
+    for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
+    csv.buffer() += '\n';
+    std::vector<QueryPoint> chunk;
+    std::vector<float> values;
+    while (reader->next(chunk, kChunk)) {
+      const auto t = Clock::now();
+      evaluateChunk(chunk, lights, lookup, reference.get(), options.threads, values, totals);
+      evalMs += msSince(t);
+      if (timingSet.empty()) timingSet = chunk;
+      std::string& out = csv.buffer();
+      for (size_t i = 0; i < chunk.size(); ++i) {
+        for (size_t l = 0; l < nl; ++l) {
+          if (l) out += ',';
+          appendValue(out, values[i * nl + l]);
+        }
+        out += '\n';
+        csv.flushIfFull();
+      }
+      progress.update(reader->progress());
+    }
+    csv.commit();
+  }
+  progress.finish();
+
+  if (totals.invalid > 0) {
+    std::string first;
+    for (uint64_t i : totals.firstInvalid) first += (first.empty() ? "" : ", ") + std::to_string(i);
+    std::cerr << "cpvs-query: warning: " << options.points << ": " << totals.invalid << " of " << totals.points
+              << " points have a NaN or infinite coordinate or normal and were answered 0 (first, counting from 0: "
+              << first << (totals.invalid > totals.firstInvalid.size() ? ", ..." : "") << ")\n";
+  }
+
+  query::ErrorStats pooled;
+  for (const query::ErrorStats& e : totals.errors) pooled.add(e);
+  if (reference && !options.quiet) {
+    std::fprintf(stderr,
+                 "cpvs-query: reference: %.4f%% misclassified, %.4f%% of %llu uniform points, mean |difference| %.5f\n",
+                 100.0 * pooled.rate(pooled.misclassified, pooled.samples),
+                 100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
+                 static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0);
+  }
+  if (options.report.empty()) return 0;
+
+  // Throughput, single thread, over the first chunk of points (the whole set when it fits in one).
+  std::vector<const SelectedLight*> all;
+  for (const SelectedLight& l : lights) all.push_back(&l);
+  const double lookupsPerS = lookupsPerSecond(timingSet, all, lookup, 0.2);
+  double unfilteredPerS = lookupsPerS;
+  if (options.pcf > 1) unfilteredPerS = lookupsPerSecond(timingSet, all, {1, lookup.orientation}, 0.2);
+
+  nlohmann::json lightsJson = nlohmann::json::array();
+  const uint64_t valid = totals.points - totals.invalid;
+  for (size_t l = 0; l < nl; ++l) {
+    const CpvsFile::LightEntry& entry = file->lights()[lights[l].index];
+    nlohmann::json j = {{"index", lights[l].index},
+                        {"name", entry.light.name},
+                        {"column", lights[l].column},
+                        {"type", lightTypeName(entry.light.type)},
+                        {"views", entry.views.size()},
+                        {"resolution", entry.views.empty() ? 0u : entry.views[0].view.resolution},
+                        {"mean_visibility", valid ? totals.visibilitySum[l] / double(valid) : 0.0}};
+    if (nl > 1) j["lookups_per_s"] = lookupsPerSecond(timingSet, {&lights[l]}, lookup, 0.1);
+    if (reference) j["reference"] = errorJson(totals.errors[l]);
+    lightsJson.push_back(j);
+  }
+
+  nlohmann::json report = {
+      {"tool", "cpvs-query"},
+      {"version", kVersion},
+      {"inputs",
+       {{"cpvs", options.cpvs},
+        {"points", options.points},
+        {"format", pointFormatName(format)},
+        {"normals", hasNormals},
+        {"reference_scene", options.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.reference)}}},
+      {"settings",
+       {{"pcf", options.pcf},
+        {"normal_orientation", options.towardLight ? "toward-light" : "as-given"},
+        {"threads", options.threads},
+        {"lights", nl}}},
+      {"output", options.output},
+      {"points", totals.points},
+      {"invalid_points", totals.invalid},
+      {"first_invalid_points", totals.firstInvalid},
+      {"lookups_per_s", lookupsPerS},
+      {"lookups_per_s_unfiltered", unfilteredPerS},
+      {"timing_points", timingSet.size()},
+      {"timings_ms", {{"evaluate", evalMs}, {"reference_load", referenceLoadMs}, {"total", msSince(start)}}},
+      {"lights", lightsJson}};
+  if (reference) {
+    nlohmann::json r = errorJson(pooled);
+    r["rays_per_s"] = raysPerSecond(timingSet, lights, *reference, 0.2);
+    r["epsilon"] = reference->epsilon();
+    r["triangles"] = reference->triangles();
+    r["uniform_offset_voxels"] = 2;
+    report["reference"] = r;
+  }
+  tools::writeFileAtomically(options.report, report.dump(2) + "\n");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{"cpvs-query: shadow visibility of points from a baked .cpvs (1 = lit, 0 = shadowed, PCF fraction "
+               "in between), optionally compared with Embree shadow rays.\nManual: docs/query.md",
+               "cpvs-query"};
+  app.add_option("file", options.cpvs, "Baked shadows (.cpvs)")->required()->type_name("FILE.cpvs");
+  app.add_option("--points", options.points,
+                 "Query points: CSV (header x,y,z[,nx,ny,nz]), PLY (ascii / binary_little_endian) or an EXR "
+                 "G-buffer (P.X,P.Y,P.Z[,N.X,N.Y,N.Z] or R,G,B)")
+      ->required()
+      ->type_name("IN");
+  app.add_option("--normals", options.normals, "Normals for an EXR position image (N.X,N.Y,N.Z or R,G,B)")
+      ->type_name("NORMALS.exr");
+  app.add_option("-o,--output", options.output,
+                 "Visibility: CSV (one column per light, one row per point in input order), or EXR (one channel per "
+                 "light) when the name ends in .exr and the input is an EXR")
+      ->required()
+      ->type_name("OUT");
+  app.add_option("--pcf", options.pcf, "PCF kernel K (odd, 1 = unfiltered, up to 255)")->type_name("K");
+  app.add_option("--light", options.lights, "Only this light: name or 0-based index, a name wins (repeatable; "
+                                            "columns follow this order)")
+      ->type_name("NAME|INDEX");
+  app.add_flag("--normals-toward-light", options.towardLight,
+               "Flip normals that face away from the light before biasing (unoriented normals, two-sided foliage)");
+  app.add_option("--reference", options.reference,
+                 "Also ray-trace the points in this glTF scene with Embree and report the error")
+      ->type_name("SCENE");
+  app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh from the reference scene (repeatable)")
+      ->type_name("NAME");
+  app.add_option("--report", options.report, "Write a JSON report: counts, throughput, error figures")
+      ->type_name("R.json");
+  app.add_option("--threads", options.threads, "Worker threads for the lookups and the reference (default: all cores)")
+      ->type_name("N");
+  app.add_flag("-q,--quiet", options.quiet, "No progress bar");
+  tools::addVersionFlag(app, "cpvs-query");
+  app.footer(tools::exitCodeHelp() +
+             "\nPoints with a NaN or infinite coordinate are answered 0 and counted in a warning (and the report).");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+  }
+  return tools::runMain("cpvs-query", [&] { return run(options); });
+}

@@ -1,0 +1,58 @@
+#pragma once
+// cpvs-query --reference: Embree shadow rays from the query points, and the error figures of the report.
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "formats/io/points.h"
+#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/reference/embree_scene.h"
+
+namespace cpvs::query {
+
+// Per light (or pooled): what the report's "reference" object holds.
+struct ErrorStats {
+  uint64_t samples = 0;               // valid points (x lights when pooled)
+  uint64_t misclassified = 0;         // binary CPVS answer (value >= 0.5 is lit) != reference
+  uint64_t uniform = 0;               // points whose reference is the same at every offset within two voxels
+  uint64_t misclassifiedUniform = 0;
+  double absDiffSum = 0;              // sum |CPVS value - reference| (PCF values are fractions)
+  uint64_t referenceLit = 0;
+  uint64_t cpvsLit = 0;               // value >= 0.5
+
+  void add(const ErrorStats& o);
+  double rate(uint64_t count, uint64_t of) const { return of ? double(count) / double(of) : 0.0; }
+};
+
+class Reference {
+public:
+  // Imports the scene (glTF), drops the excluded meshes, builds the Embree BVH. Throws Error.
+  Reference(const std::string& scenePath, const std::vector<std::string>& excludedMeshes,
+            NormalOrientation orientation);
+  ~Reference();
+
+  // Ray-traced visibility (1 lit, 0 shadowed; 0 outside the light's influence) of a point: a shadow ray from
+  // the point, moved by `epsilon()` along its normal (oriented as the lookup orients it; without a normal the
+  // ray starts `epsilon()` along itself), toward the light (directional: along -direction, unbounded;
+  // spot/point: to the light's position).
+  uint8_t visibility(const Light& light, const QueryPoint& point) const;
+  // The same for the centre and for 8 points around it on its tangent plane, 2 voxels away in the light's
+  // grid (offsets (+-2, 0), (0, +-2), (+-2, +-2) in (u, v), projected onto the surface's plane in grid space;
+  // at the same s without a normal), mapped back with gridToWorld. `uniform` = all 9 agree.
+  uint8_t visibility(const LightShadow& shadow, const QueryPoint& point, bool& uniform) const;
+
+  double epsilon() const { return epsilon_; }
+  const std::string& scenePath() const { return scenePath_; }
+  size_t triangles() const;
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
+private:
+  std::string scenePath_;
+  std::unique_ptr<EmbreeScene> scene_;
+  double epsilon_ = 0;
+  NormalOrientation orientation_;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace cpvs::query

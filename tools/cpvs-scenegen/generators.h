@@ -1,0 +1,40 @@
+#pragma once
+// The benchmark scenes of cpvs-scenegen (see docs/scenegen.md).
+#include <cstdint>
+
+#include "gen_scene.h"
+
+namespace cpvs::scenegen {
+
+struct CityOptions {
+  std::uint64_t seed = 1;
+  std::uint64_t targetTriangles = 100000;
+  bool open = false;  // open-city: single-sided walls, no caps, ground as one sheet
+  int spotLights = 0;  // > 0: city-spots (these spots and no sun); 0: one directional sun
+};
+
+// What the city generator chose to approximate the triangle budget.
+struct CityInfo {
+  int lotsPerSide = 0;    // the searched density
+  int blocksPerSide = 0;
+  int lotsPerBlockSide = 0;
+  double blockPitch = 0.0;  // block + street, in scene units
+  double lotSize = 0.0;
+  double detail = 0.0;  // 0 (plain boxes) .. 1.8 (dense facades)
+};
+
+// The closed (or open) city: ~1000 x 1000 units, y up, buildings 10..120 high on a ground slab.
+GenScene generateCity(const CityOptions& options, CityInfo* info = nullptr);
+
+struct LandscapeOptions {
+  std::uint64_t seed = 1;
+  std::uint64_t targetTriangles = 100000;
+};
+
+// A closed fractal landscape: an fBm heightfield (1000 x 1000 units) with side walls and a bottom.
+GenScene generateLandscape(const LandscapeOptions& options);
+
+// The direction the default sun of the city and landscape travels (normalised (-0.4, -1, -0.3)).
+glm::dvec3 sunDirection();
+
+}  // namespace cpvs::scenegen

@@ -1,0 +1,187 @@
+// cpvs-scenegen: writes the benchmark scenes (closed city, open city, fractal landscape, city with spot
+// lights) as binary glTF. Same arguments, same bytes. See docs/scenegen.md.
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <csignal>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <new>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "generators.h"
+#include "glb_writer.h"
+
+namespace {
+
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 1;
+constexpr int kExitOutput = 3;
+constexpr int kExitRuntime = 4;
+
+constexpr const char* kGenerator = "cpvs-scenegen " CPVS_SCENEGEN_VERSION;
+
+struct OutputError {
+  std::string message;
+};
+
+// The temporary file being written, removed by the signal handler on Ctrl-C / SIGTERM.
+char g_tempPath[4096] = {0};
+
+extern "C" void removeTempAndDie(int sig) {
+  if (g_tempPath[0] != '\0') ::unlink(g_tempPath);  // async-signal-safe
+  std::signal(sig, SIG_DFL);
+  std::raise(sig);
+}
+
+// Writes `bytes` to a temporary file beside `path`, flushes it to disk and renames it over `path`, so
+// that `path` never holds a partial file. Throws OutputError.
+void writeAtomically(const std::string& path, const std::string& bytes) {
+  std::string tmpl = path + ".tmp-XXXXXX";
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0) throw OutputError{"cannot create a temporary file beside '" + path + "': " + std::strerror(errno)};
+  if (tmpl.size() < sizeof g_tempPath) {
+    std::memcpy(g_tempPath, tmpl.c_str(), tmpl.size() + 1);
+    std::signal(SIGINT, removeTempAndDie);
+    std::signal(SIGTERM, removeTempAndDie);
+  }
+  const auto fail = [&](const std::string& what) {
+    const std::string reason = std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmpl.c_str());
+    g_tempPath[0] = '\0';
+    throw OutputError{what + " '" + path + "': " + reason};
+  };
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      fail("cannot write");
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  const mode_t mask = ::umask(0);  // mkstemp makes 0600 files; give the usual 0666 & ~umask
+  ::umask(mask);
+  ::fchmod(fd, 0666 & ~mask);
+  if (::fsync(fd) != 0) fail("cannot flush");
+  if (::close(fd) != 0) {
+    const std::string reason = std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    g_tempPath[0] = '\0';
+    throw OutputError{"cannot close '" + path + "': " + reason};
+  }
+  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
+    const std::string reason = std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    g_tempPath[0] = '\0';
+    throw OutputError{"cannot rename the temporary file to '" + path + "': " + reason};
+  }
+  g_tempPath[0] = '\0';
+}
+
+std::string fmt(const char* format, double a, double b, double c) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, format, a, b, c);
+  return buf;
+}
+
+int run(const std::string& kind, const std::string& output, std::uint64_t triangles, std::uint64_t seed,
+        int lights) {
+  using namespace cpvs::scenegen;
+  const auto start = std::chrono::steady_clock::now();
+  GenScene scene;
+  std::string layout;
+  if (kind == "landscape") {
+    scene = generateLandscape({seed, triangles});
+  } else {
+    CityOptions o;
+    o.seed = seed;
+    o.targetTriangles = triangles;
+    o.open = kind == "open-city";
+    o.spotLights = kind == "city-spots" ? lights : 0;
+    CityInfo info;
+    scene = generateCity(o, &info);
+    layout = ", " + std::to_string(info.blocksPerSide) + "x" + std::to_string(info.blocksPerSide) + " blocks of " +
+             std::to_string(info.lotsPerBlockSide) + "x" + std::to_string(info.lotsPerBlockSide) + " lots" +
+             fmt(" (lot %.1f, detail %.2f)", info.lotSize, info.detail, 0.0);
+  }
+  const SceneStats stats = computeStats(scene);
+  if (kind != "open-city" && static_cast<double>(stats.triangles) < 0.8 * static_cast<double>(triangles))
+    std::cerr << "cpvs-scenegen: warning: " << kind << " tops out at " << stats.triangles
+              << " triangles, below the requested " << triangles << "\n";
+  nlohmann::json extras = {{"kind", kind},
+                           {"seed", std::to_string(seed)},
+                           {"requestedTriangles", triangles},
+                           {"triangles", stats.triangles}};
+  if (kind == "city-spots") extras["lights"] = lights;
+  const std::string bytes = writeGlb(scene, kGenerator, extras);
+  writeAtomically(output, bytes);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  std::cout << kind << ": " << stats.triangles << " triangles (" << stats.storedTriangles << " stored), "
+            << stats.meshes << " meshes, " << stats.instances << " instances, " << stats.lights
+            << (stats.lights == 1 ? " light" : " lights") << layout << ", bounds "
+            << fmt("(%.1f, %.1f, %.1f)", stats.boundsMin.x, stats.boundsMin.y, stats.boundsMin.z) << ".."
+            << fmt("(%.1f, %.1f, %.1f)", stats.boundsMax.x, stats.boundsMax.y, stats.boundsMax.z) << " -> "
+            << output << fmt(" (%.2f MB, %.2f s)", static_cast<double>(bytes.size()) / 1.0e6, seconds, 0.0)
+            << "\n";
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "cpvs-scenegen: writes deterministic benchmark scenes as binary glTF (.glb), modelled on the scenes of\n"
+      "Kaempe et al. (CPVS): a closed city, the same city open (single-sided, no caps), a closed fractal\n"
+      "landscape, and the closed city lit by many spot lights (KHR_lights_punctual). y is up; the scenes\n"
+      "span about 1000 x 1000 units. The same arguments always give the same bytes.",
+      "cpvs-scenegen"};
+  std::string kind, output;
+  std::uint64_t triangles = 100000, seed = 1;
+  int lights = 165;
+  app.add_option("kind", kind, "Scene to write: city, open-city, landscape or city-spots")
+      ->required()
+      ->check(CLI::IsMember({"city", "open-city", "landscape", "city-spots"}));
+  app.add_option("-o,--output", output, "Output .glb file (written atomically)")->required();
+  app.add_option("--triangles", triangles, "Triangle budget after instancing (approximated; the actual count is printed)")
+      ->capture_default_str()
+      ->check(CLI::Range(std::uint64_t{5000}, std::uint64_t{20000000}));
+  app.add_option("--seed", seed, "Random seed (any 64-bit integer)")->capture_default_str();
+  CLI::Option* lightsOption =
+      app.add_option("--lights", lights, "Number of spot lights (city-spots only)")
+          ->capture_default_str()
+          ->check(CLI::Range(1, 10000));
+  app.set_version_flag("--version", kGenerator);
+  app.footer(
+      "Exit codes: 0 ok, 1 usage error, 3 output cannot be written, 4 runtime failure (e.g. out of memory).\n"
+      "Example: cpvs-scenegen city --triangles 1000000 -o closed_city_1m.glb");
+  try {
+    app.parse(argc, argv);
+    if (lightsOption->count() > 0 && kind != "city-spots")
+      throw CLI::ValidationError("--lights", "only applies to the city-spots scene");
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? kExitOk : kExitUsage;
+  }
+  try {
+    return run(kind, output, triangles, seed, lights);
+  } catch (const OutputError& e) {
+    std::cerr << "cpvs-scenegen: error: " << e.message << "\n";
+    return kExitOutput;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "cpvs-scenegen: error: out of memory\n";
+    return kExitRuntime;
+  } catch (const std::exception& e) {
+    std::cerr << "cpvs-scenegen: error: " << e.what() << "\n";
+    return kExitRuntime;
+  }
+}
