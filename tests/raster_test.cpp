@@ -432,7 +432,9 @@ TEST_P(ExitDepth, FreeVoxelsAreInsideClosedSolidsAndExitsAreExact) {
   EXPECT_EQ(k.outside, 0u);
   EXPECT_LE(k.straddling, k.freeSamples / 100);
   EXPECT_EQ(stats.texelsAtPeelCap, 0u);
-  EXPECT_GE(exact, c.scene == SceneId::TorusKnot ? 99.9 : 100.0);
+  // Exits may come early (never late) where a ray grazes an edge of an inner solid: rasterisation and Embree
+  // decide coverage on the edge differently. That costs a few undefined voxels, never a wrong one.
+  EXPECT_GE(exact, 99.9);
   EXPECT_EQ(k.exitLater, 0u);
   // Invariants of every texel.
   for (uint32_t i = 0; i < n * n; ++i) {
@@ -491,7 +493,11 @@ TEST(ExitRules, PeelCapIsConservative) {
     const DepthRegion a = renderWhole(*r, s, {}, &full);
     const DepthRegion b = renderWhole(*r, s, PeelSettings{1}, &capped);
     EXPECT_EQ(capped.peelIterations, 1u);
-    EXPECT_GT(capped.texelsAtPeelCap, 100u) << sceneName(scene);
+    // Nested solids need several peels, so one peel caps many texels; the torus knot's first span ends at its
+    // first back face, which one peel finds: the cap must then change nothing.
+    if (scene == SceneId::Nested) {
+      EXPECT_GT(capped.texelsAtPeelCap, 100u) << sceneName(scene);
+    }
     size_t earlier = 0;
     for (size_t i = 0; i < a.exit.size(); ++i) {
       ASSERT_EQ(a.enter[i], b.enter[i]);
@@ -501,7 +507,11 @@ TEST(ExitRules, PeelCapIsConservative) {
       }
       earlier += b.exit[i] < a.exit[i];
     }
-    EXPECT_GT(earlier, 100u);
+    if (scene == SceneId::Nested) {
+      EXPECT_GT(earlier, 100u);
+    } else {
+      EXPECT_EQ(earlier, 0u);
+    }
     const ExitCheck k = checkExit(s, b, reference(s));
     EXPECT_EQ(k.outside, 0u);
     EXPECT_EQ(k.exitLater, 0u);

@@ -1,0 +1,393 @@
+// cpvs-bake end to end (issue 3): every required voxel of the baked DAGs agrees with the depth maps they were
+// built from, in every mode and with and without node reuse; regions and thread counts change no byte; the tool
+// writes atomically, reports what pipelines read, and exits with its documented codes.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "formats/gltf/gltf_import.h"
+#include "formats/io/exr_image.h"
+#include "libcpvs/bake.h"
+#include "libcpvs/error.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using test::runTool;
+using test::sourcePath;
+using test::tempDir;
+using test::toolPath;
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Closed boxes on a closed ground slab, an open roof quad over one of them, and an open wall: free voxels
+// inside the solids, open casters in the air, shadows over both.
+Scene mixedScene() {
+  Scene scene;
+  test::addBox(scene, "ground", {-10, -1, -10}, {10, 0, 10});
+  test::addBox(scene, "tower", {-3, 0, -2}, {-1, 6, 0});
+  test::addBox(scene, "block", {2, 0, 1}, {5, 2, 4});
+  test::addBox(scene, "inner", {2.5, 0.5, 1.5}, {4.5, 1.5, 3.5});  // nested inside "block"
+  test::addQuad(scene, "roof", {1, 4, 0}, {6, 4, 0}, {6, 4, 5}, {1, 4, 5});
+  test::addQuad(scene, "wall", {-6, 0, 4}, {-2, 0, 4}, {-2, 3, 4}, {-6, 3, 4});
+  test::classifyMeshes(scene);
+  Light sun;
+  sun.name = "sun";
+  sun.type = LightType::Directional;
+  sun.direction = glm::normalize(glm::dvec3(0.35, -1.0, 0.25));
+  Light spot;
+  spot.name = "spot";
+  spot.type = LightType::Spot;
+  spot.position = {0, 12, 0};
+  spot.direction = {0, -1, 0};
+  spot.outerConeAngle = 0.7;
+  spot.range = 40;
+  scene.lights = {sun, spot};
+  return scene;
+}
+
+Scene torusKnotScene() {
+  Scene scene = importGltf(sourcePath("data/scenes/TorusKnot/torusknot.gltf"));
+  Light sun;
+  sun.name = "sun";
+  sun.type = LightType::Directional;
+  sun.direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
+  scene.lights = {sun};
+  return scene;
+}
+
+// Depth maps of every region, captured during the bake: key (light, view).
+using CapturedDepth = std::map<std::pair<size_t, size_t>, std::vector<DepthRegion>>;
+
+struct Bake {
+  CpvsContent content;
+  CapturedDepth depth;
+  BakeReport report;
+};
+
+Bake bake(const Scene& scene, const BakeSettings& settings) {
+  Bake b;
+  std::mutex mutex;
+  BakeCallbacks callbacks;
+  callbacks.depthRegion = [&](size_t light, size_t view, const LightView&, const DepthRegion& region) {
+    std::lock_guard<std::mutex> lock(mutex);
+    b.depth[{light, view}].push_back(region);
+  };
+  try {
+    b.content = bakeScene(scene, settings, &b.report, callbacks);
+  } catch (const Error& e) {
+    if (e.code() == ExitCode::NotSupported) throw;
+    ADD_FAILURE() << e.what();
+  }
+  return b;
+}
+
+DagView viewOf(const ShadowDag& dag) { return dag.view(); }
+
+// Voxels that contradict the depth maps: lit where z >= exit, shadowed where z <= enter. Every `stride`-th
+// column is checked (1 = all).
+uint64_t contradictions(const DagView& dag, const std::vector<DepthRegion>& regions, uint32_t stride = 1) {
+  uint64_t errors = 0;
+  for (const DepthRegion& d : regions) {
+    const uint32_t n = d.resolution;
+    for (uint32_t y = 0; y < d.rect.height; ++y)
+      for (uint32_t x = (y % stride); x < d.rect.width; x += stride) {
+        const uint32_t e = d.enterAt(x, y), exit = d.exitAt(x, y);
+        for (uint32_t z = 0; z < n; ++z) {
+          const bool shadowed = dag.shadowed(d.rect.x0 + x, d.rect.y0 + y, z);
+          if ((z <= e && shadowed) || (z >= exit && !shadowed)) ++errors;
+        }
+      }
+  }
+  return errors;
+}
+
+// Voxels decoded differently by two DAGs of the same view.
+uint64_t differences(const DagView& a, const DagView& b, uint32_t n) {
+  uint64_t count = 0;
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x)
+      for (uint32_t z = 0; z < n; ++z) count += a.shadowed(x, y, z) != b.shadowed(x, y, z);
+  return count;
+}
+
+// Free voxels (neither required lit nor required shadowed) over all texels.
+uint64_t freeVoxels(const std::vector<DepthRegion>& regions) {
+  uint64_t count = 0;
+  for (const DepthRegion& d : regions)
+    for (size_t i = 0; i < d.enter.size(); ++i)
+      if (d.exit[i] > d.enter[i] + 1) count += d.exit[i] - d.enter[i] - 1;
+  return count;
+}
+
+#define SKIP_WITHOUT_OSMESA(expr)                                                        \
+  try {                                                                                  \
+    expr;                                                                                \
+  } catch (const Error& e) {                                                             \
+    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what(); \
+    throw;                                                                               \
+  }
+
+struct ExactCase {
+  const char* scene;
+  uint32_t resolution;
+};
+
+class Exactness : public ::testing::TestWithParam<ExactCase> {};
+
+TEST_P(Exactness, EveryRequiredVoxelInEveryModeAndReuseChangesNoVoxel) {
+  const ExactCase c = GetParam();
+  const Scene scene = std::string(c.scene) == "mixed" ? mixedScene() : torusKnotScene();
+  // Full checks up to 256; at 512 every 7th column (the grid has 134M voxels per view).
+  const uint32_t stride = c.resolution > 256 ? 7 : 1;
+  for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None}) {
+    BakeSettings settings;
+    settings.resolution = c.resolution;
+    settings.undefinedMode = mode;
+    Bake reuse, noReuse;
+    SKIP_WITHOUT_OSMESA(reuse = bake(scene, settings));
+    settings.nodeReuse = false;
+    noReuse = bake(scene, settings);
+    ASSERT_EQ(reuse.content.lights.size(), scene.lights.size());
+    uint64_t free = 0;
+    for (size_t li = 0; li < reuse.content.lights.size(); ++li) {
+      const auto& views = reuse.content.lights[li].views;
+      for (size_t vi = 0; vi < views.size(); ++vi) {
+        const auto it = reuse.depth.find({li, vi});
+        if (it == reuse.depth.end()) continue;  // a view with no caster: all lit, nothing rendered
+        free += freeVoxels(it->second);
+        const DagView a = viewOf(views[vi].dag), b = viewOf(noReuse.content.lights[li].views[vi].dag);
+        EXPECT_EQ(contradictions(a, it->second, stride), 0u)
+            << c.scene << " N=" << c.resolution << " " << undefinedModeName(mode) << " light " << li << " view " << vi;
+        EXPECT_EQ(contradictions(b, it->second, stride), 0u) << "without node reuse";
+        if (c.resolution <= 256) {
+          EXPECT_EQ(differences(a, b, c.resolution), 0u) << "node reuse changed the decoded grid";
+        }
+        // Reuse only skips building nodes it would have built identically.
+        EXPECT_EQ(views[vi].dag.nodes, noReuse.content.lights[li].views[vi].dag.nodes);
+        EXPECT_EQ(views[vi].dag.leaves, noReuse.content.lights[li].views[vi].dag.leaves);
+      }
+    }
+    // The test means something: closed solids leave free voxels to decide.
+    EXPECT_GT(free, 0u);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, Exactness,
+                         ::testing::Values(ExactCase{"mixed", 64}, ExactCase{"mixed", 128}, ExactCase{"mixed", 256},
+                                           ExactCase{"torusknot", 128}, ExactCase{"mixed", 512}),
+                         [](const auto& info) {
+                           return std::string(info.param.scene) + "_" + std::to_string(info.param.resolution);
+                         });
+
+TEST(Bake, ModesOrderBySize) {
+  const Scene scene = mixedScene();
+  BakeSettings settings;
+  settings.resolution = 256;
+  std::map<UndefinedMode, uint64_t> bytes;
+  for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None}) {
+    settings.undefinedMode = mode;
+    Bake b;
+    SKIP_WITHOUT_OSMESA(b = bake(scene, settings));
+    for (const BakedLight& l : b.content.lights)
+      for (const BakedView& v : l.views) bytes[mode] += v.dag.bytes();
+  }
+  EXPECT_LE(bytes[UndefinedMode::Kampe], bytes[UndefinedMode::Sintorn]);
+  EXPECT_LE(bytes[UndefinedMode::Sintorn], bytes[UndefinedMode::None]);
+}
+
+TEST(Bake, RegionsChangeNoVoxelAndThreadsNoByte) {
+  const Scene scene = mixedScene();
+  BakeSettings settings;
+  settings.resolution = 256;
+  Bake whole;
+  SKIP_WITHOUT_OSMESA(whole = bake(scene, settings));
+  for (uint32_t region : {64u, 128u}) {
+    std::string reference;
+    for (unsigned threads : {1u, 2u}) {
+      settings.regionSize = region;
+      settings.threads = threads;
+      const Bake split = bake(scene, settings);
+      EXPECT_EQ(split.report.lights[0].views[0].regions, (256 / region) * (256 / region));
+      // Regions are built in a different order than one piece, so node order (bytes) may differ; the voxels
+      // may not.
+      for (size_t li = 0; li < scene.lights.size(); ++li)
+        EXPECT_EQ(differences(viewOf(split.content.lights[li].views[0].dag),
+                              viewOf(whole.content.lights[li].views[0].dag), 256),
+                  0u)
+            << "region " << region << ", light " << li;
+      const std::string bytes = writeCpvs(split.content);
+      if (reference.empty())
+        reference = bytes;
+      else
+        EXPECT_TRUE(bytes == reference) << "region " << region << ": --threads changed the bytes";
+    }
+  }
+}
+
+TEST(Bake, ReportCountsWhatWasBuilt) {
+  const Scene scene = mixedScene();
+  BakeSettings settings;
+  settings.resolution = 128;
+  Bake b;
+  SKIP_WITHOUT_OSMESA(b = bake(scene, settings));
+  ASSERT_EQ(b.report.lights.size(), 2u);
+  for (size_t li = 0; li < 2; ++li) {
+    const ViewReport& v = b.report.lights[li].views[0];
+    const ShadowDag& dag = b.content.lights[li].views[0].dag;
+    EXPECT_EQ(v.bytes, dag.bytes());
+    EXPECT_EQ(v.uniqueLeaves, dag.leaves.size());
+    EXPECT_EQ(v.nodesPerLevel, dag.nodesPerLevel);
+    EXPECT_EQ(v.shadowMapBytes, 128u * 128u * 2u);
+    EXPECT_GT(v.nodesReused, 0u) << "no node was reused: the test scene has no repeated structure?";
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ the tool
+
+std::string scenePath() { return sourcePath("data/scenes/TorusKnot/torusknot.gltf"); }
+
+TEST(BakeTool, SameBytesTwiceAndForAnyThreadCount) {
+  const std::string dir = tempDir();
+  std::string first;
+  for (const char* threads : {"1", "2", "2"}) {
+    const std::string out = dir + "/t" + threads + ".cpvs";
+    const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + out +
+                           " --resolution 256 --sun 0.3,-1,0.2 --spot 0,4,0,0,-1,0,0.6,20 --quiet --threads " + threads);
+    if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const std::string bytes = readFile(out);
+    ASSERT_GT(bytes.size(), 1000u);
+    if (first.empty())
+      first = bytes;
+    else
+      EXPECT_TRUE(bytes == first) << "--threads " << threads;
+  }
+}
+
+TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
+  const std::string dir = tempDir();
+  const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + dir + "/o.cpvs --resolution 128 " +
+                         "--sun 0.3,-1,0.2 --point 0,3,0,30 --quiet --report " + dir + "/r.json");
+  if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(readFile(dir + "/r.json"));
+  EXPECT_TRUE(j["version"].is_string());
+  EXPECT_GT(j["total_ms"].get<double>(), 0.0);
+  EXPECT_GT(j["peak_rss_bytes"].get<uint64_t>(), 0u);
+  ASSERT_EQ(j["lights"].size(), 2u);
+  EXPECT_EQ(j["lights"][0]["name"], "sun0");
+  EXPECT_EQ(j["lights"][0]["views"].size(), 1u);
+  EXPECT_EQ(j["lights"][1]["views"].size(), 6u) << "a point light has six cube faces";
+  for (const auto& light : j["lights"])
+    for (const auto& v : light["views"]) {
+      EXPECT_EQ(v["resolution"], 128);
+      for (const char* phase : {"depth", "peel", "masks", "dag", "write"})
+        EXPECT_TRUE(v["phases_ms"][phase].is_number()) << phase;
+      EXPECT_TRUE(v["nodes_per_level"].is_array());
+      EXPECT_TRUE(v["unique_leaves"].is_number());
+      EXPECT_TRUE(v["bytes"].is_number());
+      EXPECT_EQ(v["shadow_map_bytes"], 128 * 128 * 2);
+    }
+  // The file holds what the report says.
+  const auto file = CpvsFile::open(dir + "/o.cpvs");
+  ASSERT_EQ(file->lights().size(), 2u);
+  EXPECT_EQ(file->lights()[1].views.size(), 6u);
+  EXPECT_EQ(j["file_bytes"].get<uint64_t>(), file->fileSize());
+}
+
+TEST(BakeTool, DumpDepthWritesEnterAndExitSlices) {
+  const std::string dir = tempDir();
+  const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " --dump-depth " + dir +
+                         "/depth --resolution 64 --sun 0.3,-1,0.2 --quiet");
+  if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const ExrImage image = readExr(dir + "/depth/light0_view0_region0_0.exr", {"enter", "exit"});
+  ASSERT_EQ(image.width, 64u);
+  ASSERT_EQ(image.height, 64u);
+  size_t hits = 0, solid = 0;
+  for (uint32_t y = 0; y < 64; ++y)
+    for (uint32_t x = 0; x < 64; ++x) {
+      const float e = image.at(x, y, 0), exit = image.at(x, y, 1);
+      ASSERT_LE(e, 64.0f);
+      ASSERT_LE(exit, 64.0f);
+      if (e < 64) {
+        ++hits;
+        ASSERT_GT(exit, e);
+        solid += exit > e + 1;
+      }
+    }
+  EXPECT_GT(hits, 200u);
+  EXPECT_GT(solid, 100u) << "the torus knot is closed: its texels have exits beyond the enter slice";
+}
+
+TEST(BakeTool, ExitCodesAndMessages) {
+  const std::string dir = tempDir();
+  const std::string bake = toolPath("cpvs-bake") + " ";
+  auto help = runTool(bake + "--help");
+  EXPECT_EQ(help.exitCode, 0);
+  for (const char* text : {"--resolution", "--undefined", "--no-node-reuse", "--report", "Exit codes"})
+    EXPECT_NE(help.output.find(text), std::string::npos) << text;
+  EXPECT_EQ(runTool(bake + "--version").exitCode, 0);
+  EXPECT_EQ(runTool(bake).exitCode, int(ExitCode::Usage));
+  EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --resolution 3000 --sun 0,-1,0").exitCode,
+            int(ExitCode::Usage));
+  EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --undefined maybe --sun 0,-1,0").exitCode,
+            int(ExitCode::Usage));
+  const auto missing = runTool(bake + dir + "/missing.gltf -o " + dir + "/a.cpvs --sun 0,-1,0");
+  EXPECT_EQ(missing.exitCode, int(ExitCode::InputInvalid));
+  EXPECT_NE(missing.output.find("missing.gltf"), std::string::npos) << missing.output;
+  const auto malformed = runTool(bake + "/usr/share/assimp/models/glTF2/IndexOutOfRange/IndexOutOfRange.gltf -o " +
+                                 dir + "/a.cpvs --sun 0,-1,0");
+  if (std::filesystem::exists("/usr/share/assimp/models/glTF2/IndexOutOfRange/IndexOutOfRange.gltf")) {
+    EXPECT_EQ(malformed.exitCode, int(ExitCode::InputInvalid)) << malformed.output;
+  }
+  const auto unwritable = runTool(bake + scenePath() + " -o " + dir + "/no/such/dir/a.cpvs --resolution 64 --sun 0,-1,0 -q");
+  if (unwritable.exitCode != int(ExitCode::NotSupported)) {
+    EXPECT_EQ(unwritable.exitCode, int(ExitCode::OutputFailed)) << unwritable.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir + "/a.cpvs")) << "a failed run left an output file";
+}
+
+TEST(BakeTool, FailedOrInterruptedBakeLeavesNoPartialFile) {
+  const std::string dir = tempDir();
+  const std::string out = dir + "/keep.cpvs";
+  { std::ofstream(out) << "previous contents"; }
+  // A failing bake keeps the previous file untouched.
+  EXPECT_EQ(runTool(toolPath("cpvs-bake") + " " + dir + "/missing.gltf -o " + out + " --sun 0,-1,0").exitCode,
+            int(ExitCode::InputInvalid));
+  EXPECT_EQ(readFile(out), "previous contents");
+  // Killed in the middle of a bake: the output path still holds the previous file, nothing half-written.
+  const std::string fresh = dir + "/fresh.cpvs";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string tool = toolPath("cpvs-bake"), scene = scenePath();
+    execl(tool.c_str(), tool.c_str(), scene.c_str(), "-o", fresh.c_str(), "--resolution", "2k", "--sun", "0.3,-1,0.2",
+          "--quiet", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  EXPECT_FALSE(std::filesystem::exists(fresh)) << "the bake finished before it was killed, or left a file";
+}
+
+}  // namespace
+}  // namespace cpvs
