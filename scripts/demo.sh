@@ -28,21 +28,18 @@ echo
 echo "== What the file holds =="
 "$bin/cpvs-info" "$out/subpass.cpvs"
 
-if [ -x "$bin/cpvs-query" ]; then
-  echo
-  echo "== Querying sampled points against Embree ray tracing =="
-  python3 "$root/scripts/sample_points.py" "$scene" "$out/points.csv" 20000 2>/dev/null ||
-    "$bin/cpvs-query" --help >/dev/null
-  if [ -f "$out/points.csv" ]; then
-    "$bin/cpvs-query" "$out/subpass.cpvs" --points "$out/points.csv" -o "$out/visibility.csv" --pcf 3 \
-      --reference "$scene" --report "$out/query-report.json"
-  fi
-fi
+echo
+echo "== Querying 20000 surface points, checked against Embree ray tracing =="
+"$bin/cpvs-sample" "$scene" -o "$out/points.csv" --count 20000
+"$bin/cpvs-query" "$out/subpass.cpvs" --points "$out/points.csv" -o "$out/visibility.csv" --pcf 3 \
+  --reference "$scene" --report "$out/query-report.json"
 
 echo
 echo "Outputs are in $out:"
 echo "  subpass.cpvs         the baked shadows (inspect with build/bin/cpvs-info)"
 echo "  bake-report.json     timings per phase, nodes per level, bytes vs a 16-bit shadow map"
 echo "  depth/*.exr          enter/exit depth maps in slice units (any EXR viewer)"
-[ -f "$out/query-report.json" ] && echo "  query-report.json    lookup throughput and error against Embree"
+echo "  points.csv           the sampled surface points (x,y,z,nx,ny,nz)"
+echo "  visibility.csv       one column per light, one row per point, in [0, 1] (3x3 PCF)"
+echo "  query-report.json    lookup throughput and error against Embree"
 exit 0
