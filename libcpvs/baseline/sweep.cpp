@@ -1,0 +1,272 @@
+#include "libcpvs/baseline/sweep.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/baseline/shadow_map.h"
+#include "libcpvs/error.h"
+#include "libcpvs/raster/depth_renderer.h"
+#include "libcpvs/reference/embree_scene.h"
+
+namespace cpvs {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// Work items per second of `pass` (which does `workPerPass` items), repeated for at least `seconds`.
+template <class Fn>
+double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
+  if (workPerPass == 0) return 0.0;
+  uint64_t work = 0;
+  const auto start = Clock::now();
+  double elapsed = 0;
+  do {
+    pass();
+    work += workPerPass;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  } while (elapsed < seconds);
+  return double(work) / elapsed;
+}
+
+volatile float gSink;  // keeps the timed loops from being optimised away
+volatile int gIntSink;
+
+glm::dvec3 toLightDirection(const Light& light, const glm::dvec3& point) {
+  if (light.type == LightType::Directional) return -light.direction;
+  const glm::dvec3 d = light.position - point;
+  const double length = glm::length(d);
+  return length > 0 ? d / length : glm::dvec3(0.0);
+}
+
+// Reference at the point and `uniform` (8 neighbours 2 voxels away on the tangent plane agree).
+uint8_t referenceWithUniform(const EmbreeScene& scene, double epsilon, const Light& light, const LightView* view,
+                             const glm::dvec3& point, const glm::dvec3& normal, uint8_t centre, bool& uniform) {
+  uniform = true;
+  if (!view) return centre;
+  const GridPoint g = toGrid(*view, point);
+  if (!g.inFront) return centre;
+  glm::dvec3 m = gridNormal(*view, point, normal);
+  const double length = glm::length(m);
+  m = length > 0 && std::isfinite(length) ? m / length : glm::dvec3(0.0);
+  static const double offsets[8][2] = {{2, 0}, {-2, 0}, {0, 2}, {0, -2}, {2, 2}, {-2, 2}, {2, -2}, {-2, -2}};
+  for (const auto& o : offsets) {
+    glm::dvec3 w(o[0], o[1], 0.0);
+    w -= glm::dot(w, m) * m;  // stay on the tangent plane (grid metric)
+    if (referenceVisibility(scene, epsilon, light, gridToWorld(*view, g.uvs + w), normal) != centre) {
+      uniform = false;
+      break;
+    }
+  }
+  return centre;
+}
+
+struct Errors {
+  uint64_t misclassified = 0, misclassifiedUniform = 0;
+  double absDiff = 0;
+};
+
+Errors compare(const std::vector<float>& values, const std::vector<uint8_t>& reference,
+               const std::vector<uint8_t>& uniform) {
+  Errors e;
+  for (size_t i = 0; i < values.size(); ++i) {
+    const bool wrong = (values[i] >= 0.5f) != (reference[i] != 0);
+    e.misclassified += wrong;
+    e.misclassifiedUniform += wrong && uniform[i];
+    e.absDiff += std::abs(double(values[i]) - double(reference[i]));
+  }
+  return e;
+}
+
+template <class Fn>
+void parallelFor(size_t count, Fn&& fn) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) fn(i);
+  });
+}
+
+}  // namespace
+
+BaselineDepth parseBaselineDepth(const std::string& name) {
+  if (name == "embree") return BaselineDepth::Embree;
+  if (name == "raster" || name == "gl") return BaselineDepth::Raster;
+  throw Error(ExitCode::Usage, "--baseline-depth '" + name + "': expected embree or raster");
+}
+
+const char* baselineDepthName(BaselineDepth depth) { return depth == BaselineDepth::Embree ? "embree" : "raster"; }
+
+uint8_t referenceVisibility(const EmbreeScene& scene, double epsilon, const Light& light, const glm::dvec3& point,
+                            const glm::dvec3& normal) {
+  if (!withinInfluence(light, point)) return 0;
+  glm::dvec3 toLight = toLightDirection(light, point);
+  if (light.type != LightType::Directional && glm::length(light.position - point) == 0) return 1;
+  glm::dvec3 origin = point;
+  const double nLength = glm::length(normal);
+  origin += nLength > 0 ? epsilon * (normal / nLength) : epsilon * toLight;
+  double distance = EmbreeScene::kInfinity;
+  if (light.type != LightType::Directional) {
+    const glm::dvec3 d = light.position - origin;
+    distance = glm::length(d);
+    if (!(distance > epsilon)) return 1;
+    toLight = d / distance;
+    distance -= epsilon;  // stop short of the light itself
+  }
+  return scene.occluded(origin, toLight, distance) ? 0 : 1;
+}
+
+std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<SurfaceSample>& samples, bool allPoints) {
+  std::vector<SurfaceSample> points;
+  for (const SurfaceSample& s : samples) {
+    if (!withinInfluence(light, s.position)) continue;
+    if (!allPoints && !(glm::dot(s.normal, toLightDirection(light, s.position)) > 0)) continue;
+    points.push_back(s);
+  }
+  return points;
+}
+
+std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings, std::string* renderer,
+                               const SweepCallbacks& callbacks) {
+  auto log = [&](const std::string& line) {
+    if (callbacks.log) callbacks.log(line);
+  };
+  checkPcfKernel(settings.pcfKernel);
+  const WorldGeometry world = flatten(scene);
+  const EmbreeScene embree(world);
+  const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
+  const double epsilon = 1e-5 * (diagonal > 0 ? diagonal : 1.0);
+  const LookupOptions lookup{settings.pcfKernel, NormalOrientation::AsGiven};
+
+  // Per light: points, reference values and Embree's single-threaded throughput on them.
+  const std::vector<SurfaceSample> samples = sampleSurfaces(world, settings.samples, settings.seed);
+  const size_t lightCount = scene.lights.size();
+  std::vector<std::vector<SurfaceSample>> points(lightCount);
+  std::vector<std::vector<uint8_t>> reference(lightCount);
+  std::vector<double> raysPerS(lightCount);
+  for (size_t l = 0; l < lightCount; ++l) {
+    const Light& light = scene.lights[l];
+    points[l] = sweepPoints(light, samples, settings.allPoints);
+    reference[l].resize(points[l].size());
+    parallelFor(points[l].size(), [&](size_t i) {
+      reference[l][i] = referenceVisibility(embree, epsilon, light, points[l][i].position, points[l][i].normal);
+    });
+    raysPerS[l] = perSecond(points[l].size(), settings.timingSeconds, [&] {
+      int sum = 0;
+      for (const SurfaceSample& p : points[l]) sum += referenceVisibility(embree, epsilon, light, p.position, p.normal);
+      gIntSink = sum;
+    });
+    log("light '" + light.name + "': " + std::to_string(points[l].size()) + " points");
+  }
+
+  std::unique_ptr<DepthRenderer> raster;
+  std::vector<SweepRow> rows;
+  for (uint32_t resolution : settings.resolutions) {
+    BakeSettings bake = settings.bake;
+    bake.resolution = resolution;
+    BakeReport report;
+    const auto t0 = Clock::now();
+    const CpvsContent content = bakeScene(scene, bake, &report);
+    const double bakeWallMs = msSince(t0);
+    if (renderer && !report.renderer.empty()) *renderer = report.renderer;
+    const uint64_t fileBytes = writeCpvs(content).size();
+    log("N = " + std::to_string(resolution) + ": baked in " + std::to_string(int(bakeWallMs)) + " ms, " +
+        std::to_string(fileBytes) + " bytes");
+
+    for (size_t l = 0; l < lightCount; ++l) {
+      const Light& light = scene.lights[l];
+      const BakedLight& baked = content.lights[l];
+      SweepRow row;
+      row.light = l;
+      row.lightName = light.name;
+      row.lightType = light.type;
+      row.resolution = resolution;
+      row.bakeWallMs = bakeWallMs;
+      row.fileBytes = fileBytes;
+      for (const ViewReport& v : report.lights[l].views) row.bakeMs += v.depthMs + v.peelMs + v.masksMs + v.dagMs;
+      std::vector<LightView> views;
+      std::vector<DagView> dags;
+      for (const BakedView& v : baked.views) {
+        views.push_back(v.view);
+        dags.push_back(v.dag.view());
+        row.bytes += v.dag.bytes();
+      }
+      const LightShadow shadow(light, views, dags);
+      const std::vector<SurfaceSample>& pts = points[l];
+      const size_t count = pts.size();
+      row.points = count;
+      for (uint8_t r : reference[l]) row.referenceLit += r;
+
+      // Uniformity at this resolution (voxel size of the view the point falls in).
+      std::vector<uint8_t> uniform(count);
+      parallelFor(count, [&](size_t i) {
+        const int index = shadow.viewIndex(pts[i].position);
+        bool u = true;
+        referenceWithUniform(embree, epsilon, light, index < 0 ? nullptr : &views[size_t(index)], pts[i].position,
+                             pts[i].normal, reference[l][i], u);
+        uniform[i] = u;
+      });
+      for (uint8_t u : uniform) row.uniform += u;
+
+      std::vector<float> values(count);
+      parallelFor(count, [&](size_t i) { values[i] = shadow.visibility(pts[i].position, pts[i].normal, lookup); });
+      const Errors e = compare(values, reference[l], uniform);
+      row.misclassified = e.misclassified;
+      row.misclassifiedUniform = e.misclassifiedUniform;
+      row.meanAbsDiff = count ? e.absDiff / double(count) : 0.0;
+      row.lookupsPerS = perSecond(count, settings.timingSeconds, [&] {
+        float sum = 0;
+        for (const SurfaceSample& p : pts) sum += shadow.visibility(p.position, p.normal, lookup);
+        gSink = sum;
+      });
+      row.raysPerS = raysPerS[l];
+
+      // The shadow map of equal bytes, view by view.
+      const auto s0 = Clock::now();
+      std::vector<ShadowMap16> maps;
+      for (const BakedView& v : baked.views) {
+        const uint32_t size = equalBytesShadowMapSize(v.dag.bytes());
+        if (settings.baselineDepth == BaselineDepth::Embree) {
+          maps.push_back(buildShadowMapEmbree(embree, v.view, size));
+        } else {
+          if (!raster) raster = DepthRenderer::create(bake.backend);
+          maps.push_back(buildShadowMapRaster(*raster, world, v.view, size));
+        }
+      }
+      row.smBuildMs = msSince(s0);
+      const ShadowMapLight sm(light, std::move(maps));
+      row.smSize = sm.maps().empty() ? 0 : sm.maps()[0].size();
+      row.smBytes = sm.bytes();
+      parallelFor(count, [&](size_t i) { values[i] = sm.visibility(pts[i].position, pts[i].normal, lookup); });
+      const Errors se = compare(values, reference[l], uniform);
+      row.smMisclassified = se.misclassified;
+      row.smMisclassifiedUniform = se.misclassifiedUniform;
+      row.smMeanAbsDiff = count ? se.absDiff / double(count) : 0.0;
+      row.smLookupsPerS = perSecond(count, settings.timingSeconds, [&] {
+        float sum = 0;
+        for (const SurfaceSample& p : pts) sum += sm.visibility(p.position, p.normal, lookup);
+        gSink = sum;
+      });
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "  light '%s': %llu bytes, misclassified %.4f%% (uniform %.4f%%); shadow map %ux%u: %.4f%%",
+                    light.name.c_str(), static_cast<unsigned long long>(row.bytes),
+                    100.0 * row.rate(row.misclassified, row.points),
+                    100.0 * row.rate(row.misclassifiedUniform, row.uniform), row.smSize, row.smSize,
+                    100.0 * row.rate(row.smMisclassified, row.points));
+      log(line);
+      rows.push_back(std::move(row));
+    }
+  }
+  return rows;
+}
+
+}  // namespace cpvs
