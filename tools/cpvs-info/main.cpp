@@ -1,10 +1,10 @@
-// cpvs-info: prints what a scene holds (meshes and their closedness, instances, lights, bounds), as text
-// or JSON. See --help.
-#include <cmath>
-#include <cstdio>
-#include <cstdlib>
+// cpvs-info: prints what a scene holds (meshes and their closedness, instances, lights, bounds) or what a
+// .cpvs file holds (header, bake settings, lights, views, DAG levels, bytes, checksums), as text or JSON. The
+// kind of input is decided by its first bytes, not by its name. See --help.
+#include <cerrno>
+#include <cstring>
+#include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -12,6 +12,7 @@
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/scene.h"
 #include "tools/common/cli.h"
+#include "tools/cpvs-info/info_common.h"
 
 namespace {
 
@@ -20,31 +21,10 @@ using cpvs::LightType;
 using cpvs::Mesh;
 using cpvs::Scene;
 using cpvs::WorldGeometry;
-
-constexpr const char* kTool = "cpvs-info";
-
-std::string number(double value) {
-  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
-  std::ostringstream out;
-  out.precision(6);
-  out << value;
-  return out.str();
-}
-
-std::string vec(const glm::dvec3& v) { return "(" + number(v.x) + ", " + number(v.y) + ", " + number(v.z) + ")"; }
-
-nlohmann::ordered_json jsonVec(const glm::dvec3& v) { return nlohmann::ordered_json::array({v.x, v.y, v.z}); }
-
-// A float as the shortest double that reads back as the same float (0.95f prints as 0.95, not 0.949999988).
-double shortest(float value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.9g", double(value));
-  for (int digits = 1; digits <= 9; ++digits) {
-    std::snprintf(text, sizeof text, "%.*g", digits, double(value));
-    if (std::strtof(text, nullptr) == value) break;
-  }
-  return std::strtod(text, nullptr);
-}
+using cpvs::info::jsonVec;
+using cpvs::info::kTool;
+using cpvs::info::number;
+using cpvs::info::vec;
 
 std::string topology(const Mesh& mesh) {
   std::string text = mesh.closed ? "closed" : "open";
@@ -54,9 +34,6 @@ std::string topology(const Mesh& mesh) {
             " non-manifold, " + std::to_string(mesh.inconsistentEdges) + " inconsistent edges)";
   return text;
 }
-
-bool hasPosition(const Light& light) { return light.type != LightType::Directional; }
-bool hasDirection(const Light& light) { return light.type != LightType::Point; }
 
 struct Totals {
   size_t closedMeshes = 0;
@@ -73,16 +50,7 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
   for (const cpvs::Instance& instance : scene.instances)
     std::cout << "  " << instance.node << " -> " << scene.meshes[instance.mesh].name << "\n";
   std::cout << "lights (" << scene.lights.size() << "):\n";
-  for (const Light& light : scene.lights) {
-    std::cout << "  " << cpvs::lightTypeName(light.type) << " '" << light.name << "':";
-    if (hasPosition(light)) std::cout << " position " << vec(light.position);
-    if (hasDirection(light)) std::cout << " direction " << vec(light.direction);
-    std::cout << " colour " << vec(glm::dvec3(light.color)) << " intensity " << number(light.intensity);
-    if (hasPosition(light)) std::cout << " range " << number(light.range);
-    if (light.type == LightType::Spot)
-      std::cout << " cone " << number(light.innerConeAngle) << ".." << number(light.outerConeAngle) << " rad";
-    std::cout << "\n";
-  }
+  for (const Light& light : scene.lights) std::cout << "  " << cpvs::info::lightText(light) << "\n";
   std::cout << "bounds: min " << vec(world.bounds.min) << " max " << vec(world.bounds.max) << " extent "
             << vec(world.bounds.extent()) << "\n";
   std::cout << "totals: " << scene.meshes.size() << " meshes (" << totals.closedMeshes << " closed), "
@@ -106,22 +74,7 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
   for (const cpvs::Instance& instance : scene.instances)
     instances.push_back({{"node", instance.node}, {"mesh", scene.meshes[instance.mesh].name}, {"meshIndex", instance.mesh}});
   nlohmann::ordered_json lights = nlohmann::ordered_json::array();
-  for (const Light& light : scene.lights) {
-    nlohmann::ordered_json entry = {{"name", light.name},
-                            {"type", cpvs::lightTypeName(light.type)},
-                            {"color", {shortest(light.color.r), shortest(light.color.g), shortest(light.color.b)}},
-                            {"intensity", shortest(light.intensity)}};
-    if (hasPosition(light)) {
-      entry["position"] = jsonVec(light.position);
-      entry["range"] = std::isinf(light.range) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(light.range);  // null: unlimited
-    }
-    if (hasDirection(light)) entry["direction"] = jsonVec(light.direction);
-    if (light.type == LightType::Spot) {
-      entry["innerConeAngle"] = light.innerConeAngle;
-      entry["outerConeAngle"] = light.outerConeAngle;
-    }
-    lights.push_back(entry);
-  }
+  for (const Light& light : scene.lights) lights.push_back(cpvs::info::lightJson(light));
   nlohmann::ordered_json bounds = world.bounds.empty() ? nlohmann::ordered_json(nullptr)
                                                : nlohmann::ordered_json{{"min", jsonVec(world.bounds.min)},
                                                                 {"max", jsonVec(world.bounds.max)}};
@@ -159,17 +112,45 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
   return 0;
 }
 
+enum class InputKind { Scene, Cpvs, Unknown };
+
+// Decides from the first bytes: the .cpvs magic (or its name where a text-mode transfer damaged the bytes
+// around it) is a .cpvs file; "glTF" is a .glb; a JSON object (after an optional BOM and white space) is a
+// .gltf. Everything else (an empty file included) goes to the .cpvs reader, whose message says what it is not.
+InputKind sniff(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw cpvs::Error(cpvs::ExitCode::InputInvalid, path + ": cannot open: " + std::strerror(errno));
+  char head[64] = {};
+  in.read(head, sizeof head);
+  const size_t n = size_t(in.gcount());
+  const std::string bytes(head, n);
+  if (bytes.substr(0, 8).find("CPVS") != std::string::npos) return InputKind::Cpvs;
+  if (bytes.compare(0, 4, "glTF") == 0) return InputKind::Scene;
+  size_t i = bytes.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
+  while (i < n && (bytes[i] == ' ' || bytes[i] == '\t' || bytes[i] == '\r' || bytes[i] == '\n')) ++i;
+  if (i < n && bytes[i] == '{') return InputKind::Scene;
+  return InputKind::Unknown;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Prints what a scene holds: meshes (closed or open, from the geometry), instances, lights, "
-               "bounds and totals.",
+  CLI::App app{"Prints what a scene (.gltf, .glb) holds: meshes (closed or open, from the geometry),\n"
+               "instances, lights, bounds and totals.\n"
+               "Or what a baked .cpvs file holds: format version, tool version, input hash and bake settings;\n"
+               "per light its type, name, colour, intensity, range and cone; per view its cube face, resolution\n"
+               "N, projection, near/far, depth mapping, nodes per DAG level, unique leaves and bytes; the\n"
+               "sections with their XXH3-64 checksums. The file is validated in full first: a corrupt,\n"
+               "truncated or foreign file, or one of another major format version, is reported with exit\n"
+               "code 2, naming the file and what is wrong, with the checksum status of every section that can\n"
+               "be located. The kind of input is decided by its first bytes, not by its name.\n"
+               "Format: docs/format.md.",
                kTool};
   app.footer(cpvs::tools::exitCodeHelp());
   cpvs::tools::addVersionFlag(app, kTool);
   std::string input;
   bool json = false;
-  app.add_option("INPUT", input, "Scene file (.gltf or .glb)")->required();
+  app.add_option("INPUT", input, "Scene file (.gltf or .glb) or baked file (.cpvs)")->required();
   app.add_flag("--json", json, "Print JSON instead of text");
   cpvs::tools::LightOptions lightOptions;
   lightOptions.addTo(app);
@@ -179,5 +160,12 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);  // prints help/version (code 0) or the usage error
     return code == 0 ? 0 : int(cpvs::ExitCode::Usage);
   }
-  return cpvs::tools::runMain(kTool, [&] { return printScene(input, lightOptions, json); });
+  return cpvs::tools::runMain(kTool, [&] {
+    const InputKind kind = sniff(input);
+    if (kind == InputKind::Scene) return printScene(input, lightOptions, json);
+    if (lightOptions.any() || !lightOptions.excludedMeshes.empty())
+      throw cpvs::Error(cpvs::ExitCode::Usage, input + ": --sun, --spot, --point and --exclude-mesh apply to "
+                                               "scenes; a .cpvs file holds the lights it was baked with");
+    return cpvs::info::printCpvs(input, json);
+  });
 }

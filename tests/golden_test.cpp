@@ -1,0 +1,158 @@
+// End-to-end golden bytes (issue 3): cpvs-bake on the shipped Tiny scene at N = 64, with a sun and a spot given
+// on the command line (so the result does not depend on the scene's own lights) and every setting spelled out
+// (so it does not depend on the tool's defaults), must reproduce
+// tests/golden/tiny_scene_bake64_v1.cpvs byte for byte — with one thread and with two. This pins the whole
+// pipeline (import, views, depth rendering on OSMesa, masks, DAG, container) where format_test pins the
+// container alone with synthetic content.
+//
+// The bytes change when the pipeline's output legitimately changes (a DAG construction change, a new format
+// version) and also when the tool version changes (it is recorded in the BAKE block). After checking that the
+// change is intended (cpvs-info on old and new file shows what moved), regenerate with:
+//   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
+// and commit the new tests/golden/tiny_scene_bake64_v1.cpvs. A change in the container layout must also bump
+// the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v1.cpvs.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/version.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+using test::runTool;
+using test::sourcePath;
+using test::tempDir;
+using test::toolPath;
+
+// Every setting that the bytes depend on is spelled out, so that a change of a default does not move them.
+constexpr const char* kBakeArguments =
+    " --resolution 64 --undefined kampe --max-peels 16 --backend osmesa --quiet"
+    " --sun 0.3,-1,0.2 --spot 0,5,0,0,-1,0,0.6,20";
+
+const std::string& goldenPath() {
+  static const std::string path = sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs");
+  return path;
+}
+
+Bytes readFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Bakes the golden scene into `dir` and returns the file's bytes.
+Bytes bake(const std::string& dir, const std::string& extra) {
+  const std::string out = dir + "/tiny64" + std::to_string(std::hash<std::string>()(extra) % 1000) + ".cpvs";
+  const auto r = runTool(toolPath("cpvs-bake") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " -o " + out +
+                         kBakeArguments + extra);
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  return readFile(out);
+}
+
+// Where two files first differ, in terms of the golden file's sections.
+std::string firstDifference(const Bytes& golden, const Bytes& baked) {
+  size_t at = 0;
+  while (at < golden.size() && at < baked.size() && golden[at] == baked[at]) ++at;
+  std::string where = "sizes " + std::to_string(golden.size()) + " (golden) and " + std::to_string(baked.size()) +
+                      " (baked); first difference at byte " + std::to_string(at);
+  try {
+    const auto file = CpvsFile::fromBytes(golden, "golden");
+    if (at < 64) return where + ", in the header";
+    for (size_t i = 0; i < file->sections().size(); ++i) {
+      const auto& s = file->sections()[i];
+      if (at >= s.offset && at < s.offset + s.size)
+        return where + ", in section " + std::to_string(i) + " '" + s.type + "' at +" + std::to_string(at - s.offset);
+    }
+    return where + ", in the section table or padding";
+  } catch (const std::exception& e) {
+    return where + " (the golden file does not read: " + e.what() + ")";
+  }
+}
+
+TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) {
+  const std::string dir = tempDir();
+  const Bytes baked = bake(dir, " --threads 2");
+  ASSERT_FALSE(baked.empty());
+  if (const char* update = std::getenv("CPVS_UPDATE_GOLDEN"); update && std::string(update) == "1") {
+    std::filesystem::create_directories(std::filesystem::path(goldenPath()).parent_path());
+    std::ofstream(goldenPath(), std::ios::binary | std::ios::trunc)
+        .write(reinterpret_cast<const char*>(baked.data()), std::streamsize(baked.size()));
+    GTEST_SKIP() << "wrote " << goldenPath() << " (" << baked.size() << " bytes)";
+  }
+  const Bytes golden = readFile(goldenPath());
+  ASSERT_FALSE(golden.empty()) << goldenPath() << " is missing; run with CPVS_UPDATE_GOLDEN=1 to create it";
+  EXPECT_TRUE(baked == golden) << "cpvs-bake no longer reproduces " << goldenPath() << ": "
+                               << firstDifference(golden, baked)
+                               << ". If the change is intended, regenerate it (see the top of golden_test.cpp).";
+  // One thread gives the same bytes.
+  EXPECT_TRUE(bake(dir, " --threads 1") == golden) << "--threads 1 differs from the golden file";
+}
+
+TEST(GoldenBake, ThePinnedFileIsWhatItClaims) {
+  const auto file = CpvsFile::open(goldenPath());
+  EXPECT_EQ(file->majorVersion(), 1);
+  EXPECT_EQ(file->minorVersion(), 0);
+  // The BAKE block records what the bake depended on, and nothing about when or where it ran.
+  const std::string& settings = file->settingsJson();
+  for (const std::string s : {"\"tool\":\"cpvs-bake\"", "\"resolution\":64", "\"undefined\":\"kampe\"",
+                              "\"node_reuse\":true", "\"input_hash\":\""})
+    EXPECT_NE(settings.find(s), std::string::npos) << s << " in " << settings;
+  EXPECT_EQ(settings.find("tiny.gltf"), std::string::npos) << settings;
+  EXPECT_EQ(settings.find("threads"), std::string::npos) << settings;
+
+  ASSERT_EQ(file->lights().size(), 2u);
+  const auto& sun = file->lights()[0];
+  EXPECT_EQ(sun.light.name, "sun0");
+  EXPECT_EQ(sun.light.type, LightType::Directional);
+  ASSERT_EQ(sun.views.size(), 1u);
+  EXPECT_EQ(sun.views[0].view.projection, Projection::Orthographic);
+  EXPECT_EQ(sun.views[0].view.mapping, DepthMapping::Linear);
+  const auto& spot = file->lights()[1];
+  EXPECT_EQ(spot.light.name, "spot0");
+  EXPECT_EQ(spot.light.type, LightType::Spot);
+  EXPECT_EQ(spot.light.range, 20.0);
+  EXPECT_EQ(spot.light.outerConeAngle, 0.6);
+  ASSERT_EQ(spot.views.size(), 1u);
+  EXPECT_EQ(spot.views[0].view.projection, Projection::Perspective);
+  EXPECT_EQ(spot.views[0].view.mapping, DepthMapping::Logarithmic);
+  for (const auto& light : file->lights()) {
+    const auto& v = light.views[0];
+    EXPECT_EQ(v.view.resolution, 64u);
+    EXPECT_FALSE(v.view.empty);
+    EXPECT_EQ(v.dag.rootCode, ChildCode::Ref);  // real shadows: neither all lit nor all shadowed
+    ASSERT_EQ(v.nodesPerLevel.size(), 4u);
+    EXPECT_EQ(v.nodesPerLevel[0], 1u);
+    EXPECT_GT(v.dag.leaves.size(), 0u);
+  }
+  // Hand-checked voxels (Tiny: box A spans x -2..-1, y 0..1, z -0.5..0.5; box B x 1..2, y 0..2; the open ground
+  // quad lies at y = 0). Each point keeps at least half a texel laterally and several slices in depth from the
+  // nearest edge, so the answer does not depend on rounding.
+  auto shadowed = [](const CpvsFile::View& v, const glm::dvec3& p) {
+    const GridPoint g = toGrid(v.view, p);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(g.uvs[k], 0.0) << "point outside the view";
+      EXPECT_LT(g.uvs[k], double(v.view.resolution)) << "point outside the view";
+    }
+    const Voxel voxel = toVoxel(v.view, g.uvs);
+    return v.dag.shadowed(uint32_t(voxel.x), uint32_t(voxel.y), uint32_t(voxel.z));
+  };
+  // Sun (travelling along (0.3, -1, 0.2)): box B's shadow on the ground beyond its +x face, and open air.
+  EXPECT_TRUE(shadowed(sun.views[0], {2.3, 0.02, 0.0}));
+  EXPECT_FALSE(shadowed(sun.views[0], {3.5, 0.3, 3.5}));
+  // Spot at (0, 5, 0) looking down: box A's shadow beyond its -x face, and lit ground in front of the boxes.
+  EXPECT_TRUE(shadowed(spot.views[0], {-2.25, 0.05, 0.0}));
+  EXPECT_FALSE(shadowed(spot.views[0], {0.0, 0.3, 2.0}));
+
+  // And cpvs-info reads it.
+  const auto r = runTool(toolPath("cpvs-info") + " " + goldenPath());
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("header ok, section table ok, 8 of 8 sections ok"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace cpvs
