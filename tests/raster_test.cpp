@@ -417,7 +417,7 @@ TEST_P(ExitDepth, FreeVoxelsAreInsideClosedSolidsAndExitsAreExact) {
   const uint32_t n = 256;
   const ViewSetup& s = setup(c.scene, c.light, n);
   RenderStats stats;
-  const DepthRegion d = renderWhole(*r, s, {}, &stats);
+  const DepthRegion d = renderWhole(*r, s, PeelSettings{16}, &stats);
   const Reference ref = reference(s);
   const ExitCheck k = checkExit(s, d, ref);
   const double exact = k.exitCompared ? 100.0 * double(k.exitWithinOne) / double(k.exitCompared) : 100.0;
@@ -490,7 +490,7 @@ TEST(ExitRules, PeelCapIsConservative) {
   for (SceneId scene : {SceneId::Nested, SceneId::TorusKnot}) {
     const ViewSetup& s = setup(scene, LightId::Spot, 256);
     RenderStats full, capped;
-    const DepthRegion a = renderWhole(*r, s, {}, &full);
+    const DepthRegion a = renderWhole(*r, s, PeelSettings{16}, &full);
     const DepthRegion b = renderWhole(*r, s, PeelSettings{1}, &capped);
     EXPECT_EQ(capped.peelIterations, 1u);
     // Nested solids need several peels, so one peel caps many texels; the torus knot's first span ends at its

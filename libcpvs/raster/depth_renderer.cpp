@@ -17,6 +17,8 @@
 #include <cstddef>
 #include <limits>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -150,6 +152,13 @@ void main() {
 }
 )";
 
+// Lockstep peeling (seed 004 §3.3): every iteration consumes the next front layer and the next back layer.
+// With fronts F1 < F2 < ... (F1 = the enter surface; coincident fronts count once, which can only make the
+// exit earlier) and backs B1 <= B2 <= ... (coincident backs counted by multiplicity), the ray leaves the union
+// of closed solids at the first Bj with Bj <= F(j+1): up to that back only j fronts were crossed. The state
+// keeps nf = nb + 1, so the front peeled in iteration j is F(j+1) and the back is Bj. A back layer of
+// multiplicity > 1 that is not an exit at its first entry is taken as the exit (its later entries would need
+// fronts not yet peeled): earlier than the truth at worst, so never wrong.
 const char* kUpdateFS = R"(
 uniform sampler2D cursors;
 uniform sampler2D counts;
@@ -167,20 +176,26 @@ void main() {
     float f = texelFetch(frontDepth, p, 0).r;
     float b = texelFetch(backDepth, p, 0).r;
     bool hasF = f < 1.0, hasB = b < 1.0;
-    if (!hasF && !hasB) {
-      n = kStuck;
-    } else if (hasB && (!hasF || b <= f)) {   // ties: back first (an earlier exit is the safe side)
-      c.y = b;
-      n -= max(texelFetch(backCount, p, 0).r, 1.0);   // coincident back faces all leave at once
-      if (n <= 0.0) n = 0.0;
+    if (!hasB) {
+      n = kStuck;   // inside, but no closed back face left (beyond far, or a crack): exit at the last event
+    } else if (!hasF || b <= f || texelFetch(backCount, p, 0).r > 1.5) {
+      c.y = b;      // exit (ties: back first, an earlier exit is the safe side)
+      n = 0.0;
     } else {
-      c.x = f;
-      n += 1.0;   // coincident front faces count once: the exit can only come earlier
+      c = vec2(f, b);   // still inside after b: the exit lies beyond it
+      if (lastIteration != 0) n = kCapped;
     }
-    if (n > 0.0 && lastIteration != 0) n = kCapped;
   }
   cursor = c;
   count = n;
+}
+)";
+
+// Counts the texels still peeling (GL_SAMPLES_PASSED): peeling stops as soon as none is left.
+const char* kActiveFS = R"(
+uniform sampler2D counts;
+void main() {
+  if (texelFetch(counts, ivec2(gl_FragCoord.xy), 0).r <= 0.0) discard;
 }
 )";
 
@@ -385,6 +400,7 @@ public:
     initProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kInitFS, "init");
     updateProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kUpdateFS, "update");
     resolveProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kResolveFS, "resolve");
+    activeProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kActiveFS, "active");
 
     g.GenVertexArrays(1, &geometryVao_);
     g.GenVertexArrays(1, &emptyVao_);
@@ -398,7 +414,7 @@ public:
     g.VertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, range)));
     for (GLuint a = 0; a < 4; ++a) g.EnableVertexAttribArray(a);
     g.BindVertexArray(0);
-    g.GenQueries(2, queries_);
+    g.GenQueries(3, queries_);
     checkError("creating the depth renderer");
   }
 
@@ -407,9 +423,9 @@ public:
       gl::CurrentContext current(*context_);
       const gl::Functions& g = context_->gl();
       freeTargets();
-      for (GLuint p : {enterProgram_, peelProgram_, initProgram_, updateProgram_, resolveProgram_})
+      for (GLuint p : {enterProgram_, peelProgram_, initProgram_, updateProgram_, resolveProgram_, activeProgram_})
         if (p) g.DeleteProgram(p);
-      g.DeleteQueries(2, queries_);
+      g.DeleteQueries(3, queries_);
       g.DeleteBuffers(1, &vertexBuffer_);
       g.DeleteVertexArrays(1, &geometryVao_);
       g.DeleteVertexArrays(1, &emptyVao_);
@@ -586,9 +602,10 @@ private:
   uint32_t maxRegion_ = 0;
   uint32_t viewportSize_ = 0;
   int64_t viewportMin_ = 0;  // lowest viewport origin GL accepts
-  GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0;
+  GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0,
+         activeProgram_ = 0;
   GLuint geometryVao_ = 0, emptyVao_ = 0, vertexBuffer_ = 0;
-  GLuint queries_[2] = {0, 0};
+  GLuint queries_[3] = {0, 0, 0};
   Targets targets_;
 };
 
@@ -756,8 +773,8 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
         g.DepthMask(GL_TRUE);
         g.DepthFunc(GL_LESS);
       }
-      // Consume one event per active texel.
-      const bool last = iteration + 1 == peel.maxPeels || (!anyFront && !anyBack);
+      // Consume the front and the back layer per active texel.
+      const bool last = iteration + 1 == peel.maxPeels || !anyBack;
       g.Disable(GL_DEPTH_TEST);
       g.Disable(GL_CULL_FACE);
       g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[1 - cur]);
@@ -767,11 +784,20 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       bindTexture(updateProgram_, "frontDepth", 2, t.frontDepth);
       bindTexture(updateProgram_, "backDepth", 3, t.backDepth);
       bindTexture(updateProgram_, "backCount", 4, t.backCount);
-      // When nothing was peeled no texel can progress: this update only retires the stuck ones.
       g.Uniform1i(uniform(updateProgram_, "lastIteration"), iteration + 1 == peel.maxPeels ? 1 : 0);
       fullscreen(updateProgram_);
       cur = 1 - cur;
       if (last) break;
+      // Any texel left? (Saves the iteration that would only find nothing to peel.)
+      g.BindFramebuffer(GL_FRAMEBUFFER, t.frontFbo);
+      g.UseProgram(activeProgram_);
+      bindTexture(activeProgram_, "counts", 0, t.counts[cur]);
+      g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[2]);
+      fullscreen(activeProgram_);
+      g.EndQuery(GL_ANY_SAMPLES_PASSED);
+      GLuint anyActive = 0;
+      g.GetQueryObjectuiv(queries_[2], GL_QUERY_RESULT, &anyActive);
+      if (!anyActive) break;
     }
   }
 
