@@ -161,7 +161,8 @@ class Bench:
         except (OSError, ValueError):
             return None
         meta = cached.get("meta", {})
-        if meta.get("scene_sha") != self.scenes[scene_key][1] or meta.get("sun") != self.args.sun:
+        if (meta.get("scene_sha") != self.scenes[scene_key][1] or meta.get("sun") != self.args.sun or
+                meta.get("threads") != self.args.threads):
             return None
         if meta.get("bake_sha") != self.bake_sha and not self.args.keep_stale:
             return None
@@ -199,6 +200,7 @@ class Bench:
         if os.path.exists(output):
             os.remove(output)
         meta = {"scene_sha": self.scenes[scene_key][1], "bake_sha": self.bake_sha, "sun": self.args.sun,
+                "threads": self.args.threads,
                 "started": started, "wall_s": wall, "loadavg_before": load_before[0], "loadavg_after": load_after[0],
                 "command": self.rel_cmd(cmd)}
         result = {"meta": meta, "report": report}
@@ -256,7 +258,7 @@ class Bench:
         if loads:
             w(f"* Bakes run one at a time with `--threads {A.threads}` between {starts[0]} and {starts[-1]}; "
               f"1-minute load average before each bake {min(loads):.2f}–{max(loads):.2f} (the machine is shared: "
-              "a load above the bake's own 2 threads means other work competed for the 2 cores).")
+              "a load above about 2 — the rasteriser's threads — means other work competed for the 2 cores).")
         w("* Command:")
         w("")
         w("```")
@@ -285,22 +287,24 @@ class Bench:
         w("Total bake time and the DAG phase (insertion and merging of nodes: the builder's recursion, hash-consing "
           "and the min-max hierarchy) with `--no-node-reuse` and with reuse (the default), `--undefined kampe`. "
           "*Speed-up* is DAG without reuse / DAG with reuse. *Built* counts interned nodes (duplicates included); "
-          "with reuse, volumes equal to their Z-neighbour are taken without being built.")
+          "with reuse, volumes equal to their Z-neighbour are taken without being built. *Built ratio* (no reuse / "
+          "reuse) is the same comparison in work done, which does not depend on what else the machine was doing.")
         w("")
-        w("| Scene | N | total, no reuse | DAG, no reuse | total, reuse | DAG, reuse | DAG speed-up | nodes built (no reuse → reuse) |")
-        w("|---|---|---:|---:|---:|---:|---:|---|")
+        w("| Scene | N | total, no reuse | DAG, no reuse | total, reuse | DAG, reuse | DAG speed-up | nodes built (no reuse → reuse) | built ratio |")
+        w("|---|---|---:|---:|---:|---:|---:|---|---:|")
         for key, _, label in SCENES:
             for res in self.resolutions:
                 a, b = self.view((key, res, "kampe", False)), self.view((key, res, "kampe", True))
                 ta = self.results.get((key, res, "kampe", False))
                 tb = self.results.get((key, res, "kampe", True))
                 if not a or not b:
-                    w(f"| {label} | {res} | — | — | — | — | — | not measured |")
+                    w(f"| {label} | {res} | — | — | — | — | — | not measured | — |")
                     continue
                 speed = a["phases_ms"]["dag"] / max(b["phases_ms"]["dag"], 1e-9)
+                built = a.get("nodes_built", 0) / max(b.get("nodes_built", 0), 1)
                 w(f"| {label} | {res} | {fmt_ms(ta['report']['total_ms'])} | {fmt_ms(a['phases_ms']['dag'])} | "
                   f"{fmt_ms(tb['report']['total_ms'])} | {fmt_ms(b['phases_ms']['dag'])} | **{speed:.2f}×** | "
-                  f"{a.get('nodes_built', 0):,} → {b.get('nodes_built', 0):,} |")
+                  f"{a.get('nodes_built', 0):,} → {b.get('nodes_built', 0):,} | {built:.2f}× |")
                 if key == "closed" and res in TARGET_DAG_SPEEDUP:
                     targets.append((f"closed city {res}: DAG phase with reuse ≥ {TARGET_DAG_SPEEDUP[res]:.0f}× faster "
                                     "than without", f"{speed:.2f}×", speed >= TARGET_DAG_SPEEDUP[res]))
@@ -335,8 +339,9 @@ class Bench:
         w("")
         w("Milliseconds per phase as the bake report gives them: *depth* = enter-depth rendering, *peel* = exit-depth "
           "peeling of closed solids, *masks* = 8×8 tile visibility masks, *dag* = DAG construction, *write* = "
-          "serialising the file. With `--threads 2` masks and DAG of one region overlap the rendering of the next, "
-          "so the phases can add up to more than the total.")
+          "serialising the file. " + ("With `--threads 1` the phases run one after the other and add up to "
+          "about the total." if A.threads == 1 else f"With `--threads {A.threads}` masks and DAG of one region "
+          "overlap the rendering of the next, so the phases can add up to more than the total."))
         w("")
         w("| Scene | N | regions | depth | peel | masks | dag | write | total | peel iterations (max) |")
         w("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
@@ -440,7 +445,10 @@ def main():
     p.add_argument("--triangles", type=int, default=100000, help="cpvs-scenegen --triangles for both cities")
     p.add_argument("--seed", type=int, default=1, help="cpvs-scenegen --seed")
     p.add_argument("--sun", default="0.4,-1,0.3", help="sun direction X,Y,Z (the way the light travels)")
-    p.add_argument("--threads", type=int, default=2, help="cpvs-bake --threads")
+    p.add_argument("--threads", type=int, default=1,
+                   help="cpvs-bake --threads (default 1: masks and DAG then run after each region's rendering "
+                        "instead of beside it, so the DAG phase is timed without competing with the "
+                        "rasteriser's own threads; llvmpipe still renders on every core)")
     p.add_argument("--force", action="store_true", help="bake again even when a cached report exists")
     p.add_argument("--keep-stale", action="store_true", help="use cached reports of a different cpvs-bake binary")
     p.add_argument("--report-only", action="store_true", help="do not bake; write the markdown from cached reports")
