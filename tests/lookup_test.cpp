@@ -3,6 +3,7 @@
 // voxel convention (a surface point lands in its enter voxel).
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <random>
 
@@ -117,6 +118,50 @@ TEST(Pcf, OneTraversalEqualsKSquaredLookups) {
   }
 }
 
+TEST(TopGrid, StartingFromTheGridGivesTheSameAnswers) {
+  for (uint32_t n : {16u, 64u, 128u}) {
+    const ShadowDag dag = dagFrom(randomDepth(n, n + 7));
+    const DagView view = dag.view();
+    for (uint32_t level = 1; level <= 5; ++level) {
+      const TopGrid grid = TopGrid::build(view, level);
+      ASSERT_EQ(grid.level, std::min<uint32_t>(level, uint32_t(std::countr_zero(n)) - 3));
+      ASSERT_EQ(grid.cells.size(), size_t(1) << (3 * grid.level));
+      for (uint32_t z = 0; z < n; z += 3)
+        for (uint32_t y = 0; y < n; ++y)
+          for (uint32_t x = 0; x < n; ++x)
+            ASSERT_EQ(shadowedVoxel(view, grid, x, y, z), view.shadowed(x, y, z))
+                << "N=" << n << " level " << level << " at " << x << "," << y << "," << z;
+      std::mt19937 rng(level);
+      std::uniform_int_distribution<int32_t> coord(-6, int32_t(n) + 5);
+      std::uniform_int_distribution<uint32_t> slice(0, n - 1);
+      for (int k : {3, 9, 17, 33}) {
+        for (int i = 0; i < 500; ++i) {
+          const int32_t x = coord(rng), y = coord(rng);
+          const uint32_t z = slice(rng);
+          ASSERT_EQ(shadowedTexels(view, grid, x, y, z, k), referenceShadowed(view, x, y, z, k))
+              << "N=" << n << " level " << level << " K=" << k;
+        }
+      }
+    }
+  }
+  // The automatic level keeps the grid within an eighth of the DAG's bytes, at most 5 levels.
+  for (uint32_t n : {64u, 256u}) {
+    const ShadowDag dag = dagFrom(randomDepth(n, 3));
+    const uint32_t level = TopGrid::automaticLevel(dag.view());
+    EXPECT_LE(level, kMaxAutomaticTopGridLevels);
+    if (level > 0) {
+      EXPECT_LE((uint64_t(4) << (3 * level)) * 8, dag.bytes());
+    }
+  }
+  // Homogeneous roots fill the grid with their code.
+  ShadowDag shadowed;
+  shadowed.resolution = 64;
+  shadowed.rootCode = ChildCode::Shadowed;
+  const TopGrid grid = TopGrid::build(shadowed.view(), 2);
+  EXPECT_TRUE(shadowedVoxel(shadowed.view(), grid, 5, 6, 7));
+  EXPECT_EQ(shadowedTexels(shadowed.view(), grid, 5, 5, 3, 9), 81u);
+}
+
 TEST(Pcf, HomogeneousRootsAndWholeGridKernels) {
   ShadowDag lit, shadowed;
   lit.resolution = shadowed.resolution = 32;
@@ -143,11 +188,39 @@ TEST(Lookup, VisibilityMatchesReferenceOnRandomPointsAndNormals) {
       const float v = visibility(view, dag.view(), light, p, normal, k);
       const LookupCell cell = lookupCell(view, p, normal, {k, NormalOrientation::AsGiven});
       float expected = 1.0f;
+      if (cell.kind == LookupCell::Kind::BackFacing) expected = 0.0f;
       if (cell.kind == LookupCell::Kind::Voxel)
         expected = float(1.0 - double(referenceShadowed(dag.view(), cell.x, cell.y, uint32_t(cell.z), k)) / (k * k));
       ASSERT_EQ(v, expected) << "K=" << k << " point " << p.x << "," << p.y << "," << p.z;
       ASSERT_GE(v, 0.0f);
       ASSERT_LE(v, 1.0f);
+    }
+  }
+}
+
+TEST(Lookup, BatchEqualsSinglePointLookups) {
+  const uint32_t n = 64;
+  const ShadowDag dag = dagFrom(randomDepth(n, 11));
+  const LightView view = identityView(n);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> pos(-4.0, n + 4.0), dir(-1.0, 1.0);
+  std::vector<SurfacePoint> points;
+  for (int i = 0; i < 5000; ++i) {
+    SurfacePoint p{{pos(rng), pos(rng), -pos(rng)}, glm::dvec3(dir(rng), dir(rng), dir(rng))};
+    if (i % 7 == 0) p.normal = glm::dvec3(0.0);
+    if (i % 101 == 0) p.position.x = std::nan("");
+    points.push_back(p);
+  }
+  for (uint32_t gridLevels : {0u, 2u}) {
+    const LightShadow shadow(sun(), {view}, {dag.view()}, gridLevels);
+    for (int k : {1, 3, 9, 17, 33}) {
+      for (NormalOrientation o : {NormalOrientation::AsGiven, NormalOrientation::TowardLight}) {
+        std::vector<float> batch(points.size());
+        shadow.visibility(points, {k, o}, batch);
+        for (size_t i = 0; i < points.size(); ++i)
+          ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k, o}))
+              << "K=" << k << " grid " << gridLevels << " point " << i;
+      }
     }
   }
 }
@@ -274,11 +347,13 @@ TEST(Bias, TiltedLitPlaneHasNoAcneWithNormalBias) {
   }
 }
 
-TEST(Bias, BiasIsHalfAFilterWidthPlusOneVoxel) {
-  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 1), 1.0);
-  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 9), 1.0);
-  EXPECT_DOUBLE_EQ(biasDistance({1, 0, 0}, 9), 5.5);
-  EXPECT_NEAR(biasDistance(glm::normalize(glm::dvec3(1, 1, 0)), 9), 1 + 4.5 * std::sqrt(2.0), 1e-12);
+TEST(Bias, BiasIsHalfAFilterWidthPlusAMargin) {
+  const double m = kDefaultBiasMargin;
+  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 1), m);
+  EXPECT_DOUBLE_EQ(biasDistance({0, 0, -1}, 9), m);
+  EXPECT_DOUBLE_EQ(biasDistance({1, 0, 0}, 9), 4.5 + m);
+  EXPECT_NEAR(biasDistance(glm::normalize(glm::dvec3(1, 1, 0)), 9), m + 4.5 * std::sqrt(2.0), 1e-12);
+  EXPECT_DOUBLE_EQ(biasDistance({0.6, 0, -0.8}, 3, 1.0), 1.9);
 }
 
 TEST(Bias, CasterAboveAPlaneShadowsItAndItsSurroundIsLit) {

@@ -25,12 +25,12 @@
 
 #include <glm/glm.hpp>
 
+#include "libcpvs/lookup/shadow_lookup.h"
+
 namespace cpvs {
 
-struct QueryPoint {
-  glm::dvec3 position{0.0};
-  glm::dvec3 normal{0.0};
-};
+// Position and normal (zero when the file has none), as the lookups take them.
+using QueryPoint = SurfacePoint;
 
 enum class PointFormat { Csv, Ply, Exr };
 // Decides the format from the file's first bytes ("ply\n", the EXR magic 76 2f 31 01), else CSV.

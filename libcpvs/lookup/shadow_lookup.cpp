@@ -12,6 +12,23 @@ namespace {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
+// Population counts without the POPCNT instruction (the build targets baseline x86-64, where
+// __builtin_popcount is a libgcc call): the DAG walk needs one per level.
+inline uint32_t popcount32(uint32_t v) {
+  v = v - ((v >> 1) & 0x55555555u);
+  v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
+  return (((v + (v >> 4)) & 0x0F0F0F0Fu) * 0x01010101u) >> 24;
+}
+inline uint32_t popcount64(uint64_t v) {
+  v = v - ((v >> 1) & 0x5555555555555555ull);
+  v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
+  return uint32_t((((v + (v >> 4)) & 0x0F0F0F0F0F0F0F0Full) * 0x0101010101010101ull) >> 56);
+}
+// Index among a node's reference words of child c (shadow_dag.h refSlot, with the inline count).
+inline unsigned slotOf(uint32_t header, unsigned child) {
+  return popcount32(header & 0xAAAAu & ((1u << (2 * child)) - 1u));
+}
+
 // The kernel's footprint, inclusive texel bounds already clipped to [0, N).
 struct Footprint {
   uint32_t x0, x1, y0, y1;
@@ -34,7 +51,11 @@ inline uint64_t tileMask(const Footprint& f, uint32_t ox, uint32_t oy) {
   return row * column;
 }
 
-// Shadowed texels of the footprint inside a Ref node of edge `size` at (ox, oy), slice z.
+// Shadowed texels of the footprint inside a node of edge `size` at (ox, oy) with child code `code`
+// (for a reference: the node at word `offset`), slice z.
+uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy,
+                   uint32_t z, const Footprint& f);
+
 uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy, uint32_t z,
                    const Footprint& f) {
   const uint32_t header = dag.nodes[offset];
@@ -44,8 +65,8 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
     if (code == uint32_t(ChildCode::Lit)) return 0;
     if (code == uint32_t(ChildCode::Shadowed))
       return overlap(ox, ox + 7, f.x0, f.x1) * overlap(oy, oy + 7, f.y0, f.y1);
-    const uint64_t mask = dag.leaves[dag.nodes[offset + 1 + refSlot(header, c)]];
-    return uint32_t(std::popcount(mask & tileMask(f, ox, oy)));
+    const uint64_t mask = dag.leaves[dag.nodes[offset + 1 + slotOf(header, c)]];
+    return popcount64(mask & tileMask(f, ox, oy));
   }
   const uint32_t half = size >> 1;
   const unsigned zbit = (z & half) ? 4u : 0u;
@@ -64,11 +85,39 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
       if (code == uint32_t(ChildCode::Shadowed)) {
         count += oxCount * oyCount;
       } else {
-        count += countNode(dag, dag.nodes[offset + 1 + refSlot(header, c)], half, cx, cy, z, f);
+        count += countNode(dag, dag.nodes[offset + 1 + slotOf(header, c)], half, cx, cy, z, f);
       }
     }
   }
   return count;
+}
+
+uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy,
+                   uint32_t z, const Footprint& f) {
+  if (code == uint32_t(ChildCode::Lit)) return 0;
+  if (code == uint32_t(ChildCode::Shadowed))
+    return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
+  return countNode(dag, offset, size, ox, oy, z, f);
+}
+
+// Walks from a node of edge `size` with child code `code` (offset: its words) down to voxel (x, y, z).
+inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t x, uint32_t y,
+                 uint32_t z) {
+  const uint32_t* nodes = dag.nodes.data();
+  for (uint32_t half = size >> 1; half >= 8; half >>= 1) {
+    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
+    const uint32_t header = nodes[offset];
+    code = childCodeOf(header, c);
+    if (code == uint32_t(ChildCode::Ref)) offset = nodes[offset + 1 + slotOf(header, c)];
+  }
+  if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+  const unsigned c = z & 7u;
+  const uint32_t header = nodes[offset];
+  code = childCodeOf(header, c);
+  if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+  const uint64_t mask = dag.leaves[nodes[offset + 1 + slotOf(header, c)]];
+  return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
 }
 
 }  // namespace
@@ -100,17 +149,58 @@ glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world) {
   return glm::transpose(gridFromViewT) * rotation;
 }
 
-glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal) {
-  if (normal == glm::dvec3(0.0)) return glm::dvec3(0.0);
-  return glm::inverse(glm::transpose(gridJacobian(view, world))) * normal;
+ViewConstants::ViewConstants(const LightView& view)
+    : rotation(view.viewFromWorld),
+      orthographic(view.projection == Projection::Orthographic),
+      linear(view.mapping == DepthMapping::Linear) {
+  const double n = view.resolution;
+  su = (view.xMax - view.xMin) / n;
+  sv = (view.yMax - view.yMin) / n;
+  invDs = linear ? (view.far - view.near) / n : std::log(view.far / view.near) / n;
 }
 
-double biasDistance(const glm::dvec3& m, int pcfKernel) {
-  return 0.5 * double(pcfKernel) * (std::abs(m.x) + std::abs(m.y)) + 1.0;
+namespace {
+
+// J^-T n in closed form, up to a positive factor. J = G R with R the view's rotation (orthonormal, so
+// R^-T = R) and G = d(u, v, s) / d(view) (gridJacobian), hence J^-T n = G^-T (R n): solve G^T m = R n, G
+// being upper triangular up to the sign of its last row. Orthographic: G = diag(1/su, 1/sv, -1/ds);
+// perspective: rows (1/(su d), 0, x/(su d^2)), (0, 1/(sv d), y/(sv d^2)), (0, 0, -1/ds).
+// `lateral` = (a, b) = view-space (x / d, y / d) for perspective views (unused for orthographic ones), d the
+// view-space depth.
+inline glm::dvec3 gridNormalAt(const ViewConstants& c, double d, double a, double b, const glm::dvec3& normal) {
+  const glm::dvec3 nv = c.rotation * normal;
+  const double invDs = c.linear ? c.invDs : c.invDs * d;  // 1 / (ds/dd)
+  if (c.orthographic) return {nv.x * c.su, nv.y * c.sv, -nv.z * invDs};
+  return {nv.x * d * c.su, nv.y * d * c.sv, (nv.x * a + nv.y * b - nv.z) * invDs};
+}
+
+// toVoxel for a q already known to have u, v in [0, N): floor and clamp, the same integers (for values >= 0
+// truncation is floor; the depth clamps to [0, N - 1], NaN to 0 as in toVoxel).
+inline Voxel voxelOf(const glm::dvec3& q, double maxIndex) {
+  const double z = q.z >= 0 ? (q.z < maxIndex ? q.z : maxIndex) : 0.0;
+  return {int32_t(q.x), int32_t(q.y), int32_t(z)};
+}
+
+}  // namespace
+
+glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal) {
+  if (normal == glm::dvec3(0.0)) return glm::dvec3(0.0);
+  const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
+  const double d = -v.z;
+  return gridNormalAt(ViewConstants(view), d, v.x / d, v.y / d, normal);
+}
+
+double biasDistance(const glm::dvec3& m, int pcfKernel, double margin) {
+  return 0.5 * double(pcfKernel) * (std::abs(m.x) + std::abs(m.y)) + margin;
 }
 
 LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm::dvec3& normal,
                       const LookupOptions& options) {
+  return lookupCell(view, ViewConstants(view), point, normal, options);
+}
+
+LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
+                      const glm::dvec3& normal, const LookupOptions& options) {
   LookupCell cell;
   if (!finite(point) || !finite(normal)) {
     cell.kind = LookupCell::Kind::Invalid;
@@ -120,17 +210,28 @@ LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm:
   const GridPoint g = toGrid(view, point);
   if (!g.inFront) return cell;
   glm::dvec3 q = g.uvs;
-  const glm::dvec3 m = gridNormal(view, point, normal);
-  const double length = glm::length(m);
-  if (length > 0 && std::isfinite(length)) {
-    glm::dvec3 unit = m / length;
-    if (options.orientation == NormalOrientation::TowardLight && unit.z > 0) unit = -unit;
-    q += biasDistance(unit, options.pcfKernel) * unit;
+  if (normal.x != 0 || normal.y != 0 || normal.z != 0) {
+    // (a, b) from the grid position: a = xMin + u (xMax - xMin) / N.
+    const double a = view.xMin + g.uvs.x * constants.su, b = view.yMin + g.uvs.y * constants.sv;
+    glm::dvec3 m = gridNormalAt(constants, g.depth, a, b, normal);
+    if (m.z > 0) {  // the surface faces away from the light
+      if (options.orientation == NormalOrientation::AsGiven) {
+        cell.kind = LookupCell::Kind::BackFacing;
+        cell.uvs = q;
+        return cell;
+      }
+      m = -m;
+    }
+    const double length = std::sqrt(m.x * m.x + m.y * m.y + m.z * m.z);
+    if (length > 0 && std::isfinite(length)) {
+      const glm::dvec3 unit = m * (1.0 / length);
+      q += biasDistance(unit, options.pcfKernel, options.biasMargin) * unit;
+    }
   }
   cell.uvs = q;
   const double n = view.resolution;
   if (!(q.x >= 0 && q.x < n && q.y >= 0 && q.y < n)) return cell;  // also catches NaN
-  const Voxel voxel = toVoxel(view, q);
+  const Voxel voxel = voxelOf(q, n - 1.0);
   cell.kind = LookupCell::Kind::Voxel;
   cell.x = voxel.x;
   cell.y = voxel.y;
@@ -138,12 +239,12 @@ LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm:
   return cell;
 }
 
-uint32_t shadowedTexels(const DagView& dag, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
+uint32_t shadowedTexels(const DagView& dag, const TopGrid& grid, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
   const int32_t n = int32_t(dag.resolution);
   const int32_t h = pcfKernel / 2;
   if (pcfKernel <= 1) {
     if (x < 0 || y < 0 || x >= n || y >= n) return 0;
-    return dag.shadowed(uint32_t(x), uint32_t(y), z) ? 1 : 0;
+    return shadowedVoxel(dag, grid, uint32_t(x), uint32_t(y), z) ? 1 : 0;
   }
   const int64_t x0 = std::max<int64_t>(0, int64_t(x) - h), x1 = std::min<int64_t>(n - 1, int64_t(x) + h);
   const int64_t y0 = std::max<int64_t>(0, int64_t(y) - h), y1 = std::min<int64_t>(n - 1, int64_t(y) + h);
@@ -151,7 +252,76 @@ uint32_t shadowedTexels(const DagView& dag, int32_t x, int32_t y, uint32_t z, in
   const Footprint f{uint32_t(x0), uint32_t(x1), uint32_t(y0), uint32_t(y1)};
   if (dag.rootCode == ChildCode::Lit) return 0;
   if (dag.rootCode == ChildCode::Shadowed) return (f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1);
-  return countNode(dag, 0, dag.resolution, 0, 0, z, f);
+  if (grid.empty()) return countNode(dag, 0, dag.resolution, 0, 0, z, f);
+  // Start in the grid cells the footprint overlaps (at most 4 for a kernel no wider than a cell).
+  const uint32_t size = 1u << grid.shift, level = grid.level;
+  const uint32_t gz = z >> grid.shift;
+  uint32_t count = 0;
+  for (uint32_t gy = f.y0 >> grid.shift; gy <= (f.y1 >> grid.shift); ++gy)
+    for (uint32_t gx = f.x0 >> grid.shift; gx <= (f.x1 >> grid.shift); ++gx) {
+      const uint32_t cell = grid.cells[(size_t(gz) << (2 * level)) | (size_t(gy) << level) | gx];
+      count += countCode(dag, cell & 3u, cell >> 2, size, gx << grid.shift, gy << grid.shift, z, f);
+    }
+  return count;
+}
+
+uint32_t shadowedTexels(const DagView& dag, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
+  static const TopGrid none;
+  return shadowedTexels(dag, none, x, y, z, pcfKernel);
+}
+
+bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t y, uint32_t z) {
+  if (grid.empty()) return walk(dag, uint32_t(dag.rootCode), 0, dag.resolution, x, y, z);
+  const uint32_t s = grid.shift, level = grid.level;
+  const uint32_t cell =
+      grid.cells[(size_t(z >> s) << (2 * level)) | (size_t(y >> s) << level) | size_t(x >> s)];
+  return walk(dag, cell & 3u, cell >> 2, 1u << s, x, y, z);
+}
+
+TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
+  TopGrid grid;
+  if (dag.resolution < 16) return grid;
+  const uint32_t log2n = uint32_t(std::countr_zero(dag.resolution));
+  level = std::min(level, log2n - 3);  // cells of at least 8 voxels: a leaf-parent node
+  if (level == 0) return grid;
+  grid.level = level;
+  grid.shift = log2n - level;
+  const uint32_t side = 1u << level;
+  grid.cells.assign(size_t(side) * side * side, uint32_t(dag.rootCode));
+  if (dag.rootCode != ChildCode::Ref) return grid;
+  // Fill level by level: the entries of level l + 1 from the nodes of level l.
+  std::vector<uint32_t> current{uint32_t(ChildCode::Ref)}, next;
+  for (uint32_t l = 0; l < level; ++l) {
+    const uint32_t width = 1u << l, nextWidth = width << 1;
+    next.assign(size_t(nextWidth) * nextWidth * nextWidth, 0);
+    for (uint32_t cz = 0; cz < width; ++cz)
+      for (uint32_t cy = 0; cy < width; ++cy)
+        for (uint32_t cx = 0; cx < width; ++cx) {
+          const uint32_t entry = current[(size_t(cz) * width + cy) * width + cx];
+          const uint32_t code = entry & 3u, offset = entry >> 2;
+          const uint32_t header = code == uint32_t(ChildCode::Ref) ? dag.nodes[offset] : 0;
+          for (unsigned c = 0; c < 8; ++c) {
+            const uint32_t x = 2 * cx + (c & 1u), y = 2 * cy + ((c >> 1) & 1u), z = 2 * cz + ((c >> 2) & 1u);
+            uint32_t child = code;  // homogeneous: every child has the parent's code
+            if (code == uint32_t(ChildCode::Ref)) {
+              child = childCodeOf(header, c);
+              if (child == uint32_t(ChildCode::Ref)) child |= dag.nodes[offset + 1 + slotOf(header, c)] << 2;
+            }
+            next[(size_t(z) * nextWidth + y) * nextWidth + x] = child;
+          }
+        }
+    current.swap(next);
+  }
+  // Root offset 0 is encoded as (0 << 2) | Ref; offsets fit in 30 bits for any DAG a .cpvs can hold here.
+  grid.cells = std::move(current);
+  return grid;
+}
+
+uint32_t TopGrid::automaticLevel(const DagView& dag) {
+  const uint64_t dagBytes = uint64_t(dag.nodes.size()) * 4 + uint64_t(dag.leaves.size()) * 8;
+  uint32_t level = kMaxAutomaticTopGridLevels;
+  while (level > 0 && (uint64_t(4) << (3 * level)) * 8 > dagBytes) --level;
+  return level;
 }
 
 bool withinInfluence(const Light& light, const glm::dvec3& point) {
@@ -169,13 +339,13 @@ bool withinInfluence(const Light& light, const glm::dvec3& point) {
 
 namespace {
 
-float cellVisibility(const LightView& view, const DagView& dag, const glm::dvec3& point, const glm::dvec3& normal,
-                     const LookupOptions& options) {
-  const LookupCell cell = lookupCell(view, point, normal, options);
-  if (cell.kind == LookupCell::Kind::Invalid) return 0.0f;
+float cellVisibility(const LightView& view, const ViewConstants& constants, const DagView& dag, const TopGrid& grid,
+                     const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) {
+  const LookupCell cell = lookupCell(view, constants, point, normal, options);
+  if (cell.kind == LookupCell::Kind::Invalid || cell.kind == LookupCell::Kind::BackFacing) return 0.0f;
   if (cell.kind == LookupCell::Kind::Lit) return 1.0f;
   const int k = options.pcfKernel;
-  const uint32_t shadowed = shadowedTexels(dag, cell.x, cell.y, uint32_t(cell.z), k);
+  const uint32_t shadowed = shadowedTexels(dag, grid, cell.x, cell.y, uint32_t(cell.z), k);
   if (k <= 1) return shadowed ? 0.0f : 1.0f;
   return float(1.0 - double(shadowed) / (double(k) * double(k)));
 }
@@ -186,15 +356,38 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
                  const glm::dvec3& normal, int pcfKernel, NormalOrientation orientation) {
   if (!finite(point) || !finite(normal)) return 0.0f;
   if (!withinInfluence(light, point)) return 0.0f;
-  return cellVisibility(view, dag, point, normal, {pcfKernel, orientation});
+  static const TopGrid none;
+  return cellVisibility(view, ViewConstants(view), dag, none, point, normal, {pcfKernel, orientation});
 }
 
-LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags)
+LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
+                         int topGridLevels)
     : light_(light), views_(std::move(views)), dags_(std::move(dags)) {
   if (views_.size() != dags_.size()) throw Error(ExitCode::InputInvalid, "light '" + light.name + "': views and DAGs differ in number");
+  for (const DagView& dag : dags_)
+    grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
+  for (const LightView& view : views_) constants_.emplace_back(view);
+  if (light_.type == LightType::Spot) cosOuter_ = std::cos(std::min(light_.outerConeAngle, 3.14159265358979323846 / 2));
+}
+
+size_t LightShadow::topGridBytes() const {
+  size_t bytes = 0;
+  for (const TopGrid& g : grids_) bytes += g.cells.size() * sizeof(uint32_t);
+  return bytes;
 }
 
 int LightShadow::viewIndex(const glm::dvec3& point) const {
+  if (views_.empty()) return -1;
+  switch (light_.type) {
+    case LightType::Directional: return 0;
+    case LightType::Spot: {  // selectView's rule with the cone's cosine computed once
+      const glm::dvec3 toPoint = point - light_.position;
+      const double distance = glm::length(toPoint);
+      if (!(distance <= light_.range) || distance == 0) return -1;
+      return glm::dot(toPoint, light_.direction) / distance < cosOuter_ ? -1 : 0;
+    }
+    case LightType::Point: break;
+  }
   const auto index = selectView(light_, views_, point);
   return index ? int(*index) : -1;
 }
@@ -203,7 +396,266 @@ float LightShadow::visibility(const glm::dvec3& point, const glm::dvec3& normal,
   if (!finite(point) || !finite(normal)) return 0.0f;
   const int index = viewIndex(point);
   if (index < 0) return 0.0f;
-  return cellVisibility(views_[size_t(index)], dags_[size_t(index)], point, normal, options);
+  const size_t i = size_t(index);
+  return cellVisibility(views_[i], constants_[i], dags_[i], grids_[i], point, normal, options);
+}
+
+// ---- batches: interleaved walks ----------------------------------------------------------------------
+
+// A point of the batch whose answer needs the DAG.
+struct LightShadow::PendingPoint {
+  Footprint f;    // clipped K x K footprint (inclusive texel bounds); K = 1: (x0, y0) is the texel
+  uint32_t z;
+  uint32_t view;
+  uint32_t out;   // index into the batch
+};
+
+namespace {
+
+// One step of a walk: a node to read (size >= 8: node words at `offset`) or a leaf mask (size == 0: leaves[offset]).
+struct Task {
+  uint32_t point;  // index into the pending points
+  uint32_t offset;
+  uint32_t ox, oy;  // origin of the node's (or leaf's) texels
+  uint32_t size;
+};
+
+// A FIFO of tasks that grows when full (a wide PCF footprint can spawn many).
+class TaskQueue {
+public:
+  TaskQueue() : tasks_(256) {}
+  bool empty() const { return head_ == tail_; }
+  size_t size() const { return tail_ - head_; }
+  void push(const Task& t) {
+    if (size() == tasks_.size()) grow();
+    tasks_[tail_++ & (tasks_.size() - 1)] = t;
+  }
+  Task pop() { return tasks_[head_++ & (tasks_.size() - 1)]; }
+
+private:
+  void grow() {
+    std::vector<Task> bigger(tasks_.size() * 2);
+    for (size_t i = 0; i < size(); ++i) bigger[i] = tasks_[(head_ + i) & (tasks_.size() - 1)];
+    tail_ = size();
+    head_ = 0;
+    tasks_.swap(bigger);
+  }
+  std::vector<Task> tasks_;
+  size_t head_ = 0, tail_ = 0;
+};
+
+// Walks in flight: enough to overlap the cache misses of one step of each, few enough to stay in L1.
+constexpr size_t kWalksInFlight = 24;
+
+inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
+// A node is at most 9 words (header + 8 references) and may straddle two cache lines: fetch both.
+inline void prefetchNode(const uint32_t* node) {
+  __builtin_prefetch(node, 0, 3);
+  __builtin_prefetch(node + 8, 0, 3);
+}
+
+inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size) {
+  return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
+}
+
+}  // namespace
+
+// K = 1: one path per point, so a fixed set of lanes each walking one point, round robin, is all it takes.
+void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
+  struct Lane {
+    uint32_t point;   // index into pending
+    uint32_t code;    // of the node the lane stands on
+    uint32_t offset;  // its words (size >= 8) or its leaf index (size == 0)
+    uint32_t size;
+  };
+  Lane lanes[kWalksInFlight];
+  size_t active = 0, next = 0;
+  // Starts point `pi` in a lane; returns false when its answer is known without a walk.
+  auto start = [&](Lane& lane, uint32_t pi) {
+    const PendingPoint& pp = pending[pi];
+    const TopGrid& grid = grids_[pp.view];
+    lane.point = pi;
+    if (grid.empty()) {
+      lane.code = uint32_t(ChildCode::Ref);
+      lane.offset = 0;
+      lane.size = dags_[pp.view].resolution;
+    } else {
+      const uint32_t s = grid.shift, level = grid.level;
+      const uint32_t entry =
+          grid.cells[(size_t(pp.z >> s) << (2 * level)) | (size_t(pp.f.y0 >> s) << level) | size_t(pp.f.x0 >> s)];
+      lane.code = entry & 3u;
+      lane.offset = entry >> 2;
+      lane.size = 1u << s;
+    }
+    if (lane.code != uint32_t(ChildCode::Ref)) {
+      out[pp.out] = lane.code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
+      return false;
+    }
+    prefetchNode(dags_[pp.view].nodes.data() + lane.offset);
+    return true;
+  };
+  auto fill = [&](Lane& lane) {
+    while (next < pending.size())
+      if (start(lane, uint32_t(next++))) return true;
+    return false;
+  };
+  while (active < kWalksInFlight && fill(lanes[active])) ++active;
+  while (active > 0) {
+    for (size_t i = 0; i < active;) {
+      Lane& lane = lanes[i];
+      const PendingPoint& pp = pending[lane.point];
+      const DagView& dag = dags_[pp.view];
+      bool done = false, shadowed = false;
+      if (lane.size == 0) {  // the leaf mask
+        shadowed = (dag.leaves[lane.offset] >> ((pp.f.y0 & 7u) * 8u + (pp.f.x0 & 7u))) & 1u;
+        done = true;
+      } else {
+        const uint32_t header = dag.nodes[lane.offset];
+        const uint32_t half = lane.size >> 1;
+        const unsigned c = lane.size == 8 ? (pp.z & 7u)
+                                          : (((pp.z & half) ? 4u : 0u) | ((pp.f.y0 & half) ? 2u : 0u) |
+                                             ((pp.f.x0 & half) ? 1u : 0u));
+        const uint32_t code = childCodeOf(header, c);
+        if (code != uint32_t(ChildCode::Ref)) {
+          shadowed = code == uint32_t(ChildCode::Shadowed);
+          done = true;
+        } else {
+          lane.offset = dag.nodes[lane.offset + 1 + slotOf(header, c)];
+          if (lane.size == 8) {
+            lane.size = 0;
+            prefetch(dag.leaves.data() + lane.offset);
+          } else {
+            lane.size = half;
+            prefetchNode(dag.nodes.data() + lane.offset);
+          }
+        }
+      }
+      if (!done) {
+        ++i;
+        continue;
+      }
+      out[pp.out] = shadowed ? 0.0f : 1.0f;
+      if (!fill(lane)) lane = lanes[--active];  // no more points: close the lane (the last one moves here)
+      else ++i;
+    }
+  }
+}
+
+void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
+                             std::span<float> out) const {
+  if (out.size() != points.size())
+    throw Error(ExitCode::RuntimeFailure, "LightShadow::visibility: output and point spans differ in size");
+  const int k = options.pcfKernel;
+  const int64_t h = k / 2;
+  const double kernelArea = double(k) * double(k);
+  auto value = [&](uint32_t shadowed) {
+    return k <= 1 ? (shadowed ? 0.0f : 1.0f) : float(1.0 - double(shadowed) / kernelArea);
+  };
+
+  // Phase 1: view, biased voxel, footprint; answers that need no DAG are written at once.
+  std::vector<PendingPoint> pending;  // LightShadow::PendingPoint
+  pending.reserve(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    out[i] = 0.0f;
+    const SurfacePoint& p = points[i];
+    if (!finite(p.position) || !finite(p.normal)) continue;
+    const int index = viewIndex(p.position);
+    if (index < 0) continue;
+    const size_t vi = size_t(index);
+    const LookupCell cell = lookupCell(views_[vi], constants_[vi], p.position, p.normal, options);
+    if (cell.kind == LookupCell::Kind::Lit) out[i] = 1.0f;
+    if (cell.kind != LookupCell::Kind::Voxel) continue;
+    const DagView& dag = dags_[vi];
+    const int64_t n = dag.resolution;
+    const Footprint f{uint32_t(std::max<int64_t>(0, cell.x - h)), uint32_t(std::min<int64_t>(n - 1, cell.x + h)),
+                      uint32_t(std::max<int64_t>(0, cell.y - h)), uint32_t(std::min<int64_t>(n - 1, cell.y + h))};
+    if (dag.rootCode == ChildCode::Lit) {
+      out[i] = 1.0f;
+    } else if (dag.rootCode == ChildCode::Shadowed) {
+      out[i] = value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
+    } else {
+      pending.push_back({f, uint32_t(cell.z), uint32_t(vi), uint32_t(i)});
+    }
+  }
+  if (pending.empty()) return;
+  if (k <= 1) {
+    walkPoints(pending, out);
+    return;
+  }
+
+  // Phase 2: the walks, interleaved through a FIFO.
+  std::vector<uint32_t> counts(pending.size(), 0);
+  TaskQueue queue;
+  size_t next = 0;
+  auto launch = [&](uint32_t pi) {
+    const PendingPoint& pp = pending[pi];
+    const DagView& dag = dags_[pp.view];
+    const TopGrid& grid = grids_[pp.view];
+    if (grid.empty()) {
+      prefetchNode(dag.nodes.data());
+      queue.push({pi, 0, 0, 0, dag.resolution});
+      return;
+    }
+    const uint32_t shift = grid.shift, level = grid.level, size = 1u << shift;
+    const size_t zRow = size_t(pp.z >> shift) << (2 * level);
+    for (uint32_t gy = pp.f.y0 >> shift; gy <= (pp.f.y1 >> shift); ++gy)
+      for (uint32_t gx = pp.f.x0 >> shift; gx <= (pp.f.x1 >> shift); ++gx) {
+        const uint32_t entry = grid.cells[zRow | (size_t(gy) << level) | gx];
+        const uint32_t code = entry & 3u;
+        if (code == uint32_t(ChildCode::Lit)) continue;
+        if (code == uint32_t(ChildCode::Shadowed)) {
+          counts[pi] += area(pp.f, gx << shift, gy << shift, size);
+          continue;
+        }
+        prefetchNode(dag.nodes.data() + (entry >> 2));
+        queue.push({pi, entry >> 2, gx << shift, gy << shift, size});
+      }
+  };
+  for (;;) {
+    while (next < pending.size() && queue.size() < kWalksInFlight) launch(uint32_t(next++));
+    if (queue.empty()) break;
+    const Task t = queue.pop();
+    const PendingPoint& pp = pending[t.point];
+    const DagView& dag = dags_[pp.view];
+    const uint32_t* nodes = dag.nodes.data();
+    if (t.size == 0) {  // a leaf mask
+      counts[t.point] += popcount64(dag.leaves[t.offset] & tileMask(pp.f, t.ox, t.oy));
+      continue;
+    }
+    const uint32_t header = nodes[t.offset];
+    if (t.size == 8) {  // leaf parent: z-only split
+      const unsigned c = pp.z & 7u;
+      const uint32_t code = childCodeOf(header, c);
+      if (code == uint32_t(ChildCode::Shadowed)) {
+        counts[t.point] += area(pp.f, t.ox, t.oy, 8);
+      } else if (code == uint32_t(ChildCode::Ref)) {
+        const uint32_t leaf = nodes[t.offset + 1 + slotOf(header, c)];
+        prefetch(dag.leaves.data() + leaf);
+        queue.push({t.point, leaf, t.ox, t.oy, 0});
+      }
+      continue;
+    }
+    const uint32_t half = t.size >> 1;
+    const unsigned zbit = (pp.z & half) ? 4u : 0u;
+    // Children the footprint overlaps: one or two in x and in y.
+    const unsigned xbFirst = pp.f.x0 >= t.ox + half ? 1u : 0u, xbLast = pp.f.x1 >= t.ox + half ? 1u : 0u;
+    const unsigned ybFirst = pp.f.y0 >= t.oy + half ? 1u : 0u, ybLast = pp.f.y1 >= t.oy + half ? 1u : 0u;
+    for (unsigned yb = ybFirst; yb <= ybLast; ++yb)
+      for (unsigned xb = xbFirst; xb <= xbLast; ++xb) {
+        const unsigned c = zbit | (yb << 1) | xb;
+        const uint32_t code = childCodeOf(header, c);
+        if (code == uint32_t(ChildCode::Lit)) continue;
+        const uint32_t cx = t.ox + xb * half, cy = t.oy + yb * half;
+        if (code == uint32_t(ChildCode::Shadowed)) {
+          counts[t.point] += area(pp.f, cx, cy, half);
+          continue;
+        }
+        const uint32_t child = nodes[t.offset + 1 + slotOf(header, c)];
+        prefetchNode(nodes + child);
+        queue.push({t.point, child, cx, cy, half});
+      }
+  }
+  for (size_t pi = 0; pi < pending.size(); ++pi) out[pending[pi].out] = value(counts[pi]);
 }
 
 }  // namespace cpvs

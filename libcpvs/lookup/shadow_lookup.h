@@ -11,17 +11,19 @@
 //       m = J^-T n, with J = d(u, v, s)/d(world) at p (gridJacobian): the surface normal expressed in voxel
 //       units (the inverse transpose keeps it perpendicular to the surface however anisotropic the voxels
 //       are or however strongly the perspective and log-depth mapping distort them); m^ = m / |m|.
-//       q = g + b m^, with b = (K / 2) (|m^.u| + |m^.v|) + 1 voxels.
+//     Back faces: m^.s > 0 means the surface faces away from the light (n . toLight < 0). Such a point lies in
+//       the shadow of its own surface: the answer is 0 without a lookup (a ray tracer says the same; biasing
+//       it would push points near the silhouette sideways out of their own solid's shadow). With
+//       NormalOrientation::TowardLight the normal is flipped instead (unoriented normals from scans,
+//       two-sided open geometry such as foliage).
+//     Otherwise q = g + b m^, with b = (K / 2) (|m^.u| + |m^.v|) + margin voxels.
 //     The first term is half the filter width, scaled by how much the surface tilts across the footprint:
-//     it puts every texel centre of the K x K footprint on the normal's side of the surface's tangent plane
-//     (a texel centre is at most K/2 texels from q along u and along v). The "+ 1" is a one-voxel margin
-//     for the baker's rounding (depth at texel centres, floor to slices). So b is 1 voxel for a surface
-//     facing the light, at most 1 + K/sqrt(2) for any surface; b >= 1 always.
-//     Sign: the offset goes along n as given, so for a surface that faces the light (the usual case for
-//     a lit point) it moves toward the light (toward smaller s). A surface that faces away from the light is
-//     moved away from it, into the shadow its own solid casts, which matches the ray-traced reference. With
-//     NormalOrientation::TowardLight, m^ is flipped when it points away from the light (m^.s > 0): for
-//     unoriented normals (scans) or two-sided open geometry (foliage).
+//     it puts every texel centre of the K x K footprint on the light's side of the surface's tangent plane
+//     (a texel centre is at most K/2 texels from q along u and along v), so the enter slice the baker took
+//     at that centre (floor of the surface's depth) is at or behind q's slice. The margin (default 0.25
+//     voxel, LookupOptions::biasMargin) covers what the tangent plane does not: the rasteriser's float depth
+//     and 1/256-texel snapping (about 0.01 voxel) and neighbouring facets near concave edges. So b is the
+//     margin for a surface facing the light and at most margin + K/sqrt(2) for a grazing one.
 //  3. Voxel: x = floor(q.u), y = floor(q.v), z = floor(q.s) clamped to [0, N-1] (toVoxel, the baker's rule).
 //  4. K = 1: the voxel's bit. K > 1: the K x K texels (x - K/2 .. x + K/2, y - K/2 .. y + K/2) at slice z;
 //     texels outside [0, N) count as lit. The DAG is walked once for the whole footprint: only nodes whose
@@ -49,9 +51,18 @@ enum class NormalOrientation : uint8_t {
   TowardLight = 1,  // flip n where it faces away from the light before biasing
 };
 
+// A query point: world position and surface normal (zero: no normal, no bias).
+struct SurfacePoint {
+  glm::dvec3 position{0.0};
+  glm::dvec3 normal{0.0};
+};
+
+inline constexpr double kDefaultBiasMargin = 0.25;  // voxels (docs/query.md has the measurement)
+
 struct LookupOptions {
   int pcfKernel = 1;  // K: odd, >= 1
   NormalOrientation orientation = NormalOrientation::AsGiven;
+  double biasMargin = kDefaultBiasMargin;  // voxels added to the bias (step 2 above), >= 0
 };
 
 // Validates K (odd, 1..255). Throws Error(Usage).
@@ -63,13 +74,14 @@ glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world);
 // The surface normal n in grid space: J^-T n (not normalised; zero when n is zero).
 glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal);
 // Bias distance in voxels along the unit grid normal m^ for kernel K (see the rule above).
-double biasDistance(const glm::dvec3& unitGridNormal, int pcfKernel);
+double biasDistance(const glm::dvec3& unitGridNormal, int pcfKernel, double margin = kDefaultBiasMargin);
 
 // Where a lookup lands in a view.
 struct LookupCell {
   enum class Kind : uint8_t {
     Voxel,      // x, y, z valid: look up the DAG
     Lit,        // empty view, outside the lateral grid, or behind a perspective eye
+    BackFacing, // the normal faces away from the light (AsGiven): in the shadow of its own surface, 0
     Invalid,    // non-finite point or normal
   };
   Kind kind = Kind::Lit;
@@ -79,6 +91,19 @@ struct LookupCell {
 // Steps 1-3 above (no influence check: the caller has selected the view).
 LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm::dvec3& normal,
                       const LookupOptions& options);
+
+// What lookupCell derives from a view for the grid normal, computed once per view (LightShadow keeps one
+// per view so a lookup does no division or log beyond toGrid's own).
+struct ViewConstants {
+  glm::dmat3 rotation{1.0};  // of viewFromWorld
+  double su = 1, sv = 1;     // 1 / (d u / d a), 1 / (d v / d b)
+  double invDs = 1;          // linear: (far - near) / N; logarithmic: log(far / near) / N (times d)
+  bool orthographic = true, linear = true;
+  ViewConstants() = default;
+  explicit ViewConstants(const LightView& view);
+};
+LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
+                      const glm::dvec3& normal, const LookupOptions& options);
 
 // Number of shadowed texels of the K x K footprint centred on texel (x, y) at slice z (texels outside
 // [0, N) are lit), with one traversal. z must be in [0, N). K = 1 gives DagView::shadowed.
@@ -94,26 +119,70 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
 // the outer cone). Same rule as selectView.
 bool withinInfluence(const Light& light, const glm::dvec3& point);
 
+// A dense grid of the DAG's nodes at one level (seed 004 §5.3 "top-level pointer grid"): entry
+// (gx, gy, gz) holds the child code of the node at level `level` covering that cell and, for a reference, its
+// word offset, so a traversal starts `level` levels down. 8^level entries of 4 bytes. Built from a DagView.
+struct TopGrid {
+  uint32_t level = 0;  // 0: no grid (start at the root)
+  uint32_t shift = 0;  // log2 of a cell's edge in voxels: log2(N) - level
+  std::vector<uint32_t> cells;  // (offset << 2) | code, index (gz << 2 level) | (gy << level) | gx
+
+  bool empty() const { return level == 0; }
+  // Builds the grid for `level` levels (clamped to the DAG's node levels); level 0 gives an empty grid.
+  static TopGrid build(const DagView& dag, uint32_t level);
+  // The level LightShadow picks by default: kMaxAutomaticTopGridLevels, lowered until the grid takes at most
+  // an eighth of the DAG's own bytes (a small DAG gains little from skipping levels that stay in cache anyway).
+  static uint32_t automaticLevel(const DagView& dag);
+};
+
+// Most top-grid levels a LightShadow builds unless told otherwise (docs/query.md has the measurement behind
+// it: 5 levels, 128 KiB per view, were the fastest at 4k and 16k).
+inline constexpr uint32_t kMaxAutomaticTopGridLevels = 5;
+inline constexpr int kAutomaticTopGrid = -1;
+
+// Whether voxel (x, y, z), all in [0, N), is shadowed: DagView::shadowed, starting from `grid` when it has one.
+bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t y, uint32_t z);
+// shadowedTexels with a top grid.
+uint32_t shadowedTexels(const DagView& dag, const TopGrid& grid, int32_t x, int32_t y, uint32_t z, int pcfKernel);
+
 // All views of one light with their DAGs: selects the view per point (cube face for point lights).
 // Views and DAGs are referenced, not copied: the DAG storage (e.g. a CpvsFile) must outlive this object.
 class LightShadow {
 public:
   LightShadow() = default;
-  LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags);
+  // topGridLevels > 0 builds a top-level pointer grid of that many levels per view, 0 none, kAutomaticTopGrid
+  // TopGrid::automaticLevel per view (see TopGrid; docs/query.md has the measurement behind the default).
+  LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
+              int topGridLevels = kAutomaticTopGrid);
 
   // Visibility of a point (0 outside the light's influence; see the rules above).
   float visibility(const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) const;
   // The view a point falls in, or -1 outside the light's influence.
   int viewIndex(const glm::dvec3& point) const;
+  // The same answers for many points at once (out[i] for points[i]; out.size() == points.size()): the DAG
+  // walks of the batch are interleaved, each node's cache line prefetched when its parent is read and used
+  // only after the other walks in flight have taken a step, so cache misses overlap instead of adding up.
+  // PCF footprints are walked as one traversal that splits where the footprint spans several children
+  // (homogeneous children counted at once, leaf masks AND-ed with the kernel's tile mask and counted).
+  void visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
 
   const Light& light() const { return light_; }
   const std::vector<LightView>& views() const { return views_; }
   const std::vector<DagView>& dags() const { return dags_; }
+  // Bytes of the top grids (0 without).
+  size_t topGridBytes() const;
+
+  struct PendingPoint;  // a point of a batch whose answer needs the DAG (shadow_lookup.cpp)
 
 private:
+  void walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const;
+
   Light light_;
   std::vector<LightView> views_;
   std::vector<DagView> dags_;
+  std::vector<TopGrid> grids_;
+  std::vector<ViewConstants> constants_;
+  double cosOuter_ = -1;  // spot: cos(min(outer cone, pi / 2))
 };
 
 }  // namespace cpvs

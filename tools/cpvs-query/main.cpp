@@ -10,10 +10,12 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <thread>
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -34,6 +36,8 @@ using namespace cpvs;
 using Clock = std::chrono::steady_clock;
 
 constexpr size_t kChunk = 1 << 16;  // points per streamed chunk (also the timing set)
+constexpr size_t kBatch = 4096;     // points per LightShadow batch call
+constexpr double kRoundSeconds = 0.04;    // per method and round
 
 struct Options {
   std::string cpvs;
@@ -48,7 +52,16 @@ struct Options {
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   bool towardLight = false;
   bool quiet = false;
+  int topGrid = kAutomaticTopGrid;
+  int timingRounds = 7;
+  double biasMargin = kDefaultBiasMargin;
 };
+
+uint64_t peakRssBytes() {
+  struct rusage usage {};
+  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
+}
 
 double msSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
@@ -168,7 +181,8 @@ struct SelectedLight {
   LightShadow shadow;
 };
 
-std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<std::string>& wanted) {
+std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<std::string>& wanted,
+                                       int topGrid) {
   const auto& lights = file.lights();
   std::vector<size_t> indices;
   if (wanted.empty()) {
@@ -206,7 +220,7 @@ std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<
       views.push_back(v.view);
       dags.push_back(v.dag);
     }
-    s.shadow = LightShadow(lights[i].light, std::move(views), std::move(dags));
+    s.shadow = LightShadow(lights[i].light, std::move(views), std::move(dags), topGrid);
     selected.push_back(std::move(s));
   }
   return selected;
@@ -222,6 +236,22 @@ struct Totals {
   std::vector<query::ErrorStats> errors;  // per light
 };
 
+// Lookups of points[begin, end) for every light into values[i * L + l], in batches (LightShadow's
+// interleaved walks).
+void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end,
+                 const std::vector<SelectedLight>& lights, const LookupOptions& lookup, std::vector<float>& scratch,
+                 float* values) {
+  const size_t nl = lights.size();
+  for (size_t b = begin; b < end; b += kBatch) {
+    const size_t e = std::min(end, b + kBatch);
+    scratch.resize(e - b);
+    for (size_t l = 0; l < nl; ++l) {
+      lights[l].shadow.visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch);
+      for (size_t i = b; i < e; ++i) values[i * nl + l] = scratch[i - b];
+    }
+  }
+}
+
 // values[i * L + l] for the chunk; reference stats accumulated into totals.
 void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
                    const LookupOptions& lookup, const query::Reference* reference, unsigned threads,
@@ -231,16 +261,15 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
   std::vector<uint8_t> valid(count);
   std::vector<uint8_t> refValues(reference ? count * nl : 0), uniform(reference ? count * nl : 0);
   parallelRanges(count, threads, [&](size_t begin, size_t end) {
+    std::vector<float> scratch;
+    lookupRange(points, begin, end, lights, lookup, scratch, values.data());
     for (size_t i = begin; i < end; ++i) {
       valid[i] = isFinite(points[i]);
-      if (!valid[i]) continue;
+      if (!valid[i] || !reference) continue;
       for (size_t l = 0; l < nl; ++l) {
-        values[i * nl + l] = lights[l].shadow.visibility(points[i].position, points[i].normal, lookup);
-        if (reference) {
-          bool isUniform = false;
-          refValues[i * nl + l] = reference->visibility(lights[l].shadow, points[i], isUniform);
-          uniform[i * nl + l] = isUniform;
-        }
+        bool isUniform = false;
+        refValues[i * nl + l] = reference->visibility(lights[l].shadow, points[i], isUniform);
+        uniform[i * nl + l] = isUniform;
       }
     }
   });
@@ -266,13 +295,15 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       if (uniform[i * nl + l]) {
         ++e.uniform;
         e.misclassifiedUniform += wrong;
+        e.absDiffSumUniform += std::abs(double(v) - double(ref));
       }
     }
   }
   totals.points += count;
 }
 
-// Single-threaded throughput over `points`, repeated until at least `seconds` have passed.
+// Single-threaded throughput of one round: `pass` does `workPerPass` units; repeated until at least
+// `seconds` have passed.
 template <class Fn>
 double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
   if (workPerPass == 0) return 0.0;
@@ -287,13 +318,76 @@ double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
   return double(work) / elapsed;
 }
 
+// Throughput figures measured together: every round runs each method once (in the same order), so a change
+// in machine load hits all of them alike; each figure is the best of its rounds (the least disturbed one)
+// and the median is kept beside it.
+class Throughput {
+public:
+  using Method = std::function<double()>;  // one round: units per second
+  void add(const std::string& name, Method method) { methods_.push_back({name, std::move(method), {}}); }
+  void run(int rounds) {
+    if (rounds <= 0) return;
+    for (auto& m : methods_) m.method();  // warm caches, page in the file
+    for (int r = 0; r < rounds; ++r)
+      for (auto& m : methods_) m.samples.push_back(m.method());
+  }
+  double best(const std::string& name) const {
+    const auto& s = find(name).samples;
+    return s.empty() ? 0.0 : *std::max_element(s.begin(), s.end());
+  }
+  double median(const std::string& name) const {
+    std::vector<double> s = find(name).samples;
+    if (s.empty()) return 0.0;
+    std::nth_element(s.begin(), s.begin() + ptrdiff_t(s.size() / 2), s.end());
+    return s[s.size() / 2];
+  }
+  bool has(const std::string& name) const {
+    return std::any_of(methods_.begin(), methods_.end(), [&](const Entry& e) { return e.name == name; });
+  }
+
+private:
+  struct Entry {
+    std::string name;
+    Method method;
+    std::vector<double> samples;
+  };
+  const Entry& find(const std::string& name) const {
+    for (const Entry& e : methods_)
+      if (e.name == name) return e;
+    throw std::logic_error("no throughput method " + name);
+  }
+  std::vector<Entry> methods_;
+};
+
 volatile float gSink;  // keeps the timed loops from being optimised away
 
-double lookupsPerSecond(const std::vector<QueryPoint>& points, const std::vector<const SelectedLight*>& lights,
-                        const LookupOptions& lookup, double seconds) {
+std::vector<QueryPoint> validPoints(const std::vector<QueryPoint>& points) {
   std::vector<QueryPoint> valid;
   for (const QueryPoint& p : points)
     if (isFinite(p)) valid.push_back(p);
+  return valid;
+}
+
+// Lookups per second, one thread, the way the query itself does them (batches of kBatch points).
+double lookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<const SelectedLight*>& lights,
+                        const LookupOptions& lookup, double seconds) {
+  std::vector<float> out(std::min(valid.size(), kBatch));
+  return perSecond(valid.size() * lights.size(), seconds, [&] {
+    float sum = 0;
+    for (const SelectedLight* light : lights)
+      for (size_t b = 0; b < valid.size(); b += kBatch) {
+        const size_t e = std::min(valid.size(), b + kBatch);
+        light->shadow.visibility(std::span<const QueryPoint>(valid.data() + b, e - b), lookup,
+                                 std::span<float>(out.data(), e - b));
+        sum += out[0];
+      }
+    gSink = sum;
+  });
+}
+
+// The same, one point at a time (LightShadow::visibility of a single point: what a shader-style caller does).
+double singleLookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<const SelectedLight*>& lights,
+                              const LookupOptions& lookup, double seconds) {
   return perSecond(valid.size() * lights.size(), seconds, [&] {
     float sum = 0;
     for (const SelectedLight* light : lights)
@@ -302,15 +396,27 @@ double lookupsPerSecond(const std::vector<QueryPoint>& points, const std::vector
   });
 }
 
-double raysPerSecond(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
+// Embree shadow rays per second, one thread: one rtcOccluded1 ray per point and light.
+double raysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
                      const query::Reference& reference, double seconds) {
-  std::vector<QueryPoint> valid;
-  for (const QueryPoint& p : points)
-    if (isFinite(p)) valid.push_back(p);
   return perSecond(valid.size() * lights.size(), seconds, [&] {
     unsigned sum = 0;
     for (const SelectedLight& light : lights)
       for (const QueryPoint& p : valid) sum += reference.visibility(light.shadow.light(), p);
+    gSink = float(sum);
+  });
+}
+
+// The same rays in 16-wide packets (rtcOccluded16), one thread.
+double packetRaysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
+                           const query::Reference& reference, double seconds) {
+  std::vector<uint8_t> out;
+  return perSecond(valid.size() * lights.size(), seconds, [&] {
+    unsigned sum = 0;
+    for (const SelectedLight& light : lights) {
+      reference.visibilityPackets(light.shadow.light(), valid, out);
+      sum += out.empty() ? 0 : out[0];
+    }
     gSink = float(sum);
   });
 }
@@ -397,6 +503,7 @@ nlohmann::json errorJson(const query::ErrorStats& e) {
           {"misclassified_uniform", e.rate(e.misclassifiedUniform, e.uniform)},
           {"misclassified_uniform_count", e.misclassifiedUniform},
           {"mean_abs_diff", e.samples ? e.absDiffSum / double(e.samples) : 0.0},
+          {"mean_abs_diff_uniform", e.uniform ? e.absDiffSumUniform / double(e.uniform) : 0.0},
           {"reference_lit_fraction", e.rate(e.referenceLit, e.samples)},
           {"cpvs_lit_fraction", e.rate(e.cpvsLit, e.samples)}};
 }
@@ -407,11 +514,16 @@ int run(const Options& options) {
   if (!options.excludedMeshes.empty() && options.reference.empty())
     throw Error(ExitCode::Usage, "--exclude-mesh only applies to the --reference scene");
   if (options.threads == 0) throw Error(ExitCode::Usage, "--threads must be at least 1");
+  if (options.topGrid < -1 || options.topGrid > 8) throw Error(ExitCode::Usage, "--top-grid must be -1 to 8");
+  if (options.timingRounds < 0) throw Error(ExitCode::Usage, "--timing-rounds must be 0 or more");
+  if (!(options.biasMargin >= 0 && options.biasMargin <= 64))
+    throw Error(ExitCode::Usage, "--bias-margin must be between 0 and 64 voxels");
   const LookupOptions lookup{options.pcf,
-                             options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven};
+                             options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven,
+                             options.biasMargin};
 
   const std::unique_ptr<CpvsFile> file = CpvsFile::open(options.cpvs);
-  const std::vector<SelectedLight> lights = selectLights(*file, options.lights);
+  const std::vector<SelectedLight> lights = selectLights(*file, options.lights, options.topGrid);
   const size_t nl = lights.size();
 
   const PointFormat format = detectPointFormat(options.points);
@@ -523,13 +635,32 @@ int run(const Options& options) {
   }
   if (options.report.empty()) return 0;
 
-  // Throughput, single thread, over the first chunk of points (the whole set when it fits in one).
+  // Throughput, one thread each, over the first chunk of points (the whole set when it fits in one).
+  const std::vector<QueryPoint> timing = validPoints(timingSet);
   std::vector<const SelectedLight*> all;
   for (const SelectedLight& l : lights) all.push_back(&l);
-  const double lookupsPerS = lookupsPerSecond(timingSet, all, lookup, 0.2);
-  double unfilteredPerS = lookupsPerS;
-  if (options.pcf > 1) unfilteredPerS = lookupsPerSecond(timingSet, all, {1, lookup.orientation}, 0.2);
+  LookupOptions unfiltered = lookup;
+  unfiltered.pcfKernel = 1;
+  Throughput throughput;
+  throughput.add("lookups", [&] { return lookupsPerSecond(timing, all, lookup, kRoundSeconds); });
+  if (options.pcf > 1)
+    throughput.add("unfiltered", [&] { return lookupsPerSecond(timing, all, unfiltered, kRoundSeconds); });
+  throughput.add("single", [&] { return singleLookupsPerSecond(timing, all, lookup, kRoundSeconds); });
+  if (reference) {
+    throughput.add("rays", [&] { return raysPerSecond(timing, lights, *reference, kRoundSeconds); });
+    throughput.add("packets", [&] { return packetRaysPerSecond(timing, lights, *reference, kRoundSeconds); });
+  }
+  if (nl > 1)
+    for (size_t l = 0; l < nl; ++l)
+      throughput.add("light" + std::to_string(l),
+                     [&, l] { return lookupsPerSecond(timing, {&lights[l]}, lookup, kRoundSeconds / 2); });
+  throughput.run(options.timingRounds);
+  const double lookupsPerS = throughput.best("lookups");
+  const double unfilteredPerS = options.pcf > 1 ? throughput.best("unfiltered") : lookupsPerS;
+  const double singlePerS = throughput.best("single");
 
+  size_t topGridBytes = 0;
+  for (const SelectedLight& l : lights) topGridBytes += l.shadow.topGridBytes();
   nlohmann::json lightsJson = nlohmann::json::array();
   const uint64_t valid = totals.points - totals.invalid;
   for (size_t l = 0; l < nl; ++l) {
@@ -541,7 +672,7 @@ int run(const Options& options) {
                         {"views", entry.views.size()},
                         {"resolution", entry.views.empty() ? 0u : entry.views[0].view.resolution},
                         {"mean_visibility", valid ? totals.visibilitySum[l] / double(valid) : 0.0}};
-    if (nl > 1) j["lookups_per_s"] = lookupsPerSecond(timingSet, {&lights[l]}, lookup, 0.1);
+    if (nl > 1) j["lookups_per_s"] = throughput.best("light" + std::to_string(l));
     if (reference) j["reference"] = errorJson(totals.errors[l]);
     lightsJson.push_back(j);
   }
@@ -557,6 +688,7 @@ int run(const Options& options) {
         {"reference_scene", options.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.reference)}}},
       {"settings",
        {{"pcf", options.pcf},
+        {"bias_margin_voxels", options.biasMargin},
         {"normal_orientation", options.towardLight ? "toward-light" : "as-given"},
         {"threads", options.threads},
         {"lights", nl}}},
@@ -566,12 +698,25 @@ int run(const Options& options) {
       {"first_invalid_points", totals.firstInvalid},
       {"lookups_per_s", lookupsPerS},
       {"lookups_per_s_unfiltered", unfilteredPerS},
-      {"timing_points", timingSet.size()},
+      {"lookups_per_s_single", singlePerS},
+      {"lookups_per_s_median", throughput.median("lookups")},
+      {"pcf_cost", lookupsPerS > 0 ? unfilteredPerS / lookupsPerS : 0.0},
+      {"timing_rounds", options.timingRounds},
+      {"timing_points", timing.size()},
+      {"timing_threads", 1},
+      {"top_grid_levels", options.topGrid < 0 ? nlohmann::json("automatic") : nlohmann::json(options.topGrid)},
+      {"top_grid_bytes", topGridBytes},
+      {"peak_rss_bytes", peakRssBytes()},
       {"timings_ms", {{"evaluate", evalMs}, {"reference_load", referenceLoadMs}, {"total", msSince(start)}}},
       {"lights", lightsJson}};
   if (reference) {
     nlohmann::json r = errorJson(pooled);
-    r["rays_per_s"] = raysPerSecond(timingSet, lights, *reference, 0.2);
+    const double raysPerS = throughput.best("rays");
+    r["rays_per_s"] = raysPerS;
+    r["rays_per_s_median"] = throughput.median("rays");
+    r["rays_per_s_packets"] = throughput.best("packets");
+    r["lookup_speedup"] = raysPerS > 0 ? lookupsPerS / raysPerS : 0.0;
+    r["unfiltered_speedup"] = raysPerS > 0 ? unfilteredPerS / raysPerS : 0.0;
     r["epsilon"] = reference->epsilon();
     r["triangles"] = reference->triangles();
     r["uniform_offset_voxels"] = 2;
@@ -607,6 +752,10 @@ int main(int argc, char** argv) {
       ->type_name("NAME|INDEX");
   app.add_flag("--normals-toward-light", options.towardLight,
                "Flip normals that face away from the light before biasing (unoriented normals, two-sided foliage)");
+  app.add_option("--bias-margin", options.biasMargin,
+                 "Voxels added to the normal bias beyond half the filter footprint (docs/query.md)")
+      ->type_name("VOXELS")
+      ->capture_default_str();
   app.add_option("--reference", options.reference,
                  "Also ray-trace the points in this glTF scene with Embree and report the error")
       ->type_name("SCENE");
@@ -616,10 +765,21 @@ int main(int argc, char** argv) {
       ->type_name("R.json");
   app.add_option("--threads", options.threads, "Worker threads for the lookups and the reference (default: all cores)")
       ->type_name("N");
+  app.add_option("--top-grid", options.topGrid,
+                 "Start lookups from a dense pointer grid of the DAG's first L levels (8^L entries of 4 bytes per "
+                 "view; 0 = off; -1 = automatic: up to 5 levels, at most 1/8 of the DAG's bytes)")
+      ->type_name("L")
+      ->capture_default_str();
+  app.add_option("--timing-rounds", options.timingRounds,
+                 "Rounds of the --report throughput measurement (best of them is reported; 0 = skip it)")
+      ->type_name("N")
+      ->capture_default_str();
   app.add_flag("-q,--quiet", options.quiet, "No progress bar");
   tools::addVersionFlag(app, "cpvs-query");
   app.footer(tools::exitCodeHelp() +
-             "\nPoints with a NaN or infinite coordinate are answered 0 and counted in a warning (and the report).");
+             "\nPoints with a NaN or infinite coordinate or normal are answered 0 and counted in a warning and in the "
+             "report (invalid_points). Points outside a light's range or cone are answered 0; points whose normal "
+             "faces away from the light are answered 0 (in their own surface's shadow).");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -12,6 +12,7 @@ void ErrorStats::add(const ErrorStats& o) {
   uniform += o.uniform;
   misclassifiedUniform += o.misclassifiedUniform;
   absDiffSum += o.absDiffSum;
+  absDiffSumUniform += o.absDiffSumUniform;
   referenceLit += o.referenceLit;
   cpvsLit += o.cpvsLit;
 }
@@ -34,16 +35,18 @@ Reference::~Reference() = default;
 
 size_t Reference::triangles() const { return scene_->triangleCount(); }
 
-uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const {
-  if (!withinInfluence(light, point.position)) return 0;
+bool Reference::shadowRay(const Light& light, const QueryPoint& point, Ray& ray, double& tmax,
+                          uint8_t& known) const {
+  known = 0;
+  if (!withinInfluence(light, point.position)) return false;
   glm::dvec3 toLight;
-  double distance = EmbreeScene::kInfinity;
   if (light.type == LightType::Directional) {
     toLight = -light.direction;
   } else {
     const glm::dvec3 d = light.position - point.position;
-    distance = glm::length(d);
-    if (!(distance > 0)) return 1;
+    const double distance = glm::length(d);
+    known = 1;
+    if (!(distance > 0)) return false;
     toLight = d / distance;
   }
   glm::dvec3 origin = point.position;
@@ -55,32 +58,86 @@ uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const
   } else {
     origin += epsilon_ * toLight;
   }
+  tmax = EmbreeScene::kInfinity;
   if (light.type != LightType::Directional) {
     const glm::dvec3 d = light.position - origin;
-    distance = glm::length(d);
-    if (!(distance > epsilon_)) return 1;
+    const double distance = glm::length(d);
+    known = 1;
+    if (!(distance > epsilon_)) return false;
     toLight = d / distance;
-    distance -= epsilon_;  // stop short of the light itself
+    tmax = distance - epsilon_;  // stop short of the light itself
   }
-  return scene_->occluded(origin, toLight, distance) ? 0 : 1;
+  ray = {origin, toLight};
+  return true;
+}
+
+uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const {
+  Ray ray;
+  double tmax = 0;
+  uint8_t known = 0;
+  if (!shadowRay(light, point, ray, tmax, known)) return known;
+  return scene_->occluded(ray.origin, ray.direction, tmax) ? 0 : 1;
+}
+
+void Reference::visibilityPackets(const Light& light, const std::vector<QueryPoint>& points,
+                                  std::vector<uint8_t>& out) const {
+  out.assign(points.size(), 0);
+  std::vector<Ray> rays;
+  std::vector<double> tmax;
+  std::vector<size_t> index;
+  rays.reserve(points.size());
+  tmax.reserve(points.size());
+  index.reserve(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    Ray ray;
+    double t = 0;
+    uint8_t known = 0;
+    if (!shadowRay(light, points[i], ray, t, known)) {
+      out[i] = known;
+      continue;
+    }
+    rays.push_back(ray);
+    tmax.push_back(t);
+    index.push_back(i);
+  }
+  const std::vector<uint8_t> blocked = scene_->occludedBatch(rays, tmax, false);
+  for (size_t r = 0; r < rays.size(); ++r) out[index[r]] = blocked[r] ? 0 : 1;
 }
 
 uint8_t Reference::visibility(const LightShadow& shadow, const QueryPoint& point, bool& uniform) const {
   const uint8_t centre = visibility(shadow.light(), point);
   uniform = true;
   const int index = shadow.viewIndex(point.position);
-  if (index < 0) return centre;  // outside the light's influence: 0 everywhere near it as far as we know
+  if (index < 0) return centre;  // outside the light's influence: 0 here and, as far as we know, around it
   const LightView& view = shadow.views()[size_t(index)];
   const GridPoint g = toGrid(view, point.position);
   if (!g.inFront) return centre;
   glm::dvec3 m = gridNormal(view, point.position, point.normal);
   const double length = glm::length(m);
   m = length > 0 && std::isfinite(length) ? m / length : glm::dvec3(0.0);
-  static const double offsets[8][2] = {{2, 0}, {-2, 0}, {0, 2}, {0, -2}, {2, 2}, {-2, 2}, {2, -2}, {-2, -2}};
-  for (const auto& o : offsets) {
-    glm::dvec3 w(o[0], o[1], 0.0);
-    w -= glm::dot(w, m) * m;  // stay on the tangent plane (grid metric)
-    const QueryPoint sample{gridToWorld(view, g.uvs + w), point.normal};
+  if (orientation_ == NormalOrientation::TowardLight && m.z > 0) m = -m;
+  // The neighbourhood, in grid units: a circle of radius 2 on the tangent plane (8 points) and the point 2
+  // voxels out along the normal (the side the lookup's bias moves to). Without a normal: a circle of radius 2
+  // in (u, v) at the same depth.
+  glm::dvec3 t1(1, 0, 0), t2(0, 1, 0);
+  if (m != glm::dvec3(0.0)) {
+    const glm::dvec3 axis = std::abs(m.x) < 0.6 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+    t1 = glm::normalize(glm::cross(m, axis));
+    t2 = glm::cross(m, t1);
+  }
+  constexpr double kRadius = 2.0, kDiagonal = 0.70710678118654752;
+  const glm::dvec3 offsets[9] = {kRadius * t1,
+                                 -kRadius * t1,
+                                 kRadius * t2,
+                                 -kRadius * t2,
+                                 kRadius * kDiagonal * (t1 + t2),
+                                 kRadius * kDiagonal * (t1 - t2),
+                                 kRadius * kDiagonal * (-t1 + t2),
+                                 kRadius * kDiagonal * (-t1 - t2),
+                                 kRadius * m};
+  for (const glm::dvec3& o : offsets) {
+    if (o == glm::dvec3(0.0)) continue;
+    const QueryPoint sample{gridToWorld(view, g.uvs + o), point.normal};
     if (visibility(shadow.light(), sample) != centre) {
       uniform = false;
       break;
