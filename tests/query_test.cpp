@@ -30,6 +30,7 @@
 #include "libcpvs/error.h"
 #include "libcpvs/lookup/shadow_lookup.h"
 #include "libcpvs/reference/embree_scene.h"
+#include "libcpvs/surface_samples.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -132,34 +133,18 @@ void writePly(const std::string& path, const std::vector<SurfacePoint>& points, 
   }
 }
 
-// Area-weighted points on the triangles with their geometric normals (see the file comment).
+// Area-weighted points on the triangles with their geometric normals (libcpvs/surface_samples.h, as
+// cpvs-sample writes them), without the points inside closed solids (see the file comment).
 std::vector<SurfacePoint> sampleSurface(const WorldGeometry& world, size_t count, uint32_t seed) {
   const EmbreeScene rt(world);
-  std::vector<double> cdf;
-  double total = 0;
-  for (size_t t = 0; t < world.triangleCount(); ++t) {
-    const glm::dvec3 a = world.positions[world.indices[3 * t]], b = world.positions[world.indices[3 * t + 1]],
-                     c = world.positions[world.indices[3 * t + 2]];
-    total += 0.5 * glm::length(glm::cross(b - a, c - a));
-    cdf.push_back(total);
-  }
   const double epsilon = 1e-6 * glm::length(world.bounds.extent());
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::vector<SurfacePoint> points;
-  while (points.size() < count) {
-    const size_t t = size_t(std::lower_bound(cdf.begin(), cdf.end(), uniform(rng) * total) - cdf.begin());
-    if (t >= world.triangleCount()) continue;
-    const glm::dvec3 a = world.positions[world.indices[3 * t]], b = world.positions[world.indices[3 * t + 1]],
-                     c = world.positions[world.indices[3 * t + 2]];
-    const double r1 = std::sqrt(uniform(rng)), r2 = uniform(rng);
-    const glm::dvec3 p = (1 - r1) * a + r1 * (1 - r2) * b + r1 * r2 * c;
-    const glm::dvec3 n = glm::cross(b - a, c - a);
-    if (!(glm::length(n) > 0)) continue;
-    const glm::dvec3 unit = glm::normalize(n);
-    if (rt.isInsideClosedSolid(p + epsilon * unit)) continue;
-    points.push_back({p, unit});
-  }
+  for (uint64_t round = 0; points.size() < count && round < 8; ++round)
+    for (const SurfaceSample& s : sampleSurfaces(world, count, seed + 1000 * round)) {
+      if (points.size() == count) break;
+      if (!rt.isInsideClosedSolid(s.position + epsilon * s.normal)) points.push_back({s.position, s.normal});
+    }
+  EXPECT_EQ(points.size(), count);
   return points;
 }
 
@@ -332,7 +317,9 @@ nlohmann::json checkAccuracy(const Dir& dir, const std::string& scene, const std
                              ": " + std::to_string(100 * a.misclassified) + " % misclassified, " +
                              std::to_string(100 * a.misclassifiedUniform) + " % of the " +
                              std::to_string(100 * a.uniformFraction) + " % uniform points";
-    EXPECT_EQ(a.samples, points.size()) << what;
+    const uint64_t inside = report.at("reference").at("inside_closed_points").get<uint64_t>();
+    EXPECT_EQ(a.samples + inside, points.size()) << what;
+    EXPECT_LE(inside, points.size() / 1000) << what << ": the sampled points are outside every closed solid";
     EXPECT_LE(a.misclassifiedUniform, 0.001) << what;
     EXPECT_LE(a.misclassified, 0.01) << what;
     EXPECT_GE(a.uniformFraction, 0.5) << what << " (too few uniform points for the figure to mean much)";

@@ -55,6 +55,7 @@ struct Options {
   int topGrid = kAutomaticTopGrid;
   int timingRounds = 7;
   double biasMargin = kDefaultBiasMargin;
+  bool scoreInside = false;
 };
 
 uint64_t peakRssBytes() {
@@ -231,6 +232,7 @@ std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<
 struct Totals {
   uint64_t points = 0;
   uint64_t invalid = 0;
+  uint64_t insideClosed = 0;           // valid points inside a closed solid of the reference (not scored)
   std::vector<uint64_t> firstInvalid;  // indices of the first few invalid points
   std::vector<double> visibilitySum;   // per light
   std::vector<query::ErrorStats> errors;  // per light
@@ -254,8 +256,8 @@ void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end
 
 // values[i * L + l] for the chunk; reference stats accumulated into totals.
 void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
-                   const LookupOptions& lookup, const query::Reference* reference, unsigned threads,
-                   std::vector<float>& values, Totals& totals) {
+                   const LookupOptions& lookup, const query::Reference* reference, bool scoreInside,
+                   unsigned threads, std::vector<float>& values, Totals& totals) {
   const size_t count = points.size(), nl = lights.size();
   values.assign(count * nl, 0.0f);
   std::vector<uint8_t> valid(count);
@@ -266,6 +268,10 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
     for (size_t i = begin; i < end; ++i) {
       valid[i] = isFinite(points[i]);
       if (!valid[i] || !reference) continue;
+      if (!scoreInside && reference->insideClosedSolid(points[i])) {
+        valid[i] = 2;  // valid, but not scored
+        continue;
+      }
       for (size_t l = 0; l < nl; ++l) {
         bool isUniform = false;
         refValues[i * nl + l] = reference->visibility(lights[l].shadow, points[i], isUniform);
@@ -279,10 +285,11 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       ++totals.invalid;
       continue;
     }
+    totals.insideClosed += valid[i] == 2;
     for (size_t l = 0; l < nl; ++l) {
       const float v = values[i * nl + l];
       totals.visibilitySum[l] += v;
-      if (!reference) continue;
+      if (!reference || valid[i] == 2) continue;
       query::ErrorStats& e = totals.errors[l];
       const uint8_t ref = refValues[i * nl + l];
       const bool cpvsLit = v >= 0.5f;
@@ -561,7 +568,7 @@ int run(const Options& options) {
       const size_t end = std::min(points.size(), begin + kChunk);
       chunk.assign(points.begin() + ptrdiff_t(begin), points.begin() + ptrdiff_t(end));
       const auto t = Clock::now();
-      evaluateChunk(chunk, lights, lookup, reference.get(), options.threads, chunkValues, totals);
+      evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, chunkValues, totals);
       evalMs += msSince(t);
       std::copy(chunkValues.begin(), chunkValues.end(), values.begin() + ptrdiff_t(begin * nl));
       if (timingSet.empty()) timingSet = chunk;
@@ -598,7 +605,7 @@ int run(const Options& options) {
     std::vector<float> values;
     while (reader->next(chunk, kChunk)) {
       const auto t = Clock::now();
-      evaluateChunk(chunk, lights, lookup, reference.get(), options.threads, values, totals);
+      evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, values, totals);
       evalMs += msSince(t);
       if (timingSet.empty()) timingSet = chunk;
       std::string& out = csv.buffer();
@@ -628,10 +635,12 @@ int run(const Options& options) {
   for (const query::ErrorStats& e : totals.errors) pooled.add(e);
   if (reference && !options.quiet) {
     std::fprintf(stderr,
-                 "cpvs-query: reference: %.4f%% misclassified, %.4f%% of %llu uniform points, mean |difference| %.5f\n",
+                 "cpvs-query: reference: %.4f%% misclassified, %.4f%% of %llu uniform points, mean |difference| %.5f"
+                 " (%llu points inside closed solids not scored)\n",
                  100.0 * pooled.rate(pooled.misclassified, pooled.samples),
                  100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
-                 static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0);
+                 static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
+                 static_cast<unsigned long long>(totals.insideClosed));
   }
   if (options.report.empty()) return 0;
 
@@ -720,6 +729,8 @@ int run(const Options& options) {
     r["epsilon"] = reference->epsilon();
     r["triangles"] = reference->triangles();
     r["uniform_offset_voxels"] = 2;
+    r["inside_closed_points"] = totals.insideClosed;
+    r["score_inside_closed"] = options.scoreInside;
     report["reference"] = r;
   }
   tools::writeFileAtomically(options.report, report.dump(2) + "\n");
@@ -759,6 +770,9 @@ int main(int argc, char** argv) {
   app.add_option("--reference", options.reference,
                  "Also ray-trace the points in this glTF scene with Embree and report the error")
       ->type_name("SCENE");
+  app.add_flag("--score-inside-closed", options.scoreInside,
+               "Also score points that lie inside a closed solid of the reference scene (left out by default: "
+               "no surface there can be seen, and the bake may answer either way)");
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh from the reference scene (repeatable)")
       ->type_name("NAME");
   app.add_option("--report", options.report, "Write a JSON report: counts, throughput, error figures")

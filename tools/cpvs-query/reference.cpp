@@ -71,6 +71,12 @@ bool Reference::shadowRay(const Light& light, const QueryPoint& point, Ray& ray,
   return true;
 }
 
+bool Reference::insideClosedSolid(const QueryPoint& point) const {
+  const double length = glm::length(point.normal);
+  const glm::dvec3 offset = length > 0 ? (epsilon_ / length) * point.normal : glm::dvec3(0.0);
+  return scene_->isInsideClosedSolid(point.position + offset);
+}
+
 uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const {
   Ray ray;
   double tmax = 0;

@@ -47,6 +47,10 @@ public:
   // without a normal: the circle in (u, v) at the point's depth), mapped back with gridToWorld.
   uint8_t visibility(const LightShadow& shadow, const QueryPoint& point, bool& uniform) const;
 
+  // Whether the point lies inside a closed solid of the scene (Embree parity count from just off the surface,
+  // along the normal when there is one). Such a point is in free voxels: the bake may answer either way.
+  bool insideClosedSolid(const QueryPoint& point) const;
+
   double epsilon() const { return epsilon_; }
   const std::string& scenePath() const { return scenePath_; }
   size_t triangles() const;
