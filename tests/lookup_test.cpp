@@ -285,6 +285,58 @@ TEST(Lookup, JacobianMatchesFiniteDifferences) {
   }
 }
 
+TEST(Lookup, HoistedToGridIsToGridBitForBit) {
+  WorldGeometry world;
+  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
+  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
+  for (const auto& p : world.positions) world.bounds.extend(p);
+  Light spot;
+  spot.type = LightType::Spot;
+  spot.position = {1, 6, 2};
+  spot.direction = glm::normalize(glm::dvec3(-0.2, -1, -0.1));
+  spot.outerConeAngle = 1.0;
+  Light directional;
+  directional.direction = glm::normalize(glm::dvec3(0.3, -1, 0.5));
+  Light point;
+  point.type = LightType::Point;
+  point.position = {0.5, 3, -1};
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> coord(-8.0, 8.0);
+  for (const Light& light : {spot, directional, point})
+    for (const LightView& view : makeLightViews(light, world, 1024)) {
+      const ViewConstants constants(view);
+      for (int i = 0; i < 2000; ++i) {
+        const glm::dvec3 p(coord(rng), coord(rng), coord(rng));
+        glm::dvec3 v;
+        const GridPoint a = toGrid(view, constants, p, v), b = toGrid(view, p);
+        ASSERT_EQ(a.inFront, b.inFront);
+        if (!b.inFront) continue;
+        ASSERT_EQ(a.depth, b.depth);
+        ASSERT_EQ(a.uvs.x, b.uvs.x);
+        ASSERT_EQ(a.uvs.y, b.uvs.y);
+        ASSERT_EQ(a.uvs.z, b.uvs.z);
+        // The bias lookupCell applies is q = g + b m^ with m^ the unit gridNormal (step 2 of the rule).
+        if (view.empty) continue;  // answered lit before any bias
+        const glm::dvec3 normal = glm::normalize(glm::dvec3(coord(rng), coord(rng), coord(rng)));
+        glm::dvec3 m = glm::normalize(gridNormal(view, p, normal));
+        const LookupCell biased = lookupCell(view, p, normal, {3, NormalOrientation::TowardLight, 0.5});
+        if (m.z > 0) m = -m;
+        const glm::dvec3 q = b.uvs + biasDistance(m, 3, 0.5) * m;
+        ASSERT_NEAR(biased.uvs.x, q.x, 1e-9 * (1 + std::abs(q.x)));
+        ASSERT_NEAR(biased.uvs.y, q.y, 1e-9 * (1 + std::abs(q.y)));
+        ASSERT_NEAR(biased.uvs.z, q.z, 1e-9 * (1 + std::abs(q.z)));
+        // voxelOf's truncation is toVoxel's floor and clamp wherever the lookup uses it.
+        const LookupCell cell = lookupCell(view, p, glm::dvec3(0.0), {});
+        if (cell.kind == LookupCell::Kind::Voxel) {
+          const Voxel expected = toVoxel(view, b.uvs);
+          ASSERT_EQ(cell.x, expected.x);
+          ASSERT_EQ(cell.y, expected.y);
+          ASSERT_EQ(cell.z, expected.z);
+        }
+      }
+    }
+}
+
 // A tilted open plane s = c + a u + b v in the identity view, rasterised the baker's way (enter at texel
 // centres, floor), with the plane's world normal facing the light.
 struct TiltedPlane {

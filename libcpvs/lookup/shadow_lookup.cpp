@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "libcpvs/error.h"
@@ -156,7 +157,33 @@ ViewConstants::ViewConstants(const LightView& view)
   const double n = view.resolution;
   su = (view.xMax - view.xMin) / n;
   sv = (view.yMax - view.yMin) / n;
-  invDs = linear ? (view.far - view.near) / n : std::log(view.far / view.near) / n;
+  logRatio = std::log(view.far / view.near);
+  invDs = linear ? (view.far - view.near) / n : logRatio / n;
+}
+
+GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
+                 glm::dvec3& viewPoint) {
+  // The same operations in the same order as light_view.cpp's toGrid / lateralAndDepth / depthToSlice.
+  const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
+  viewPoint = v;
+  const double d = -v.z;
+  double a = v.x, b = v.y;
+  if (!constants.orthographic) {
+    a = v.x / d;
+    b = v.y / d;
+  }
+  const double n = view.resolution;
+  GridPoint g;
+  g.depth = d;
+  g.inFront = constants.orthographic || d > 0;
+  double s;
+  if (constants.linear) {
+    s = n * (d - view.near) / (view.far - view.near);
+  } else {
+    s = d > 0 ? n * std::log(d / view.near) / constants.logRatio : -std::numeric_limits<double>::infinity();
+  }
+  g.uvs = {n * (a - view.xMin) / (view.xMax - view.xMin), n * (b - view.yMin) / (view.yMax - view.yMin), s};
+  return g;
 }
 
 namespace {
@@ -207,28 +234,47 @@ LookupCell lookupCell(const LightView& view, const ViewConstants& constants, con
     return cell;
   }
   if (view.empty) return cell;
-  const GridPoint g = toGrid(view, point);
+  glm::dvec3 v;
+  const GridPoint g = toGrid(view, constants, point, v);
   if (!g.inFront) return cell;
-  glm::dvec3 q = g.uvs;
-  if (normal.x != 0 || normal.y != 0 || normal.z != 0) {
-    // (a, b) from the grid position: a = xMin + u (xMax - xMin) / N.
-    const double a = view.xMin + g.uvs.x * constants.su, b = view.yMin + g.uvs.y * constants.sv;
-    glm::dvec3 m = gridNormalAt(constants, g.depth, a, b, normal);
-    if (m.z > 0) {  // the surface faces away from the light
-      if (options.orientation == NormalOrientation::AsGiven) {
-        cell.kind = LookupCell::Kind::BackFacing;
-        cell.uvs = q;
-        return cell;
-      }
-      m = -m;
-    }
-    const double length = std::sqrt(m.x * m.x + m.y * m.y + m.z * m.z);
-    if (length > 0 && std::isfinite(length)) {
-      const glm::dvec3 unit = m * (1.0 / length);
-      q += biasDistance(unit, options.pcfKernel, options.biasMargin) * unit;
-    }
+  // Written out in scalars (glm's vector code shuffles a lot here): m = J^-T n (gridNormalAt), the back-face
+  // test, the unit normal and the bias, computed for every point and selected at the end, so the one
+  // unpredictable outcome (front or back face) costs no branch.
+  const glm::dmat3& r = constants.rotation;
+  const double nvx = r[0][0] * normal.x + r[1][0] * normal.y + r[2][0] * normal.z;
+  const double nvy = r[0][1] * normal.x + r[1][1] * normal.y + r[2][1] * normal.z;
+  const double nvz = r[0][2] * normal.x + r[1][2] * normal.y + r[2][2] * normal.z;
+  const double d = g.depth;
+  double mx, my, mz;
+  if (constants.orthographic) {
+    const double invDs = constants.linear ? constants.invDs : constants.invDs * d;
+    mx = nvx * constants.su;
+    my = nvy * constants.sv;
+    mz = -nvz * invDs;
+  } else {
+    const double invDs = constants.linear ? constants.invDs : constants.invDs * d;
+    const double invD = 1.0 / d;
+    mx = nvx * d * constants.su;
+    my = nvy * d * constants.sv;
+    mz = ((nvx * v.x + nvy * v.y) * invD - nvz) * invDs;
   }
+  const bool back = mz > 0;  // the surface faces away from the light
+  const double flip = back ? -1.0 : 1.0;  // TowardLight: face the light
+  mx *= flip;
+  my *= flip;
+  mz *= flip;
+  const double length2 = mx * mx + my * my + mz * mz;
+  const bool biased = length2 > 0 && length2 <= std::numeric_limits<double>::max();
+  const double inv = biased ? 1.0 / std::sqrt(length2) : 0.0;
+  const double ux = mx * inv, uy = my * inv, uz = mz * inv;
+  const double b = 0.5 * double(options.pcfKernel) * (std::abs(ux) + std::abs(uy)) + options.biasMargin;
+  const glm::dvec3 q(g.uvs.x + b * ux, g.uvs.y + b * uy, g.uvs.z + b * uz);
   cell.uvs = q;
+  if (back && options.orientation == NormalOrientation::AsGiven) {
+    cell.kind = LookupCell::Kind::BackFacing;
+    cell.uvs = g.uvs;
+    return cell;
+  }
   const double n = view.resolution;
   if (!(q.x >= 0 && q.x < n && q.y >= 0 && q.y < n)) return cell;  // also catches NaN
   const Voxel voxel = voxelOf(q, n - 1.0);
@@ -449,6 +495,7 @@ constexpr size_t kWalksInFlight = 24;
 
 inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
 // A node is at most 9 words (header + 8 references) and may straddle two cache lines: fetch both.
+
 inline void prefetchNode(const uint32_t* node) {
   __builtin_prefetch(node, 0, 3);
   __builtin_prefetch(node + 8, 0, 3);
@@ -462,79 +509,78 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
 
 // K = 1: one path per point, so a fixed set of lanes each walking one point, round robin, is all it takes.
 void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
+  // Everything a step needs sits in the lane: no look-up of the point or its view per step.
   struct Lane {
-    uint32_t point;   // index into pending
-    uint32_t code;    // of the node the lane stands on
-    uint32_t offset;  // its words (size >= 8) or its leaf index (size == 0)
+    const uint32_t* nodes;
+    const uint64_t* leaves;
+    uint32_t x, y, z;
+    uint32_t offset;  // the node's words (size >= 8) or the leaf's index (size == 0)
     uint32_t size;
+    uint32_t out;
   };
   Lane lanes[kWalksInFlight];
   size_t active = 0, next = 0;
-  // Starts point `pi` in a lane; returns false when its answer is known without a walk.
-  auto start = [&](Lane& lane, uint32_t pi) {
-    const PendingPoint& pp = pending[pi];
+  // Starts pending point `pi` in a lane; false when its answer is known without a walk (written at once).
+  auto start = [&](Lane& lane, const PendingPoint& pp) {
+    const DagView& dag = dags_[pp.view];
     const TopGrid& grid = grids_[pp.view];
-    lane.point = pi;
-    if (grid.empty()) {
-      lane.code = uint32_t(ChildCode::Ref);
-      lane.offset = 0;
-      lane.size = dags_[pp.view].resolution;
-    } else {
+    lane.nodes = dag.nodes.data();
+    lane.leaves = dag.leaves.data();
+    lane.x = pp.f.x0;
+    lane.y = pp.f.y0;
+    lane.z = pp.z;
+    lane.out = pp.out;
+    uint32_t code = uint32_t(ChildCode::Ref);
+    lane.offset = 0;
+    lane.size = dag.resolution;
+    if (!grid.empty()) {
       const uint32_t s = grid.shift, level = grid.level;
       const uint32_t entry =
           grid.cells[(size_t(pp.z >> s) << (2 * level)) | (size_t(pp.f.y0 >> s) << level) | size_t(pp.f.x0 >> s)];
-      lane.code = entry & 3u;
+      code = entry & 3u;
       lane.offset = entry >> 2;
       lane.size = 1u << s;
     }
-    if (lane.code != uint32_t(ChildCode::Ref)) {
-      out[pp.out] = lane.code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
+    if (code != uint32_t(ChildCode::Ref)) {
+      out[pp.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
       return false;
     }
-    prefetchNode(dags_[pp.view].nodes.data() + lane.offset);
+    prefetchNode(lane.nodes + lane.offset);
     return true;
   };
   auto fill = [&](Lane& lane) {
     while (next < pending.size())
-      if (start(lane, uint32_t(next++))) return true;
+      if (start(lane, pending[next++])) return true;
     return false;
   };
   while (active < kWalksInFlight && fill(lanes[active])) ++active;
   while (active > 0) {
     for (size_t i = 0; i < active;) {
       Lane& lane = lanes[i];
-      const PendingPoint& pp = pending[lane.point];
-      const DagView& dag = dags_[pp.view];
-      bool done = false, shadowed = false;
+      bool shadowed;
       if (lane.size == 0) {  // the leaf mask
-        shadowed = (dag.leaves[lane.offset] >> ((pp.f.y0 & 7u) * 8u + (pp.f.x0 & 7u))) & 1u;
-        done = true;
+        shadowed = (lane.leaves[lane.offset] >> ((lane.y & 7u) * 8u + (lane.x & 7u))) & 1u;
       } else {
-        const uint32_t header = dag.nodes[lane.offset];
+        const uint32_t header = lane.nodes[lane.offset];
         const uint32_t half = lane.size >> 1;
-        const unsigned c = lane.size == 8 ? (pp.z & 7u)
-                                          : (((pp.z & half) ? 4u : 0u) | ((pp.f.y0 & half) ? 2u : 0u) |
-                                             ((pp.f.x0 & half) ? 1u : 0u));
+        const unsigned c = lane.size == 8 ? (lane.z & 7u)
+                                          : (((lane.z & half) ? 4u : 0u) | ((lane.y & half) ? 2u : 0u) |
+                                             ((lane.x & half) ? 1u : 0u));
         const uint32_t code = childCodeOf(header, c);
-        if (code != uint32_t(ChildCode::Ref)) {
-          shadowed = code == uint32_t(ChildCode::Shadowed);
-          done = true;
-        } else {
-          lane.offset = dag.nodes[lane.offset + 1 + slotOf(header, c)];
+        if (code == uint32_t(ChildCode::Ref)) {
+          lane.offset = lane.nodes[lane.offset + 1 + slotOf(header, c)];
           if (lane.size == 8) {
-            lane.size = 0;
-            prefetch(dag.leaves.data() + lane.offset);
+            prefetch(lane.leaves + lane.offset);
           } else {
-            lane.size = half;
-            prefetchNode(dag.nodes.data() + lane.offset);
+            prefetchNode(lane.nodes + lane.offset);
           }
+          lane.size = lane.size == 8 ? 0 : half;
+          ++i;
+          continue;
         }
+        shadowed = code == uint32_t(ChildCode::Shadowed);
       }
-      if (!done) {
-        ++i;
-        continue;
-      }
-      out[pp.out] = shadowed ? 0.0f : 1.0f;
+      out[lane.out] = shadowed ? 0.0f : 1.0f;
       if (!fill(lane)) lane = lanes[--active];  // no more points: close the lane (the last one moves here)
       else ++i;
     }

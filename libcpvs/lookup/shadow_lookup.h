@@ -98,10 +98,15 @@ struct ViewConstants {
   glm::dmat3 rotation{1.0};  // of viewFromWorld
   double su = 1, sv = 1;     // 1 / (d u / d a), 1 / (d v / d b)
   double invDs = 1;          // linear: (far - near) / N; logarithmic: log(far / near) / N (times d)
+  double logRatio = 0;       // log(far / near), as toGrid computes it
   bool orthographic = true, linear = true;
   ViewConstants() = default;
   explicit ViewConstants(const LightView& view);
 };
+// toGrid(view, world) bit for bit, with log(far / near) taken from the constants instead of computed per
+// call (the lookup's hot path; a test pins the two together). Also returns the view-space point.
+GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
+                 glm::dvec3& viewPoint);
 LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
                       const glm::dvec3& normal, const LookupOptions& options);
 
