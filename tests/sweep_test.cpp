@@ -153,6 +153,45 @@ TEST(ShadowMapBaseline, RasterDepthMatchesEmbreeDepth) {
   }
 }
 
+TEST(Sweep, SamplesInsideClosedSolidsAreDropped) {
+  // Two overlapping closed boxes and an open quad that passes through both: the parts of each surface inside
+  // the other box (or inside either box, for the quad) are hidden and dropped.
+  Scene scene;
+  test::addBox(scene, "a", {0, 0, 0}, {2, 2, 2});
+  test::addBox(scene, "b", {1, 1, 1}, {3, 3, 3});
+  test::addQuad(scene, "sheet", {-1, 1.5, -1}, {-1, 1.5, 4}, {4, 1.5, 4}, {4, 1.5, -1});
+  test::classifyMeshes(scene);
+  const WorldGeometry world = flatten(scene);
+  const EmbreeScene embree(world);
+  const double epsilon = 1e-5 * glm::length(world.bounds.extent());
+  const auto drawn = sampleSurfaces(world, 20000, 3);
+  const auto kept = exteriorSamples(embree, epsilon, drawn);
+  auto strictlyInside = [](const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
+    const double m = 1e-3;
+    return p.x > lo.x + m && p.y > lo.y + m && p.z > lo.z + m && p.x < hi.x - m && p.y < hi.y - m && p.z < hi.z - m;
+  };
+  auto hidden = [&](const glm::dvec3& p) {
+    return strictlyInside(p, {0, 0, 0}, {2, 2, 2}) || strictlyInside(p, {1, 1, 1}, {3, 3, 3});
+  };
+  size_t expectHidden = 0, clear = 0;
+  for (const SurfaceSample& s : drawn) {
+    const bool h = hidden(s.position);
+    expectHidden += h;
+    // Points on a boundary (within 1e-3 of a face of the other box) may go either way.
+    bool nearBoundary = false;
+    for (int a = 0; a < 3; ++a)
+      for (double f : {0.0, 1.0, 2.0, 3.0}) nearBoundary = nearBoundary || std::abs(s.position[a] - f) < 1e-3;
+    if (!nearBoundary) ++clear;
+  }
+  EXPECT_GT(expectHidden, 2000u);
+  size_t keptHidden = 0;
+  for (const SurfaceSample& s : kept) keptHidden += hidden(s.position);
+  EXPECT_EQ(keptHidden, 0u);
+  // Everything dropped was hidden (up to the points on a box face lying in the other box's face plane).
+  EXPECT_NEAR(double(drawn.size() - kept.size()), double(expectHidden), 0.01 * double(drawn.size()));
+  EXPECT_GT(clear, 0u);
+}
+
 TEST(Sweep, RowsOnATinyScene) {
   Scene scene = floatingBox();
   Light spot;
@@ -177,7 +216,11 @@ TEST(Sweep, RowsOnATinyScene) {
   }
   ASSERT_EQ(rows.size(), 6u);
   const WorldGeometry world = flatten(scene);
-  const auto samples = sampleSurfaces(world, settings.samples, settings.seed);
+  const EmbreeScene embree(world);
+  const double epsilon = 1e-5 * glm::length(world.bounds.extent());
+  const auto drawn = sampleSurfaces(world, settings.samples, settings.seed);
+  const auto samples = exteriorSamples(embree, epsilon, drawn);
+  EXPECT_EQ(samples.size(), drawn.size());  // nothing is inside the box here
   for (size_t i = 0; i < rows.size(); ++i) {
     const SweepRow& r = rows[i];
     EXPECT_EQ(r.resolution, settings.resolutions[i / 2]);

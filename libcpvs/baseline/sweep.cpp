@@ -134,6 +134,18 @@ std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<Sur
   return points;
 }
 
+std::vector<SurfaceSample> exteriorSamples(const EmbreeScene& scene, double epsilon,
+                                           const std::vector<SurfaceSample>& samples) {
+  std::vector<uint8_t> keep(samples.size());
+  parallelFor(samples.size(), [&](size_t i) {
+    keep[i] = scene.closedSolidDepth(samples[i].position + epsilon * samples[i].normal) <= 0;
+  });
+  std::vector<SurfaceSample> out;
+  for (size_t i = 0; i < samples.size(); ++i)
+    if (keep[i]) out.push_back(samples[i]);
+  return out;
+}
+
 std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings, std::string* renderer,
                                const SweepCallbacks& callbacks) {
   auto log = [&](const std::string& line) {
@@ -147,7 +159,11 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
   const LookupOptions lookup{settings.pcfKernel, NormalOrientation::AsGiven};
 
   // Per light: points, reference values and Embree's single-threaded throughput on them.
-  const std::vector<SurfaceSample> samples = sampleSurfaces(world, settings.samples, settings.seed);
+  std::vector<SurfaceSample> samples = sampleSurfaces(world, settings.samples, settings.seed);
+  const size_t drawn = samples.size();
+  if (!settings.interiorPoints) samples = exteriorSamples(embree, epsilon, samples);
+  const uint64_t interior = drawn - samples.size();
+  log(std::to_string(interior) + " of " + std::to_string(drawn) + " samples inside closed solids dropped");
   const size_t lightCount = scene.lights.size();
   std::vector<std::vector<SurfaceSample>> points(lightCount);
   std::vector<std::vector<uint8_t>> reference(lightCount);
@@ -203,6 +219,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
       const std::vector<SurfaceSample>& pts = points[l];
       const size_t count = pts.size();
       row.points = count;
+      row.interiorSamples = interior;
       for (uint8_t r : reference[l]) row.referenceLit += r;
 
       // Uniformity at this resolution (voxel size of the view the point falls in).

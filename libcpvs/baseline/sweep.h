@@ -5,9 +5,13 @@
 // the rows.
 //
 // Points: area-weighted surface samples with their geometric normals (sampleSurfaces, deterministic seed),
-// per light only those inside the light's influence and, unless `allPoints`, facing the light (n . l > 0):
-// a point facing away from the light is in its own surface's shadow, which every method answers from the
-// normal alone, so counting those would only dilute the rates.
+// without the samples that lie inside a closed solid (faces of intersecting or embedded solids, e.g. a
+// building's base inside the ground slab or a fin inside a tower: no camera sees them, and inside closed
+// geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved 1e-5 of the
+// scene diagonal along its normal with EmbreeScene::closedSolidDepth; per light only those inside the light's
+// influence and, unless `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its
+// own surface's shadow, which every method answers from the normal alone, so counting those would only dilute
+// the rates.
 // Reference: the same rule as `cpvs-query --reference`: a shadow ray from the point moved 1e-5 of the scene
 // diagonal along its normal, toward the light (directional: unbounded; spot/point: up to the light). A point
 // is *uniform* at resolution N when the reference agrees at 8 points around it on its tangent plane, 2 voxels
@@ -37,6 +41,7 @@ struct SweepSettings {
   size_t samples = 100000;  // surface samples drawn (before the per-light influence / facing filter)
   uint64_t seed = 1;
   bool allPoints = false;   // keep points facing away from the light
+  bool interiorPoints = false;  // keep samples inside closed solids
   int pcfKernel = 1;        // K for both the CPVS and the shadow map
   BaselineDepth baselineDepth = BaselineDepth::Embree;
   BakeSettings bake;        // resolution is set per sweep step
@@ -53,6 +58,7 @@ struct SweepRow {
   uint64_t bytes = 0;          // the light's DAG bytes (node words + leaf masks), all views
   uint64_t fileBytes = 0;      // the whole .cpvs at this resolution (all lights)
   uint64_t points = 0;
+  uint64_t interiorSamples = 0;  // samples dropped as inside a closed solid (for the whole scene)
   uint64_t referenceLit = 0;
   uint64_t uniform = 0;
   uint64_t misclassified = 0, misclassifiedUniform = 0;
@@ -83,5 +89,8 @@ uint8_t referenceVisibility(const EmbreeScene& scene, double epsilon, const Ligh
                             const glm::dvec3& normal);
 // The per-light test points of the sweep (influence and facing filter applied to `samples`).
 std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<SurfaceSample>& samples, bool allPoints);
+// The samples that are not inside a closed solid (see above); `epsilon` is the offset along the normal.
+std::vector<SurfaceSample> exteriorSamples(const EmbreeScene& scene, double epsilon,
+                                           const std::vector<SurfaceSample>& samples);
 
 }  // namespace cpvs

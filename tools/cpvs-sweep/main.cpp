@@ -28,6 +28,7 @@ struct Options {
   size_t samples = 100000;
   uint64_t seed = 1;
   bool allPoints = false;
+  bool interiorPoints = false;
   int pcf = 1;
   std::string baselineDepth = "embree";
   std::string undefinedMode = "kampe";
@@ -131,8 +132,11 @@ std::string markdown(const Options& o, const std::string& name, const Scene& sce
   for (const Mesh& m : scene.meshes) closed += m.closed;
   md += ", " + std::to_string(closed) + " of " + std::to_string(scene.meshes.size()) + " meshes closed)\n";
   for (size_t l = 0; l < scene.lights.size(); ++l) md += "* Light `" + scene.lights[l].name + "`: " + lightText(scene.lights[l]) + "\n";
+  const uint64_t interior = rows.empty() ? 0 : rows[0].interiorSamples;
   md += "* " + std::to_string(o.samples) + " area-weighted surface samples (seed " + std::to_string(o.seed) + "), " +
-        (o.allPoints ? "all kept" : "kept where they face the light") + " and inside its influence; PCF " +
+        (o.interiorPoints ? std::string("including those inside closed solids")
+                          : std::to_string(interior) + " of them inside closed solids dropped") +
+        "; per light " + (o.allPoints ? "all kept" : "kept where they face the light") + " and inside its influence; PCF " +
         std::to_string(o.pcf) + "×" + std::to_string(o.pcf) + "; `--undefined " + o.undefinedMode +
         "`; shadow-map depth from " + (o.baselineDepth == "embree" ? "Embree rays" : "the GL enter-depth renderer") +
         "\n";
@@ -255,6 +259,7 @@ int run(int argc, char** argv) {
   app.add_option("--points", o.samples, "Surface samples drawn (then filtered per light)")->capture_default_str();
   app.add_option("--seed", o.seed, "Sampling seed")->capture_default_str();
   app.add_flag("--all-points", o.allPoints, "Keep the points that face away from the light");
+  app.add_flag("--interior-points", o.interiorPoints, "Keep the samples inside closed solids (hidden surfaces)");
   app.add_option("--pcf", o.pcf, "PCF kernel K (odd) for the CPVS and the shadow map")->capture_default_str();
   app.add_option("--baseline-depth", o.baselineDepth,
                  "Depth of the equal-bytes shadow map: embree (rays through texel centres) or raster (GL)")
@@ -280,6 +285,7 @@ int run(int argc, char** argv) {
   settings.samples = o.samples;
   settings.seed = o.seed;
   settings.allPoints = o.allPoints;
+  settings.interiorPoints = o.interiorPoints;
   settings.pcfKernel = o.pcf;
   checkPcfKernel(o.pcf);
   settings.baselineDepth = parseBaselineDepth(o.baselineDepth);
@@ -322,6 +328,8 @@ int run(int argc, char** argv) {
                               {"samples", o.samples},
                               {"seed", o.seed},
                               {"all_points", o.allPoints},
+                              {"interior_points", o.interiorPoints},
+                              {"interior_samples", rows.empty() ? 0 : rows[0].interiorSamples},
                               {"pcf", o.pcf},
                               {"undefined", o.undefinedMode},
                               {"baseline_depth", o.baselineDepth},
