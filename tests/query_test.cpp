@@ -916,9 +916,10 @@ TEST(QueryReference, ExcludedMeshesLeaveTheReferenceAndChangeTheError) {
   const auto full = run("");
   const auto noBox = run(" --exclude-mesh Box");
   EXPECT_LE(full.at("misclassified").get<double>(), 0.01);
-  // Without the boxes the reference sees no casters but the ground (whose back is shadowed by itself).
+  // Without the boxes the reference sees no casters but the ground.
   EXPECT_GT(noBox.at("reference_lit_fraction").get<double>(), full.at("reference_lit_fraction").get<double>());
-  EXPECT_GT(noBox.at("misclassified").get<double>(), 0.05);
+  // The boxes' shadows on the ground are now errors (about 3 % of Tiny's surface points).
+  EXPECT_GT(noBox.at("misclassified").get<double>(), full.at("misclassified").get<double>() + 0.01);
 }
 
 }  // namespace

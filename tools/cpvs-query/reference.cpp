@@ -54,6 +54,14 @@ bool Reference::shadowRay(const Light& light, const QueryPoint& point, Ray& ray,
   if (nLength > 0) {
     glm::dvec3 n = point.normal / nLength;
     if (orientation_ == NormalOrientation::TowardLight && glm::dot(n, toLight) < 0) n = -n;
+    // A surface facing away from the light: the ray from the surface point itself enters that surface at
+    // once, so the point is in its own shadow. (Moved epsilon off the surface first, a ray that meets an
+    // almost edge-on facet would cross the facet's plane epsilon / |n . L| further on, past its edge, and
+    // escape: an artefact of the offset, not light.)
+    if (glm::dot(n, toLight) < 0) {
+      known = 0;
+      return false;
+    }
     origin += epsilon_ * n;
   } else {
     origin += epsilon_ * toLight;

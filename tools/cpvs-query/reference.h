@@ -36,7 +36,8 @@ public:
   // Ray-traced visibility (1 lit, 0 shadowed; 0 outside the light's influence) of a point: a shadow ray from
   // the point, moved by `epsilon()` along its normal (oriented as the lookup orients it; without a normal the
   // ray starts `epsilon()` along itself), toward the light (directional: along -direction, unbounded;
-  // spot/point: to the light's position).
+  // spot/point: to the light's position). A normal facing away from the light gives 0 without a ray: the ray
+  // from the surface point enters its own surface at once.
   uint8_t visibility(const Light& light, const QueryPoint& point) const;
   // The same for many points, traced in 16-wide packets (rtcOccluded16) on the calling thread: for the
   // throughput figure next to single rays. out[i] for points[i].
