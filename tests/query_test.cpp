@@ -753,6 +753,8 @@ struct ShippedScene {
   uint32_t resolution = 1024;
 };
 
+void PrintTo(const ShippedScene& s, std::ostream* os) { *os << s.path << " at " << s.resolution; }
+
 class QueryAccuracy : public ::testing::TestWithParam<ShippedScene> {};
 
 TEST_P(QueryAccuracy, MisclassificationWithinTheIssueThresholds) {
