@@ -252,7 +252,9 @@ class Bench:
         w(f"* CPU: {m['model']} — {m['cpus']} logical CPUs ({m['cores_per_socket']} cores per socket, "
           f"{m['threads_per_core']} thread(s) per core), {m['memory_gib']:.1f} GiB RAM, Linux {m['kernel']}")
         w(f"* Renderer (from the bake report): `{m['renderer']}`")
-        w(f"* Baker: `{self.bake_version}` (binary sha256 {self.bake_sha}…), commit {git_commit()}")
+        built = os.path.join(self.bin, "COMMIT")  # written by whoever copied the binaries (see README)
+        commit = open(built).read().strip() if os.path.exists(built) else git_commit()
+        w(f"* Baker: `{self.bake_version}` (binary sha256 {self.bake_sha}…), built from commit {commit}")
         loads = [r["meta"]["loadavg_before"] for r in self.results.values()]
         starts = sorted(r["meta"]["started"] for r in self.results.values())
         if loads:
