@@ -39,8 +39,12 @@ void writeExr(const std::string& path, const ExrImage& image) {
       throw Error(ExitCode::Usage, path + ": EXR channel names must be non-empty and distinct ('" + c + "')");
 
   const std::filesystem::path target(path);
-  const std::filesystem::path temp =
-      target.parent_path() / ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
+  // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "." + std::string.
+  std::string tempName = ".";
+  tempName += target.filename().string();
+  tempName += ".tmp";
+  tempName += std::to_string(::getpid());
+  const std::filesystem::path temp = target.parent_path() / tempName;
   try {
     Imf::Header header(int(image.width), int(image.height));
     header.compression() = Imf::ZIP_COMPRESSION;
