@@ -200,7 +200,7 @@ class Bench:
         if os.path.exists(output):
             os.remove(output)
         meta = {"scene_sha": self.scenes[scene_key][1], "bake_sha": self.bake_sha, "sun": self.args.sun,
-                "threads": self.args.threads,
+                "threads": self.args.threads, "run_command": this_command(),
                 "started": started, "wall_s": wall, "loadavg_before": load_before[0], "loadavg_after": load_after[0],
                 "command": self.rel_cmd(cmd)}
         result = {"meta": meta, "report": report}
@@ -261,14 +261,21 @@ class Bench:
             w(f"* Bakes run one at a time with `--threads {A.threads}` between {starts[0]} and {starts[-1]}; "
               f"1-minute load average before each bake {min(loads):.2f}–{max(loads):.2f} (the machine is shared: "
               "a load above about 2 — the rasteriser's threads — means other work competed for the 2 cores).")
-        w("* Command:")
+        runs = sorted({r["meta"].get("run_command", "") for r in self.results.values()} - {""})
+        w("* Command (the run that baked; an interrupted run resumes with the same command):")
         w("")
         w("```")
-        w("python3 " + " ".join(shlex.quote(a) for a in [os.path.relpath(os.path.abspath(sys.argv[0]), ROOT)] + sys.argv[1:]))
+        for c in runs or [this_command()]:
+            w(c)
         w("```")
+        if this_command() not in runs:
+            w("")
+            w(f"  This file was last written by `{this_command()}` from the cached reports.")
         w("")
         for key, kind, label in SCENES:
-            w(f"* {label}: {self.scenes[key][2]}")
+            text = self.scenes[key][2]
+            text = text[len(kind) + 2:] if text.startswith(kind + ": ") else text
+            w(f"* {label} (`cpvs-scenegen {kind}`): {text}")
         w(f"* Sun direction (the way the light travels): `{A.sun}`; one orthographic view fitted to the scene; "
           "N = resolution in x, y and depth slices.")
         w("")
@@ -423,6 +430,10 @@ class Bench:
         print(f"wrote {os.path.relpath(os.path.abspath(path), ROOT)}")
         for name, measured, ok in targets:
             print(f"  {'MET ' if ok else 'MISS'} {name}: {measured}")
+
+
+def this_command():
+    return "python3 " + " ".join(shlex.quote(a) for a in [os.path.relpath(os.path.abspath(sys.argv[0]), ROOT)] + sys.argv[1:])
 
 
 def fmt_ms(ms):
