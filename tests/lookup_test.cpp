@@ -479,6 +479,43 @@ TEST(Influence, OutsideRangeOrConeIsZero) {
   EXPECT_EQ(pointShadow.visibility({0, 0, 31}, glm::dvec3(0.0), {}), 0.0f);    // beyond range
 }
 
+// A point light's six faces, each with its own DAG: the batch groups the walks by view and must still give
+// each point the single-point answer of its own face.
+TEST(Influence, PointLightBatchEqualsSinglePointLookups) {
+  const WorldGeometry world = boxWorld();
+  Light point;
+  point.type = LightType::Point;
+  point.position = {0.5, 0.25, 0.1};
+  point.range = 9;
+  std::vector<LightView> views = makeLightViews(point, world, 64);
+  ASSERT_EQ(views.size(), 6u);
+  std::vector<ShadowDag> owned;
+  for (uint32_t face = 0; face < 6; ++face) owned.push_back(dagFrom(randomDepth(64, 40 + face)));
+  std::vector<DagView> dags;
+  for (const ShadowDag& d : owned) dags.push_back(d.view());
+  for (LightView& v : views) v.empty = false;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pos(-3.0, 3.0), dir(-1.0, 1.0);
+  std::vector<SurfacePoint> points;
+  for (int i = 0; i < 4000; ++i) points.push_back({{pos(rng), pos(rng), pos(rng)}, {dir(rng), dir(rng), dir(rng)}});
+  for (int gridLevels : {0, 2}) {
+    const LightShadow shadow(point, views, dags, gridLevels);
+    for (int k : {1, 5}) {
+      std::vector<float> batch(points.size());
+      shadow.visibility(points, {k}, batch);
+      size_t shadowed = 0, lit = 0;
+      for (size_t i = 0; i < points.size(); ++i) {
+        ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k}))
+            << "K=" << k << " grid " << gridLevels << " point " << i << " face " << shadow.viewIndex(points[i].position);
+        shadowed += batch[i] == 0.0f;
+        lit += batch[i] == 1.0f;
+      }
+      EXPECT_GT(shadowed, 100u);  // both answers occur: the faces' DAGs are really walked
+      EXPECT_GT(lit, 100u);
+    }
+  }
+}
+
 // ---- a baked scene ------------------------------------------------------------------------------------
 
 struct BakedScene {

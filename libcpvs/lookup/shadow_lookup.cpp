@@ -161,8 +161,10 @@ ViewConstants::ViewConstants(const LightView& view)
   invDs = linear ? (view.far - view.near) / n : logRatio / n;
 }
 
-GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
-                 glm::dvec3& viewPoint) {
+namespace {
+// toGrid below, inlined into the lookups' hot loops.
+[[gnu::always_inline]] inline GridPoint toGridInline(const LightView& view, const ViewConstants& constants,
+                                                     const glm::dvec3& world, glm::dvec3& viewPoint) {
   // The same operations in the same order as light_view.cpp's toGrid / lateralAndDepth / depthToSlice.
   const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
   viewPoint = v;
@@ -184,6 +186,12 @@ GridPoint toGrid(const LightView& view, const ViewConstants& constants, const gl
   }
   g.uvs = {n * (a - view.xMin) / (view.xMax - view.xMin), n * (b - view.yMin) / (view.yMax - view.yMin), s};
   return g;
+}
+}  // namespace
+
+GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
+                 glm::dvec3& viewPoint) {
+  return toGridInline(view, constants, world, viewPoint);
 }
 
 namespace {
@@ -226,8 +234,11 @@ LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm:
   return lookupCell(view, ViewConstants(view), point, normal, options);
 }
 
-LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
-                      const glm::dvec3& normal, const LookupOptions& options) {
+namespace {
+// lookupCell below, inlined into the batch loop (the single-point entry points call it through lookupCell).
+[[gnu::always_inline]] inline LookupCell lookupCellInline(const LightView& view, const ViewConstants& constants,
+                                                          const glm::dvec3& point, const glm::dvec3& normal,
+                                                          const LookupOptions& options) {
   LookupCell cell;
   if (!finite(point) || !finite(normal)) {
     cell.kind = LookupCell::Kind::Invalid;
@@ -235,7 +246,7 @@ LookupCell lookupCell(const LightView& view, const ViewConstants& constants, con
   }
   if (view.empty) return cell;
   glm::dvec3 v;
-  const GridPoint g = toGrid(view, constants, point, v);
+  const GridPoint g = toGridInline(view, constants, point, v);
   if (!g.inFront) return cell;
   // Written out in scalars (glm's vector code shuffles a lot here): m = J^-T n (gridNormalAt), the back-face
   // test, the unit normal and the bias, computed for every point and selected at the end, so the one
@@ -283,6 +294,12 @@ LookupCell lookupCell(const LightView& view, const ViewConstants& constants, con
   cell.y = voxel.y;
   cell.z = voxel.z;
   return cell;
+}
+}  // namespace
+
+LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
+                      const glm::dvec3& normal, const LookupOptions& options) {
+  return lookupCellInline(view, constants, point, normal, options);
 }
 
 uint32_t shadowedTexels(const DagView& dag, const TopGrid& grid, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
@@ -507,82 +524,81 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
 
 }  // namespace
 
-// K = 1: one path per point, so a fixed set of lanes each walking one point, round robin, is all it takes.
+// K = 1: one path per point. The walks go level by level: every point of the view takes its step at one
+// level before any takes the next, in a loop without data-dependent branches (the child's code decides only
+// which values are kept), so the loop runs at the speed of its loads: each child's node is prefetched when
+// its reference is read and read one pass over the batch later, by which time it has arrived from memory.
 void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
-  // Everything a step needs sits in the lane: no look-up of the point or its view per step.
-  struct Lane {
-    const uint32_t* nodes;
-    const uint64_t* leaves;
+  struct Walk {
     uint32_t x, y, z;
-    uint32_t offset;  // the node's words (size >= 8) or the leaf's index (size == 0)
-    uint32_t size;
+    uint32_t offset;  // the node's words, then (after the leaf-parent level) the leaf's index
     uint32_t out;
   };
-  Lane lanes[kWalksInFlight];
-  size_t active = 0, next = 0;
-  // Starts pending point `pi` in a lane; false when its answer is known without a walk (written at once).
-  auto start = [&](Lane& lane, const PendingPoint& pp) {
-    const DagView& dag = dags_[pp.view];
-    const TopGrid& grid = grids_[pp.view];
-    lane.nodes = dag.nodes.data();
-    lane.leaves = dag.leaves.data();
-    lane.x = pp.f.x0;
-    lane.y = pp.f.y0;
-    lane.z = pp.z;
-    lane.out = pp.out;
-    uint32_t code = uint32_t(ChildCode::Ref);
-    lane.offset = 0;
-    lane.size = dag.resolution;
-    if (!grid.empty()) {
-      const uint32_t s = grid.shift, level = grid.level;
-      const uint32_t entry =
-          grid.cells[(size_t(pp.z >> s) << (2 * level)) | (size_t(pp.f.y0 >> s) << level) | size_t(pp.f.x0 >> s)];
-      code = entry & 3u;
-      lane.offset = entry >> 2;
-      lane.size = 1u << s;
-    }
-    if (code != uint32_t(ChildCode::Ref)) {
-      out[pp.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
-      return false;
-    }
-    prefetchNode(lane.nodes + lane.offset);
-    return true;
-  };
-  auto fill = [&](Lane& lane) {
-    while (next < pending.size())
-      if (start(lane, pending[next++])) return true;
-    return false;
-  };
-  while (active < kWalksInFlight && fill(lanes[active])) ++active;
-  while (active > 0) {
-    for (size_t i = 0; i < active;) {
-      Lane& lane = lanes[i];
-      bool shadowed;
-      if (lane.size == 0) {  // the leaf mask
-        shadowed = (lane.leaves[lane.offset] >> ((lane.y & 7u) * 8u + (lane.x & 7u))) & 1u;
-      } else {
-        const uint32_t header = lane.nodes[lane.offset];
-        const uint32_t half = lane.size >> 1;
-        const unsigned c = lane.size == 8 ? (lane.z & 7u)
-                                          : (((lane.z & half) ? 4u : 0u) | ((lane.y & half) ? 2u : 0u) |
-                                             ((lane.x & half) ? 1u : 0u));
-        const uint32_t code = childCodeOf(header, c);
-        if (code == uint32_t(ChildCode::Ref)) {
-          lane.offset = lane.nodes[lane.offset + 1 + slotOf(header, c)];
-          if (lane.size == 8) {
-            prefetch(lane.leaves + lane.offset);
-          } else {
-            prefetchNode(lane.nodes + lane.offset);
-          }
-          lane.size = lane.size == 8 ? 0 : half;
-          ++i;
-          continue;
-        }
-        shadowed = code == uint32_t(ChildCode::Shadowed);
+  std::vector<Walk> walks;
+  walks.reserve(pending.size());
+  for (uint32_t view = 0; view < dags_.size(); ++view) {
+    const DagView& dag = dags_[view];
+    const TopGrid& grid = grids_[view];
+    const uint32_t* nodes = dag.nodes.data();
+    // Start: the root, or the top-grid cell (whose code may answer at once).
+    walks.clear();
+    const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
+    for (const PendingPoint& pp : pending) {
+      if (pp.view != view) continue;
+      uint32_t entry = uint32_t(ChildCode::Ref);  // root at offset 0 (rootCode Ref: visibility() checked)
+      if (!grid.empty()) {
+        const uint32_t sh = grid.shift, level = grid.level;
+        entry = grid.cells[(size_t(pp.z >> sh) << (2 * level)) | (size_t(pp.f.y0 >> sh) << level) | size_t(pp.f.x0 >> sh)];
       }
-      out[lane.out] = shadowed ? 0.0f : 1.0f;
-      if (!fill(lane)) lane = lanes[--active];  // no more points: close the lane (the last one moves here)
-      else ++i;
+      const uint32_t code = entry & 3u;
+      if (code != uint32_t(ChildCode::Ref)) {
+        out[pp.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
+        continue;
+      }
+      prefetchNode(nodes + (entry >> 2));
+      walks.push_back({pp.f.x0, pp.f.y0, pp.z, entry >> 2, pp.out});
+    }
+    size_t active = walks.size();
+    Walk* w = walks.data();
+    // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+    for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+      const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+      size_t kept = 0;
+      for (size_t i = 0; i < active; ++i) {
+        Walk walk = w[i];
+        const uint32_t header = nodes[walk.offset];
+        const unsigned c = (((walk.z >> bit) & 1u) << 2) | (((walk.y >> bit) & 1u) << 1) | ((walk.x >> bit) & 1u);
+        const uint32_t code = childCodeOf(header, c);
+        const bool ref = code == uint32_t(ChildCode::Ref);
+        out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;  // final unless a reference
+        // Without a reference this re-reads the header: in bounds, and no branch.
+        walk.offset = nodes[walk.offset + (ref ? 1u + slotOf(header, c) : 0u)];
+        prefetchNode(nodes + walk.offset);
+        w[kept] = walk;
+        kept += ref ? 1u : 0u;
+      }
+      active = kept;
+    }
+    // Leaf-parent level: z-only split into 8x8x1 leaves.
+    size_t kept = 0;
+    for (size_t i = 0; i < active; ++i) {
+      Walk walk = w[i];
+      const uint32_t header = nodes[walk.offset];
+      const unsigned c = walk.z & 7u;
+      const uint32_t code = childCodeOf(header, c);
+      const bool ref = code == uint32_t(ChildCode::Ref);
+      out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
+      walk.offset = ref ? nodes[walk.offset + 1u + slotOf(header, c)] : 0u;
+      prefetch(dag.leaves.data() + walk.offset);
+      w[kept] = walk;
+      kept += ref ? 1u : 0u;
+    }
+    // Leaves: the voxel's bit.
+    const uint64_t* leaves = dag.leaves.data();
+    for (size_t i = 0; i < kept; ++i) {
+      const Walk& walk = w[i];
+      const bool shadowed = (leaves[walk.offset] >> ((walk.y & 7u) * 8u + (walk.x & 7u))) & 1u;
+      out[walk.out] = shadowed ? 0.0f : 1.0f;
     }
   }
 }
@@ -608,7 +624,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
     const int index = viewIndex(p.position);
     if (index < 0) continue;
     const size_t vi = size_t(index);
-    const LookupCell cell = lookupCell(views_[vi], constants_[vi], p.position, p.normal, options);
+    const LookupCell cell = lookupCellInline(views_[vi], constants_[vi], p.position, p.normal, options);
     if (cell.kind == LookupCell::Kind::Lit) out[i] = 1.0f;
     if (cell.kind != LookupCell::Kind::Voxel) continue;
     const DagView& dag = dags_[vi];

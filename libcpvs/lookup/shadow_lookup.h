@@ -165,8 +165,8 @@ public:
   // The view a point falls in, or -1 outside the light's influence.
   int viewIndex(const glm::dvec3& point) const;
   // The same answers for many points at once (out[i] for points[i]; out.size() == points.size()): the DAG
-  // walks of the batch are interleaved, each node's cache line prefetched when its parent is read and used
-  // only after the other walks in flight have taken a step, so cache misses overlap instead of adding up.
+  // walks of the batch advance level by level without data-dependent branches, each node's cache line
+  // prefetched when its parent is read and read one pass later, so cache misses overlap instead of adding up.
   // PCF footprints are walked as one traversal that splits where the footprint spans several children
   // (homogeneous children counted at once, leaf masks AND-ed with the kernel's tile mask and counted).
   void visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
