@@ -10,6 +10,7 @@
 #include "libcpvs/error.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
+#include "libcpvs/reference/shadow_reference.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -66,7 +67,7 @@ TEST(ShadowMapBaseline, AgreesWithEmbreeAwayFromShadowEdges) {
   ASSERT_EQ(map.size(), 200u);
   ASSERT_EQ(map.bytes(), 200u * 200u * 2u);
   const ShadowMapLight light(sun, {map});
-  const double epsilon = 1e-5 * glm::length(world.bounds.extent());
+  const ShadowReference reference(world);
   const LookupOptions options{1, NormalOrientation::AsGiven};
 
   // The ground's shadow of the box, analytically: a ground point p is shadowed when the ray p - t d hits the box.
@@ -95,7 +96,7 @@ TEST(ShadowMapBaseline, AgreesWithEmbreeAwayFromShadowEdges) {
       const glm::dvec3 p(x, 0, z), n(0, 1, 0);
       if (nearEdge(p)) continue;
       const bool expectLit = !inShadow(p);
-      ASSERT_EQ(referenceVisibility(embree, epsilon, sun, p, n), expectLit ? 1 : 0) << x << " " << z;
+      ASSERT_EQ(reference.visibility(sun, {p, n}), expectLit ? 1 : 0) << x << " " << z;
       ASSERT_EQ(light.visibility(p, n, options), expectLit ? 1.0f : 0.0f) << x << " " << z;
       ++checked;
       shadowed += !expectLit;
@@ -163,9 +164,9 @@ TEST(Sweep, SamplesInsideClosedSolidsAreDropped) {
   test::classifyMeshes(scene);
   const WorldGeometry world = flatten(scene);
   const EmbreeScene embree(world);
-  const double epsilon = 1e-5 * glm::length(world.bounds.extent());
+  const ShadowReference reference(world);
   const auto drawn = sampleSurfaces(world, 20000, 3);
-  const auto kept = exteriorSamples(embree, epsilon, drawn);
+  const auto kept = exteriorSamples(reference, drawn);
   auto strictlyInside = [](const glm::dvec3& p, const glm::dvec3& lo, const glm::dvec3& hi) {
     const double m = 1e-3;
     return p.x > lo.x + m && p.y > lo.y + m && p.z > lo.z + m && p.x < hi.x - m && p.y < hi.y - m && p.z < hi.z - m;
@@ -217,9 +218,9 @@ TEST(Sweep, RowsOnATinyScene) {
   ASSERT_EQ(rows.size(), 6u);
   const WorldGeometry world = flatten(scene);
   const EmbreeScene embree(world);
-  const double epsilon = 1e-5 * glm::length(world.bounds.extent());
+  const ShadowReference reference(world);
   const auto drawn = sampleSurfaces(world, settings.samples, settings.seed);
-  const auto samples = exteriorSamples(embree, epsilon, drawn);
+  const auto samples = exteriorSamples(reference, drawn);
   EXPECT_EQ(samples.size(), drawn.size());  // nothing is inside the box here
   for (size_t i = 0; i < rows.size(); ++i) {
     const SweepRow& r = rows[i];

@@ -13,6 +13,7 @@
 #include "libcpvs/error.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
+#include "libcpvs/reference/shadow_reference.h"
 
 namespace cpvs {
 
@@ -49,28 +50,6 @@ glm::dvec3 toLightDirection(const Light& light, const glm::dvec3& point) {
   return length > 0 ? d / length : glm::dvec3(0.0);
 }
 
-// Reference at the point and `uniform` (8 neighbours 2 voxels away on the tangent plane agree).
-uint8_t referenceWithUniform(const EmbreeScene& scene, double epsilon, const Light& light, const LightView* view,
-                             const glm::dvec3& point, const glm::dvec3& normal, uint8_t centre, bool& uniform) {
-  uniform = true;
-  if (!view) return centre;
-  const GridPoint g = toGrid(*view, point);
-  if (!g.inFront) return centre;
-  glm::dvec3 m = gridNormal(*view, point, normal);
-  const double length = glm::length(m);
-  m = length > 0 && std::isfinite(length) ? m / length : glm::dvec3(0.0);
-  static const double offsets[8][2] = {{2, 0}, {-2, 0}, {0, 2}, {0, -2}, {2, 2}, {-2, 2}, {2, -2}, {-2, -2}};
-  for (const auto& o : offsets) {
-    glm::dvec3 w(o[0], o[1], 0.0);
-    w -= glm::dot(w, m) * m;  // stay on the tangent plane (grid metric)
-    if (referenceVisibility(scene, epsilon, light, gridToWorld(*view, g.uvs + w), normal) != centre) {
-      uniform = false;
-      break;
-    }
-  }
-  return centre;
-}
-
 struct Errors {
   uint64_t misclassified = 0, misclassifiedUniform = 0;
   double absDiff = 0;
@@ -105,25 +84,6 @@ BaselineDepth parseBaselineDepth(const std::string& name) {
 
 const char* baselineDepthName(BaselineDepth depth) { return depth == BaselineDepth::Embree ? "embree" : "raster"; }
 
-uint8_t referenceVisibility(const EmbreeScene& scene, double epsilon, const Light& light, const glm::dvec3& point,
-                            const glm::dvec3& normal) {
-  if (!withinInfluence(light, point)) return 0;
-  glm::dvec3 toLight = toLightDirection(light, point);
-  if (light.type != LightType::Directional && glm::length(light.position - point) == 0) return 1;
-  glm::dvec3 origin = point;
-  const double nLength = glm::length(normal);
-  origin += nLength > 0 ? epsilon * (normal / nLength) : epsilon * toLight;
-  double distance = EmbreeScene::kInfinity;
-  if (light.type != LightType::Directional) {
-    const glm::dvec3 d = light.position - origin;
-    distance = glm::length(d);
-    if (!(distance > epsilon)) return 1;
-    toLight = d / distance;
-    distance -= epsilon;  // stop short of the light itself
-  }
-  return scene.occluded(origin, toLight, distance) ? 0 : 1;
-}
-
 std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<SurfaceSample>& samples, bool allPoints) {
   std::vector<SurfaceSample> points;
   for (const SurfaceSample& s : samples) {
@@ -134,12 +94,9 @@ std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<Sur
   return points;
 }
 
-std::vector<SurfaceSample> exteriorSamples(const EmbreeScene& scene, double epsilon,
-                                           const std::vector<SurfaceSample>& samples) {
+std::vector<SurfaceSample> exteriorSamples(const ShadowReference& reference, const std::vector<SurfaceSample>& samples) {
   std::vector<uint8_t> keep(samples.size());
-  parallelFor(samples.size(), [&](size_t i) {
-    keep[i] = scene.closedSolidDepth(samples[i].position + epsilon * samples[i].normal) <= 0;
-  });
+  parallelFor(samples.size(), [&](size_t i) { keep[i] = !reference.insideClosedSolid({samples[i].position, samples[i].normal}); });
   std::vector<SurfaceSample> out;
   for (size_t i = 0; i < samples.size(); ++i)
     if (keep[i]) out.push_back(samples[i]);
@@ -153,15 +110,14 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
   };
   checkPcfKernel(settings.pcfKernel);
   const WorldGeometry world = flatten(scene);
-  const EmbreeScene embree(world);
-  const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
-  const double epsilon = 1e-5 * (diagonal > 0 ? diagonal : 1.0);
+  const ShadowReference referenceRays(world);
+  const EmbreeScene& embree = referenceRays.scene();
   const LookupOptions lookup{settings.pcfKernel, NormalOrientation::AsGiven};
 
   // Per light: points, reference values and Embree's single-threaded throughput on them.
   std::vector<SurfaceSample> samples = sampleSurfaces(world, settings.samples, settings.seed);
   const size_t drawn = samples.size();
-  if (!settings.interiorPoints) samples = exteriorSamples(embree, epsilon, samples);
+  if (!settings.interiorPoints) samples = exteriorSamples(referenceRays, samples);
   const uint64_t interior = drawn - samples.size();
   log(std::to_string(interior) + " of " + std::to_string(drawn) + " samples inside closed solids dropped");
   const size_t lightCount = scene.lights.size();
@@ -173,11 +129,11 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
     points[l] = sweepPoints(light, samples, settings.allPoints);
     reference[l].resize(points[l].size());
     parallelFor(points[l].size(), [&](size_t i) {
-      reference[l][i] = referenceVisibility(embree, epsilon, light, points[l][i].position, points[l][i].normal);
+      reference[l][i] = referenceRays.visibility(light, {points[l][i].position, points[l][i].normal});
     });
     raysPerS[l] = perSecond(points[l].size(), settings.timingSeconds, [&] {
       int sum = 0;
-      for (const SurfaceSample& p : points[l]) sum += referenceVisibility(embree, epsilon, light, p.position, p.normal);
+      for (const SurfaceSample& p : points[l]) sum += referenceRays.visibility(light, {p.position, p.normal});
       gIntSink = sum;
     });
     log("light '" + light.name + "': " + std::to_string(points[l].size()) + " points");
@@ -225,10 +181,8 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
       // Uniformity at this resolution (voxel size of the view the point falls in).
       std::vector<uint8_t> uniform(count);
       parallelFor(count, [&](size_t i) {
-        const int index = shadow.viewIndex(pts[i].position);
         bool u = true;
-        referenceWithUniform(embree, epsilon, light, index < 0 ? nullptr : &views[size_t(index)], pts[i].position,
-                             pts[i].normal, reference[l][i], u);
+        referenceRays.visibility(shadow, {pts[i].position, pts[i].normal}, u);
         uniform[i] = u;
       });
       for (uint8_t u : uniform) row.uniform += u;

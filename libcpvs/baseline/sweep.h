@@ -12,10 +12,12 @@
 // influence and, unless `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its
 // own surface's shadow, which every method answers from the normal alone, so counting those would only dilute
 // the rates.
-// Reference: the same rule as `cpvs-query --reference`: a shadow ray from the point moved 1e-5 of the scene
-// diagonal along its normal, toward the light (directional: unbounded; spot/point: up to the light). A point
-// is *uniform* at resolution N when the reference agrees at 8 points around it on its tangent plane, 2 voxels
-// of that view away in (u, v) ((+-2, 0), (0, +-2), (+-2, +-2)); misclassifiedUniform counts among those.
+// Reference: ShadowReference (libcpvs/reference/shadow_reference.h), the one `cpvs-query --reference` uses: a
+// shadow ray from the point moved 1e-5 of the scene diagonal along its normal, toward the light (directional:
+// unbounded; spot/point: up to the light); 0 without a ray for a point facing away from the light. A point is
+// *uniform* at resolution N when the reference agrees at 8 points on a circle of radius 2 voxels of that view
+// around it on its tangent plane and at the point 2 voxels out along its normal; misclassifiedUniform counts
+// among those.
 // A binary answer is lit when the value is >= 0.5.
 #include <cstdint>
 #include <functional>
@@ -28,6 +30,8 @@
 #include "libcpvs/surface_samples.h"
 
 namespace cpvs {
+
+class ShadowReference;
 
 class EmbreeScene;
 
@@ -84,13 +88,9 @@ struct SweepCallbacks {
 std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings, std::string* renderer = nullptr,
                                const SweepCallbacks& callbacks = {});
 
-// The reference visibility of one point (1 lit, 0 shadowed), as described above; `epsilon` is the offset.
-uint8_t referenceVisibility(const EmbreeScene& scene, double epsilon, const Light& light, const glm::dvec3& point,
-                            const glm::dvec3& normal);
 // The per-light test points of the sweep (influence and facing filter applied to `samples`).
 std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<SurfaceSample>& samples, bool allPoints);
-// The samples that are not inside a closed solid (see above); `epsilon` is the offset along the normal.
-std::vector<SurfaceSample> exteriorSamples(const EmbreeScene& scene, double epsilon,
-                                           const std::vector<SurfaceSample>& samples);
+// The samples that are not inside a closed solid (ShadowReference::insideClosedSolid).
+std::vector<SurfaceSample> exteriorSamples(const ShadowReference& reference, const std::vector<SurfaceSample>& samples);
 
 }  // namespace cpvs

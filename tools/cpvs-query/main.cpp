@@ -23,12 +23,14 @@
 
 #include "formats/cpvs/cpvs_file.h"
 #include "formats/io/exr_image.h"
+#include "formats/gltf/gltf_import.h"
 #include "formats/io/points.h"
 #include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
 #include "tools/common/cli.h"
 #include "tools/common/progress.h"
-#include "tools/cpvs-query/reference.h"
+#include "tools/cpvs-query/error_stats.h"
 
 namespace {
 
@@ -256,7 +258,7 @@ void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end
 
 // values[i * L + l] for the chunk; reference stats accumulated into totals.
 void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<SelectedLight>& lights,
-                   const LookupOptions& lookup, const query::Reference* reference, bool scoreInside,
+                   const LookupOptions& lookup, const ShadowReference* reference, bool scoreInside,
                    unsigned threads, std::vector<float>& values, Totals& totals) {
   const size_t count = points.size(), nl = lights.size();
   values.assign(count * nl, 0.0f);
@@ -302,6 +304,8 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       if (uniform[i * nl + l]) {
         ++e.uniform;
         e.misclassifiedUniform += wrong;
+        if (wrong && e.firstMisclassifiedUniform.size() < query::ErrorStats::kExamples)
+          e.firstMisclassifiedUniform.push_back(totals.points + i);
         e.absDiffSumUniform += std::abs(double(v) - double(ref));
       }
     }
@@ -405,7 +409,7 @@ double singleLookupsPerSecond(const std::vector<QueryPoint>& valid, const std::v
 
 // Embree shadow rays per second, one thread: one rtcOccluded1 ray per point and light.
 double raysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
-                     const query::Reference& reference, double seconds) {
+                     const ShadowReference& reference, double seconds) {
   return perSecond(valid.size() * lights.size(), seconds, [&] {
     unsigned sum = 0;
     for (const SelectedLight& light : lights)
@@ -416,7 +420,7 @@ double raysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<Sel
 
 // The same rays in 16-wide packets (rtcOccluded16), one thread.
 double packetRaysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
-                           const query::Reference& reference, double seconds) {
+                           const ShadowReference& reference, double seconds) {
   std::vector<uint8_t> out;
   return perSecond(valid.size() * lights.size(), seconds, [&] {
     unsigned sum = 0;
@@ -509,6 +513,7 @@ nlohmann::json errorJson(const query::ErrorStats& e) {
           {"uniform_fraction", e.rate(e.uniform, e.samples)},
           {"misclassified_uniform", e.rate(e.misclassifiedUniform, e.uniform)},
           {"misclassified_uniform_count", e.misclassifiedUniform},
+          {"first_misclassified_uniform_points", e.firstMisclassifiedUniform},
           {"mean_abs_diff", e.samples ? e.absDiffSum / double(e.samples) : 0.0},
           {"mean_abs_diff_uniform", e.uniform ? e.absDiffSumUniform / double(e.uniform) : 0.0},
           {"reference_lit_fraction", e.rate(e.referenceLit, e.samples)},
@@ -540,14 +545,16 @@ int run(const Options& options) {
   if (exrOutput && format != PointFormat::Exr)
     throw Error(ExitCode::Usage, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
 
-  std::unique_ptr<query::Reference> reference;
+  std::unique_ptr<ShadowReference> reference;
   double referenceLoadMs = 0;
   if (!options.reference.empty()) {
     const auto t = Clock::now();
-    reference = std::make_unique<query::Reference>(options.reference, options.excludedMeshes, lookup.orientation);
+    Scene scene = importGltf(options.reference);
+    if (!options.excludedMeshes.empty()) excludeMeshes(scene, options.excludedMeshes);
+    reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation);
     referenceLoadMs = msSince(t);
     if (!options.quiet)
-      for (const std::string& w : reference->warnings()) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
+      for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
   }
 
   Totals totals;

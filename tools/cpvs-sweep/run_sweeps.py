@@ -143,8 +143,10 @@ def write_doc(a, out_dir, doc, resolutions, points):
     w("* *misclassified*: points whose binary answer (value ≥ 0.5 = lit) differs from the ray-traced one, over "
       "the light's points (surface samples inside the light's influence that face the light; points facing away "
       "are in their own surface's shadow for every method and are left out).")
-    w("* *misclassified_uniform*: the same over the points whose reference is the same 2 voxels around them "
-      "(at that N) — the figure that excludes the shadow edges themselves.")
+    w("* *misclassified_uniform*: the same over the points whose reference is the same everywhere within 2 voxels "
+      "(at that N): on a circle of radius 2 voxels on the surface and 2 voxels out along the normal, as "
+      "`cpvs-query --reference` defines it (docs/query.md) — the figure that excludes shadow edges and occluders "
+      "closer to the surface than the voxels can resolve.")
     w("* *bytes*: the light's DAG (node words + leaf masks); *bake*: depth + peel + masks + DAG of the light's "
       "views; *lookups/s*: one thread.")
     w("")

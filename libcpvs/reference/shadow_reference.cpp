@@ -1,29 +1,12 @@
-#include "tools/cpvs-query/reference.h"
+#include "libcpvs/reference/shadow_reference.h"
 
 #include <cmath>
 
-#include "formats/gltf/gltf_import.h"
 
-namespace cpvs::query {
+namespace cpvs {
 
-void ErrorStats::add(const ErrorStats& o) {
-  samples += o.samples;
-  misclassified += o.misclassified;
-  uniform += o.uniform;
-  misclassifiedUniform += o.misclassifiedUniform;
-  absDiffSum += o.absDiffSum;
-  absDiffSumUniform += o.absDiffSumUniform;
-  referenceLit += o.referenceLit;
-  cpvsLit += o.cpvsLit;
-}
-
-Reference::Reference(const std::string& scenePath, const std::vector<std::string>& excludedMeshes,
-                     NormalOrientation orientation)
-    : scenePath_(scenePath), orientation_(orientation) {
-  Scene scene = importGltf(scenePath);
-  if (!excludedMeshes.empty()) excludeMeshes(scene, excludedMeshes);
-  warnings_ = scene.warnings;
-  const WorldGeometry world = flatten(scene);
+ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation)
+    : orientation_(orientation) {
   scene_ = std::make_unique<EmbreeScene>(world);
   const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
   // Scale-relative: ~100x the float precision Embree stores the scene with, far below a voxel of any
@@ -31,11 +14,11 @@ Reference::Reference(const std::string& scenePath, const std::vector<std::string
   epsilon_ = 1e-5 * (diagonal > 0 ? diagonal : 1.0);
 }
 
-Reference::~Reference() = default;
+ShadowReference::~ShadowReference() = default;
 
-size_t Reference::triangles() const { return scene_->triangleCount(); }
+size_t ShadowReference::triangles() const { return scene_->triangleCount(); }
 
-bool Reference::shadowRay(const Light& light, const QueryPoint& point, Ray& ray, double& tmax,
+bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax,
                           uint8_t& known) const {
   known = 0;
   if (!withinInfluence(light, point.position)) return false;
@@ -79,13 +62,13 @@ bool Reference::shadowRay(const Light& light, const QueryPoint& point, Ray& ray,
   return true;
 }
 
-bool Reference::insideClosedSolid(const QueryPoint& point) const {
+bool ShadowReference::insideClosedSolid(const SurfacePoint& point) const {
   const double length = glm::length(point.normal);
   const glm::dvec3 offset = length > 0 ? (epsilon_ / length) * point.normal : glm::dvec3(0.0);
   return scene_->isInsideClosedSolid(point.position + offset);
 }
 
-uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const {
+uint8_t ShadowReference::visibility(const Light& light, const SurfacePoint& point) const {
   Ray ray;
   double tmax = 0;
   uint8_t known = 0;
@@ -93,7 +76,7 @@ uint8_t Reference::visibility(const Light& light, const QueryPoint& point) const
   return scene_->occluded(ray.origin, ray.direction, tmax) ? 0 : 1;
 }
 
-void Reference::visibilityPackets(const Light& light, const std::vector<QueryPoint>& points,
+void ShadowReference::visibilityPackets(const Light& light, const std::vector<SurfacePoint>& points,
                                   std::vector<uint8_t>& out) const {
   out.assign(points.size(), 0);
   std::vector<Ray> rays;
@@ -118,7 +101,7 @@ void Reference::visibilityPackets(const Light& light, const std::vector<QueryPoi
   for (size_t r = 0; r < rays.size(); ++r) out[index[r]] = blocked[r] ? 0 : 1;
 }
 
-uint8_t Reference::visibility(const LightShadow& shadow, const QueryPoint& point, bool& uniform) const {
+uint8_t ShadowReference::visibility(const LightShadow& shadow, const SurfacePoint& point, bool& uniform) const {
   const uint8_t centre = visibility(shadow.light(), point);
   uniform = true;
   const int index = shadow.viewIndex(point.position);
@@ -151,7 +134,7 @@ uint8_t Reference::visibility(const LightShadow& shadow, const QueryPoint& point
                                  kRadius * m};
   for (const glm::dvec3& o : offsets) {
     if (o == glm::dvec3(0.0)) continue;
-    const QueryPoint sample{gridToWorld(view, g.uvs + o), point.normal};
+    const SurfacePoint sample{gridToWorld(view, g.uvs + o), point.normal};
     if (visibility(shadow.light(), sample) != centre) {
       uniform = false;
       break;
@@ -160,4 +143,4 @@ uint8_t Reference::visibility(const LightShadow& shadow, const QueryPoint& point
   return centre;
 }
 
-}  // namespace cpvs::query
+}  // namespace cpvs
