@@ -67,8 +67,8 @@ struct SweepRow {
   uint64_t uniform = 0;
   uint64_t misclassified = 0, misclassifiedUniform = 0;
   double meanAbsDiff = 0;
-  double lookupsPerS = 0;      // CPVS lookups, one thread
-  double raysPerS = 0;         // Embree occlusion rays on the same points, one thread
+  double lookupsPerS = 0;      // CPVS lookups, one thread, in batches of 4096 points (as cpvs-query)
+  double raysPerS = 0;         // Embree occlusion rays on the same points, one thread, timed beside them
   // The 16-bit shadow map of equal bytes (per view: M = floor(sqrt(view bytes / 2))).
   uint32_t smSize = 0;         // M of the first view
   uint64_t smBytes = 0;

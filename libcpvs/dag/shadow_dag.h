@@ -41,11 +41,25 @@ struct ShadowDag {
 };
 
 inline uint32_t childCodeOf(uint32_t header, unsigned child) { return (header >> (2 * child)) & 3u; }
+
+// Population counts without the POPCNT instruction: the build targets baseline x86-64, where
+// __builtin_popcount is a libgcc call. Every walk and every validation of a loaded file counts bits per node.
+inline uint32_t popcount32(uint32_t v) {
+  v = v - ((v >> 1) & 0x55555555u);
+  v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
+  return (((v + (v >> 4)) & 0x0F0F0F0Fu) * 0x01010101u) >> 24;
+}
+inline uint32_t popcount64(uint64_t v) {
+  v = v - ((v >> 1) & 0x5555555555555555ull);
+  v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
+  return uint32_t((((v + (v >> 4)) & 0x0F0F0F0F0F0F0F0Full) * 0x0101010101010101ull) >> 56);
+}
+
 // Index among the node's reference words of child `child` (which must be a reference).
 inline unsigned refSlot(uint32_t header, unsigned child) {
   const uint32_t refBits = header & 0xAAAAu;  // the high bit of each 2-bit code marks a reference
-  return unsigned(__builtin_popcount(refBits & ((1u << (2 * child)) - 1u)));
+  return popcount32(refBits & ((1u << (2 * child)) - 1u));
 }
-inline unsigned nodeWordCount(uint32_t header) { return 1u + unsigned(__builtin_popcount(header & 0xAAAAu)); }
+inline unsigned nodeWordCount(uint32_t header) { return 1u + popcount32(header & 0xAAAAu); }
 
 }  // namespace cpvs

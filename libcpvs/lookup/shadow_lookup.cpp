@@ -13,23 +13,6 @@ namespace {
 
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
-// Population counts without the POPCNT instruction (the build targets baseline x86-64, where
-// __builtin_popcount is a libgcc call): the DAG walk needs one per level.
-inline uint32_t popcount32(uint32_t v) {
-  v = v - ((v >> 1) & 0x55555555u);
-  v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
-  return (((v + (v >> 4)) & 0x0F0F0F0Fu) * 0x01010101u) >> 24;
-}
-inline uint32_t popcount64(uint64_t v) {
-  v = v - ((v >> 1) & 0x5555555555555555ull);
-  v = (v & 0x3333333333333333ull) + ((v >> 2) & 0x3333333333333333ull);
-  return uint32_t((((v + (v >> 4)) & 0x0F0F0F0F0F0F0F0Full) * 0x0101010101010101ull) >> 56);
-}
-// Index among a node's reference words of child c (shadow_dag.h refSlot, with the inline count).
-inline unsigned slotOf(uint32_t header, unsigned child) {
-  return popcount32(header & 0xAAAAu & ((1u << (2 * child)) - 1u));
-}
-
 // The kernel's footprint, inclusive texel bounds already clipped to [0, N).
 struct Footprint {
   uint32_t x0, x1, y0, y1;
@@ -66,7 +49,7 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
     if (code == uint32_t(ChildCode::Lit)) return 0;
     if (code == uint32_t(ChildCode::Shadowed))
       return overlap(ox, ox + 7, f.x0, f.x1) * overlap(oy, oy + 7, f.y0, f.y1);
-    const uint64_t mask = dag.leaves[dag.nodes[offset + 1 + slotOf(header, c)]];
+    const uint64_t mask = dag.leaves[dag.nodes[offset + 1 + refSlot(header, c)]];
     return popcount64(mask & tileMask(f, ox, oy));
   }
   const uint32_t half = size >> 1;
@@ -86,7 +69,7 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
       if (code == uint32_t(ChildCode::Shadowed)) {
         count += oxCount * oyCount;
       } else {
-        count += countNode(dag, dag.nodes[offset + 1 + slotOf(header, c)], half, cx, cy, z, f);
+        count += countNode(dag, dag.nodes[offset + 1 + refSlot(header, c)], half, cx, cy, z, f);
       }
     }
   }
@@ -110,14 +93,14 @@ inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t si
     const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
     const uint32_t header = nodes[offset];
     code = childCodeOf(header, c);
-    if (code == uint32_t(ChildCode::Ref)) offset = nodes[offset + 1 + slotOf(header, c)];
+    if (code == uint32_t(ChildCode::Ref)) offset = nodes[offset + 1 + refSlot(header, c)];
   }
   if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
   const unsigned c = z & 7u;
   const uint32_t header = nodes[offset];
   code = childCodeOf(header, c);
   if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
-  const uint64_t mask = dag.leaves[nodes[offset + 1 + slotOf(header, c)]];
+  const uint64_t mask = dag.leaves[nodes[offset + 1 + refSlot(header, c)]];
   return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
 }
 
@@ -368,7 +351,7 @@ TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
             uint32_t child = code;  // homogeneous: every child has the parent's code
             if (code == uint32_t(ChildCode::Ref)) {
               child = childCodeOf(header, c);
-              if (child == uint32_t(ChildCode::Ref)) child |= dag.nodes[offset + 1 + slotOf(header, c)] << 2;
+              if (child == uint32_t(ChildCode::Ref)) child |= dag.nodes[offset + 1 + refSlot(header, c)] << 2;
             }
             next[(size_t(z) * nextWidth + y) * nextWidth + x] = child;
           }
@@ -572,7 +555,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
         const bool ref = code == uint32_t(ChildCode::Ref);
         out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;  // final unless a reference
         // Without a reference this re-reads the header: in bounds, and no branch.
-        walk.offset = nodes[walk.offset + (ref ? 1u + slotOf(header, c) : 0u)];
+        walk.offset = nodes[walk.offset + (ref ? 1u + refSlot(header, c) : 0u)];
         prefetchNode(nodes + walk.offset);
         w[kept] = walk;
         kept += ref ? 1u : 0u;
@@ -588,7 +571,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
       const uint32_t code = childCodeOf(header, c);
       const bool ref = code == uint32_t(ChildCode::Ref);
       out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
-      walk.offset = ref ? nodes[walk.offset + 1u + slotOf(header, c)] : 0u;
+      walk.offset = ref ? nodes[walk.offset + 1u + refSlot(header, c)] : 0u;
       prefetch(dag.leaves.data() + walk.offset);
       w[kept] = walk;
       kept += ref ? 1u : 0u;
@@ -691,7 +674,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
       if (code == uint32_t(ChildCode::Shadowed)) {
         counts[t.point] += area(pp.f, t.ox, t.oy, 8);
       } else if (code == uint32_t(ChildCode::Ref)) {
-        const uint32_t leaf = nodes[t.offset + 1 + slotOf(header, c)];
+        const uint32_t leaf = nodes[t.offset + 1 + refSlot(header, c)];
         prefetch(dag.leaves.data() + leaf);
         queue.push({t.point, leaf, t.ox, t.oy, 0});
       }
@@ -712,7 +695,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
           counts[t.point] += area(pp.f, cx, cy, half);
           continue;
         }
-        const uint32_t child = nodes[t.offset + 1 + slotOf(header, c)];
+        const uint32_t child = nodes[t.offset + 1 + refSlot(header, c)];
         prefetchNode(nodes + child);
         queue.push({t.point, child, cx, cy, half});
       }

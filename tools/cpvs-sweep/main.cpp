@@ -147,7 +147,7 @@ std::string markdown(const Options& o, const std::string& name, const Scene& sce
   md += "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const SweepRow& r : rows) {
     md += "| " + r.lightName + " | " + resolutionName(r.resolution) + " | " + msText(r.bakeMs) + " | " +
-          bytesText(r.bytes) + " | " + si(r.lookupsPerS) + " | " + percent(r.misclassified, r.points) + " | " +
+          bytesText(r.bytes) + " | " + si(r.lookupsPerS) + " (" + (r.raysPerS > 0 ? fixed(r.lookupsPerS / r.raysPerS, 1) : std::string("—")) + "× rays) | " + percent(r.misclassified, r.points) + " | " +
           percent(r.misclassifiedUniform, r.uniform) + " | " + std::to_string(r.uniform) + " of " +
           std::to_string(r.points) + " | " + std::to_string(r.smSize) + "² (" + bytesText(r.smBytes) + ") | " +
           percent(r.smMisclassified, r.points) + " | " + percent(r.smMisclassifiedUniform, r.uniform) + " | **" +
@@ -156,11 +156,15 @@ std::string markdown(const Options& o, const std::string& name, const Scene& sce
   md += "\n";
   // Throughput beside Embree, one thread each.
   for (size_t l = 0; l < scene.lights.size(); ++l) {
-    double rays = 0;
+    double lo = 0, hi = 0;
     for (const SweepRow& r : rows)
-      if (r.light == l) rays = r.raysPerS;
-    md += "Light `" + scene.lights[l].name + "`: Embree occlusion rays " + si(rays) +
-          "/s on the same points (one thread); CPVS lookups/s above are one thread too.\n";
+      if (r.light == l) {
+        lo = lo == 0 ? r.raysPerS : std::min(lo, r.raysPerS);
+        hi = std::max(hi, r.raysPerS);
+      }
+    md += "Light `" + scene.lights[l].name + "`: Embree occlusion rays " + si(lo) + "/s to " + si(hi) +
+          "/s on the same points, one thread, timed beside the lookups of each row; lookups/s (one thread, "
+          "batches of 4096 points as cpvs-query makes them) are followed by their ratio to the rays of that row.\n";
   }
   md += "\n![" + name + "](speed-vs-error/" + name + ".svg)\n\n";
   return md;

@@ -148,7 +148,8 @@ def write_doc(a, out_dir, doc, resolutions, points):
       "`cpvs-query --reference` defines it (docs/query.md) — the figure that excludes shadow edges and occluders "
       "closer to the surface than the voxels can resolve.")
     w("* *bytes*: the light's DAG (node words + leaf masks); *bake*: depth + peel + masks + DAG of the light's "
-      "views; *lookups/s*: one thread.")
+      "views; *lookups/s*: one thread, batches of 4096 points as cpvs-query makes them, with the ratio to Embree's "
+      "rays timed beside them.")
     w("")
     jsons = []
     for name, scene, what, lights in SCENES:
@@ -197,6 +198,32 @@ def write_doc(a, out_dir, doc, resolutions, points):
     w("")
     if total:
         w(f"At the largest N ({res_name(max(res_all))}): {met} of {total} scene/light pairs reach the 10× target.")
+        w("")
+    w("## Summary: lookups against Embree rays")
+    w("")
+    w("Per scene and light at each N: CPVS lookups per second ÷ Embree occlusion rays per second on the same "
+      "points, one thread each, timed beside each other in the same row (best of three interleaved rounds). "
+      "Target (issue 4): ≥ 5×.")
+    w("")
+    w("| scene | light | " + " | ".join(res_name(n) for n in res_all) + " |")
+    w("|---|---|" + "---:|" * len(res_all))
+    fast, pairs = 0, 0
+    for name, what, j in jsons:
+        for light in [l["name"] for l in j["lights"]]:
+            cells = []
+            for n in res_all:
+                row = next((r for r in j["rows"] if r["light"] == light and r["resolution"] == n), None)
+                if not row or not row.get("rays_per_s"):
+                    cells.append("—")
+                    continue
+                speedup = row["lookups_per_s"] / row["rays_per_s"]
+                cells.append(f"{speedup:.1f}×")
+                pairs += 1
+                fast += speedup >= 5.0
+            w(f"| {name} | {light} | " + " | ".join(cells) + " |")
+    w("")
+    if pairs:
+        w(f"{fast} of {pairs} scene/light/resolution rows reach 5×.")
         w("")
     w("## Scenes")
     w("")
