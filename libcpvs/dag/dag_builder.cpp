@@ -37,7 +37,9 @@ DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8
   if (same && children[0].code != ChildCode::Ref) return {children[0].code, 0, nextT, true};
   words[0] = header;
   ++stats_.nodesBuilt;
-  return {ChildCode::Ref, tables_[level].intern(words, count), nextT, true};
+  Result result{ChildCode::Ref, tables_[level].intern(words, count), nextT, true};
+  for (unsigned c = 0; c < 4; ++c) result.farNextT[c] = children[c + 4].nextT;
+  return result;
 }
 
 DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_t z0) {
@@ -90,9 +92,11 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
     if (c >= 4) {
       childNeighbour = children[c - 4];
     } else if (neighbour.valid) {
-      // The child's neighbour is the far child of our neighbour; its next change is bounded by the
-      // neighbour's (a larger footprint can only change sooner), which keeps the reuse test conservative.
-      childNeighbour = {neighbour.code, 0, neighbour.nextT, true};
+      // The child's neighbour is the far child of our neighbour, whose next change the neighbour kept
+      // (farNextT: the far child's own bound, not the whole node's, which a change in the neighbour's near
+      // half would lower). Below that child only its node is known: its children get its bound.
+      childNeighbour = {neighbour.code, 0, neighbour.farNextT[c], true};
+      for (uint32_t& t : childNeighbour.farNextT) t = childNeighbour.nextT;
       if (neighbour.code == ChildCode::Ref) {
         const std::vector<uint32_t>& words = tables_[level].words();
         const uint32_t header = words[neighbour.ref];
