@@ -720,12 +720,17 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   };
   g.Disable(GL_DEPTH_TEST);
   g.Disable(GL_CULL_FACE);
-  g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[0]);
-  g.UseProgram(initProgram_);
-  bindTexture(initProgram_, "enterDepth", 0, t.enterDepth);
-  bindTexture(initProgram_, "kinds", 1, t.kinds);
-  g.Uniform1i(uniform(initProgram_, "noPeel"), peel.maxPeels == 0 ? 1 : 0);
-  fullscreen(initProgram_);
+  // Without closed triangles no texel is of kind 1: the resolve never reads the state, and every exit is
+  // enter + 1 (N where nothing was hit), so the state passes are skipped and only the enter slices read back.
+  const bool openOnly = closedCount == 0;
+  if (!openOnly) {
+    g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[0]);
+    g.UseProgram(initProgram_);
+    bindTexture(initProgram_, "enterDepth", 0, t.enterDepth);
+    bindTexture(initProgram_, "kinds", 1, t.kinds);
+    g.Uniform1i(uniform(initProgram_, "noPeel"), peel.maxPeels == 0 ? 1 : 0);
+    fullscreen(initProgram_);
+  }
   int cur = 0;
 
   // 3. Peel iterations (only when there are closed triangles to peel).
@@ -810,10 +815,10 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   bindTexture(resolveProgram_, "counts", 3, t.counts[cur]);
   g.Uniform1f(uniform(resolveProgram_, "resolution"), float(n));
   fullscreen(resolveProgram_);
-  std::vector<float> slices(2 * texels);
+  std::vector<float> slices(openOnly ? texels : 2 * texels);
   g.ReadBuffer(GL_COLOR_ATTACHMENT0);
   g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-  g.ReadPixels(0, 0, GLsizei(rect.width), GLsizei(rect.height), GL_RG, GL_FLOAT, slices.data());
+  g.ReadPixels(0, 0, GLsizei(rect.width), GLsizei(rect.height), openOnly ? GL_RED : GL_RG, GL_FLOAT, slices.data());
   for (int unit = 4; unit >= 0; --unit) {
     g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
     g.BindTexture(GL_TEXTURE_2D, 0);
@@ -826,6 +831,16 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
 
   region.enter.resize(texels);
   region.exit.resize(texels);
+  if (openOnly) {
+    for (size_t i = 0; i < texels; ++i) {
+      const uint32_t e = uint32_t(slices[i]);
+      region.enter[i] = e;
+      region.exit[i] = e >= n ? n : e + 1;  // the resolve's x = e + 1, and N where nothing was hit
+    }
+    local.peelMs = msSince(start);
+    if (stats) *stats = local;
+    return region;
+  }
   for (size_t i = 0; i < texels; ++i) {
     const float e = slices[2 * i], x = slices[2 * i + 1];
     region.enter[i] = uint32_t(e);
