@@ -485,6 +485,35 @@ TEST(ExitRules, OpenOrBackFacingFirstSurfaceExitsRightAfterIt) {
   }
 }
 
+// A region without closed triangles takes the renderer's open-only path (no peel state, enter slices read
+// back alone). Its maps must be those the full path gives wherever the first surface is open.
+TEST(ExitRules, OpenOnlyRegionsMatchTheFullPath) {
+  REQUIRE_RENDERER(r, RasterBackend::OSMesa);
+  const uint32_t n = 256;
+  const ViewSetup& s = setup(SceneId::QuadOverBox, LightId::Directional, n);
+  ViewGeometry openOnly = s.geometry;
+  const size_t closedTriangles = openOnly.closedIndices.size() / 3;
+  ASSERT_GT(closedTriangles, 0u);
+  ASSERT_GT(openOnly.openIndices.size(), 0u);
+  openOnly.closedIndices.clear();
+  openOnly.gridBounds.erase(openOnly.gridBounds.begin(), openOnly.gridBounds.begin() + ptrdiff_t(closedTriangles));
+  const DepthRegion full = renderWhole(*r, s);
+  const DepthRegion open = r->render(openOnly, s.view, {0, 0, n, n}, {});
+  size_t compared = 0, empty = 0;
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x) {
+      const uint32_t e = open.enterAt(x, y);
+      ASSERT_EQ(open.exitAt(x, y), e == n ? n : e + 1) << x << "," << y;
+      empty += e == n;
+      const std::optional<RayHit> hit = s.embree->firstHit(texelRay(s.view, x + 0.5, y + 0.5));
+      if (!hit || hit->closed || full.exitAt(x, y) != full.enterAt(x, y) + 1) continue;
+      EXPECT_EQ(e, full.enterAt(x, y)) << x << "," << y;
+      ++compared;
+    }
+  EXPECT_GT(compared, 1000u);
+  EXPECT_GT(empty, 0u);
+}
+
 TEST(ExitRules, PeelCapIsConservative) {
   REQUIRE_RENDERER(r, RasterBackend::OSMesa);
   for (SceneId scene : {SceneId::Nested, SceneId::TorusKnot}) {
