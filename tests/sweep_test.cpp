@@ -163,7 +163,6 @@ TEST(Sweep, SamplesInsideClosedSolidsAreDropped) {
   test::addQuad(scene, "sheet", {-1, 1.5, -1}, {-1, 1.5, 4}, {4, 1.5, 4}, {4, 1.5, -1});
   test::classifyMeshes(scene);
   const WorldGeometry world = flatten(scene);
-  const EmbreeScene embree(world);
   const ShadowReference reference(world);
   const auto drawn = sampleSurfaces(world, 20000, 3);
   const auto kept = exteriorSamples(reference, drawn);
@@ -217,7 +216,6 @@ TEST(Sweep, RowsOnATinyScene) {
   }
   ASSERT_EQ(rows.size(), 6u);
   const WorldGeometry world = flatten(scene);
-  const EmbreeScene embree(world);
   const ShadowReference reference(world);
   const auto drawn = sampleSurfaces(world, settings.samples, settings.seed);
   const auto samples = exteriorSamples(reference, drawn);

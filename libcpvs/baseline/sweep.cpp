@@ -177,9 +177,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
       // Uniformity at this resolution (voxel size of the view the point falls in).
       std::vector<uint8_t> uniform(count);
       parallelFor(count, [&](size_t i) {
-        bool u = true;
-        referenceRays.visibility(shadow, {pts[i].position, pts[i].normal}, u);
-        uniform[i] = u;
+        uniform[i] = referenceRays.uniformAround(shadow, {pts[i].position, pts[i].normal}, reference[l][i]);
       });
       for (uint8_t u : uniform) row.uniform += u;
 

@@ -8,7 +8,7 @@
 // without the samples that lie inside a closed solid (faces of intersecting or embedded solids, e.g. a
 // building's base inside the ground slab or a fin inside a tower: no camera sees them, and inside closed
 // geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved 1e-5 of the
-// scene diagonal along its normal with EmbreeScene::closedSolidDepth; per light only those inside the light's
+// scene diagonal along its normal (ShadowReference::insideClosedSolid); per light only those inside the light's
 // influence and, unless `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its
 // own surface's shadow, which every method answers from the normal alone, so counting those would only dilute
 // the rates.
@@ -32,8 +32,6 @@
 namespace cpvs {
 
 class ShadowReference;
-
-class EmbreeScene;
 
 enum class BaselineDepth : uint8_t { Embree = 0, Raster = 1 };
 // "embree" / "raster"; throws Error(Usage) for anything else.

@@ -831,17 +831,13 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
 
   region.enter.resize(texels);
   region.exit.resize(texels);
-  if (openOnly) {
-    for (size_t i = 0; i < texels; ++i) {
+  for (size_t i = 0; i < texels; ++i) {
+    if (openOnly) {
       const uint32_t e = uint32_t(slices[i]);
       region.enter[i] = e;
       region.exit[i] = e >= n ? n : e + 1;  // the resolve's x = e + 1, and N where nothing was hit
+      continue;
     }
-    local.peelMs = msSince(start);
-    if (stats) *stats = local;
-    return region;
-  }
-  for (size_t i = 0; i < texels; ++i) {
     const float e = slices[2 * i], x = slices[2 * i + 1];
     region.enter[i] = uint32_t(e);
     if (x < 0) {

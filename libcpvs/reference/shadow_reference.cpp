@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-
 namespace cpvs {
 
 ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation)
@@ -19,7 +18,7 @@ ShadowReference::~ShadowReference() = default;
 size_t ShadowReference::triangles() const { return scene_->triangleCount(); }
 
 bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax,
-                          uint8_t& known) const {
+                                uint8_t& known) const {
   known = 0;
   if (!withinInfluence(light, point.position)) return false;
   glm::dvec3 toLight;
@@ -77,7 +76,7 @@ uint8_t ShadowReference::visibility(const Light& light, const SurfacePoint& poin
 }
 
 void ShadowReference::visibilityPackets(const Light& light, const std::vector<SurfacePoint>& points,
-                                  std::vector<uint8_t>& out) const {
+                                        std::vector<uint8_t>& out) const {
   out.assign(points.size(), 0);
   std::vector<Ray> rays;
   std::vector<double> tmax;
@@ -103,12 +102,16 @@ void ShadowReference::visibilityPackets(const Light& light, const std::vector<Su
 
 uint8_t ShadowReference::visibility(const LightShadow& shadow, const SurfacePoint& point, bool& uniform) const {
   const uint8_t centre = visibility(shadow.light(), point);
-  uniform = true;
+  uniform = uniformAround(shadow, point, centre);
+  return centre;
+}
+
+bool ShadowReference::uniformAround(const LightShadow& shadow, const SurfacePoint& point, uint8_t centre) const {
   const int index = shadow.viewIndex(point.position);
-  if (index < 0) return centre;  // outside the light's influence: 0 here and, as far as we know, around it
+  if (index < 0) return true;  // outside the light's influence: 0 here and, as far as we know, around it
   const LightView& view = shadow.views()[size_t(index)];
   const GridPoint g = toGrid(view, point.position);
-  if (!g.inFront) return centre;
+  if (!g.inFront) return true;
   glm::dvec3 m = gridNormal(view, point.position, point.normal);
   const double length = glm::length(m);
   m = length > 0 && std::isfinite(length) ? m / length : glm::dvec3(0.0);
@@ -135,12 +138,9 @@ uint8_t ShadowReference::visibility(const LightShadow& shadow, const SurfacePoin
   for (const glm::dvec3& o : offsets) {
     if (o == glm::dvec3(0.0)) continue;
     const SurfacePoint sample{gridToWorld(view, g.uvs + o), point.normal};
-    if (visibility(shadow.light(), sample) != centre) {
-      uniform = false;
-      break;
-    }
+    if (visibility(shadow.light(), sample) != centre) return false;
   }
-  return centre;
+  return true;
 }
 
 }  // namespace cpvs

@@ -32,6 +32,8 @@ public:
   // (all in the grid space of the light's view, so "2 voxels" means the same at any scale and for any view;
   // without a normal: the circle in (u, v) at the point's depth), mapped back with gridToWorld.
   uint8_t visibility(const LightShadow& shadow, const SurfacePoint& point, bool& uniform) const;
+  // Only the uniformity test, for a caller that already has the point's own answer `centre`.
+  bool uniformAround(const LightShadow& shadow, const SurfacePoint& point, uint8_t centre) const;
 
   // Whether the point lies inside a closed solid of the scene (Embree parity count from just off the surface,
   // along the normal when there is one). Such a point is in free voxels: the bake may answer either way.
