@@ -922,6 +922,15 @@ TEST(QueryReference, ExcludedMeshesLeaveTheReferenceAndChangeTheError) {
   EXPECT_GT(noBox.at("reference_lit_fraction").get<double>(), full.at("reference_lit_fraction").get<double>());
   // The boxes' shadows on the ground are now errors (about 3 % of Tiny's surface points).
   EXPECT_GT(noBox.at("misclassified").get<double>(), full.at("misclassified").get<double>() + 0.01);
+  // Where to look: the first rows misclassified among the uniform points (inside the boxes' shadows), pooled
+  // over the lights in input order, each once.
+  const auto rows = noBox.at("first_misclassified_uniform_points").get<std::vector<uint64_t>>();
+  ASSERT_GT(noBox.at("misclassified_uniform_count").get<uint64_t>(), 0u);
+  ASSERT_FALSE(rows.empty());
+  EXPECT_LE(rows.size(), 20u);
+  for (size_t i = 1; i < rows.size(); ++i) EXPECT_LT(rows[i - 1], rows[i]);
+  EXPECT_LT(rows.back(), tinyPoints().size());
+  EXPECT_TRUE(full.at("first_misclassified_uniform_points").empty());
 }
 
 }  // namespace

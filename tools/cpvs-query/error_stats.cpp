@@ -1,5 +1,7 @@
 #include "tools/cpvs-query/error_stats.h"
 
+#include <algorithm>
+
 namespace cpvs::query {
 
 void ErrorStats::add(const ErrorStats& o) {
@@ -11,8 +13,12 @@ void ErrorStats::add(const ErrorStats& o) {
   absDiffSumUniform += o.absDiffSumUniform;
   referenceLit += o.referenceLit;
   cpvsLit += o.cpvsLit;
-  for (uint64_t i : o.firstMisclassifiedUniform)
-    if (firstMisclassifiedUniform.size() < kExamples) firstMisclassifiedUniform.push_back(i);
+  // Pooled over lights: the first rows misclassified for any light, each once.
+  std::vector<uint64_t>& rows = firstMisclassifiedUniform;
+  rows.insert(rows.end(), o.firstMisclassifiedUniform.begin(), o.firstMisclassifiedUniform.end());
+  std::sort(rows.begin(), rows.end());
+  rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+  if (rows.size() > kExamples) rows.resize(kExamples);
 }
 
 }  // namespace cpvs::query

@@ -642,7 +642,8 @@ int run(const Options& options) {
   for (const query::ErrorStats& e : totals.errors) pooled.add(e);
   if (reference && !options.quiet) {
     std::fprintf(stderr,
-                 "cpvs-query: reference: %.4f%% misclassified, %.4f%% of %llu uniform points, mean |difference| %.5f"
+                 "cpvs-query: reference (every point with every light): %.4f%% misclassified, %.4f%% of the %llu uniform"
+                 " point-light pairs, mean |difference| %.5f"
                  " (%llu points inside closed solids not scored)\n",
                  100.0 * pooled.rate(pooled.misclassified, pooled.samples),
                  100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
