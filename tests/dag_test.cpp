@@ -135,6 +135,30 @@ TEST(Dag, RegionsGiveTheSameGridAsOnePiece) {
   EXPECT_EQ(single.leaves.size(), regions.leaves.size());
 }
 
+TEST(Dag, VolumesPastEveryFrontSurfaceOfTheirFootprintAreShadowed) {
+  // A slab: every texel enters a solid at slice 10 and leaves it at 60. The chains keep the free voxels lit
+  // until the exit (nothing needs shadow before it), but a volume lying past every front surface of its
+  // footprint holds only free and shadowed voxels, so it is all shadowed (seed 004 §3.4, as Sintorn):
+  // the root's four near children are lit (z < 32 < 60), its four far children shadowed (32 > 10), and
+  // nothing else is stored.
+  const uint32_t n = 64;
+  DepthRegion depth;
+  depth.rect = {0, 0, n, n};
+  depth.resolution = n;
+  depth.enter.assign(size_t(n) * n, 10);
+  depth.exit.assign(size_t(n) * n, 60);
+  for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn}) {
+    for (bool reuse : {true, false}) {
+      const ShadowDag dag = buildDag(buildTileChains(depth, mode), reuse);
+      EXPECT_EQ(dag.nodes.size(), 1u) << undefinedModeName(mode);
+      EXPECT_TRUE(dag.leaves.empty()) << undefinedModeName(mode);
+      EXPECT_FALSE(dag.view().shadowed(5, 7, 31));
+      EXPECT_TRUE(dag.view().shadowed(5, 7, 32));
+      expectExact(dag.view(), depth);
+    }
+  }
+}
+
 TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
   const DepthRegion depth = syntheticDepth(64, 3);
   for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None}) {

@@ -59,6 +59,8 @@ DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_
     else
       children[c] = {ChildCode::Ref, leafTable_.intern(mask), 0, true};
   }
+  // The tile's darkFrom needs no place in the bound: where it is not a chain entry itself (a tile wholly inside
+  // solids past its front surfaces), a built leaf parent holds the chain's change at the nearest exit, behind it.
   return intern(leafLevel_, children, ch.nextTransition(tile, z0));
 }
 
@@ -68,17 +70,21 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
   const uint32_t hLevel = log2u(size / 8);
   const uint32_t hSize = hierarchy_->size[hLevel];
   const size_t h = size_t(ty >> hLevel) * hSize + (tx >> hLevel);
-  const uint32_t minLit = hierarchy_->minLitUntil[hLevel][h];
-  if (z1 < minLit) {
-    ++stats_.homogeneous;
-    return {ChildCode::Lit, 0, minLit, true};
-  }
-  if (z0 >= hierarchy_->maxShadowFrom[hLevel][h]) {
+  // Shadow first: once a volume lies past every front surface of its footprint, so do all volumes behind it
+  // (coarser footprints only raise the bound), which keeps the answer the same with and without reuse.
+  if (z0 >= hierarchy_->maxDarkFrom[hLevel][h]) {
     ++stats_.homogeneous;
     return {ChildCode::Shadowed, 0, resolution_, true};
   }
-  // §3.2: nothing changes along z in this footprint from the neighbour's first slice to our last one, so this
-  // volume equals its neighbour nearer the light: take its node without building it.
+  const uint32_t minLit = hierarchy_->minLitUntil[hLevel][h];
+  if (z1 < minLit) {
+    ++stats_.homogeneous;
+    // Behind this volume the chains change at minLit at the earliest, and the shadow test above may start
+    // to hold at any darkFrom of the footprint.
+    return {ChildCode::Lit, 0, hierarchy_->nextDarkFrom(hLevel, h, z0, minLit), true};
+  }
+  // §3.2: nothing changes along z in this footprint from the neighbour's first slice to our last one (no chain
+  // entry, no darkFrom), so this volume equals its neighbour nearer the light: take its node without building it.
   if (nodeReuse_ && neighbour.valid && neighbour.code == ChildCode::Ref && neighbour.nextT > z1) {
     ++stats_.nodesReused;
     return neighbour;

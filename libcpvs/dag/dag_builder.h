@@ -35,7 +35,7 @@ private:
   struct Result {
     ChildCode code = ChildCode::Lit;
     uint32_t ref = 0;     // level-local node offset (or leaf index below level L)
-    uint32_t nextT = 0;   // first tile-chain change strictly after the volume's first slice (lower bound)
+    uint32_t nextT = 0;   // first tile-chain change or darkFrom strictly after the volume's first slice (lower bound)
     bool valid = false;   // false: no neighbour known
     // nextT of the four far children (c = 4..7, by c - 4) of a built node: the reuse bound of the near
     // children of the volume behind it. 0 (no reuse) where unknown.

@@ -87,7 +87,7 @@ void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, Un
 }
 
 void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, uint32_t rowEnd, uint32_t tilesX,
-               std::vector<std::vector<Entry>>& chains) {
+               std::vector<std::vector<Entry>>& chains, std::vector<uint32_t>& darkFrom) {
   uint32_t e[64], x[64];
   const uint32_t n = depth.resolution;
   for (uint32_t ty = rowBegin; ty < rowEnd; ++ty) {
@@ -99,6 +99,7 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
         if (e[j] >= n) x[j] = n;
       }
       buildChain(e, x, n, mode, chains[size_t(ty) * tilesX + tx]);
+      darkFrom[size_t(ty) * tilesX + tx] = std::min(*std::max_element(e, e + 64) + 1, n);
     }
   }
 }
@@ -117,12 +118,14 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   const size_t tileCount = size_t(chains.tilesX) * chains.tilesY;
 
   std::vector<std::vector<Entry>> perTile(tileCount);
+  chains.darkFrom.resize(tileCount);
   threads = std::max(1u, std::min(threads, chains.tilesY));
   std::vector<std::thread> workers;
   for (unsigned t = 0; t < threads; ++t) {
     const uint32_t begin = uint32_t(uint64_t(chains.tilesY) * t / threads);
     const uint32_t end = uint32_t(uint64_t(chains.tilesY) * (t + 1) / threads);
-    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(perTile));
+    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(perTile),
+                         std::ref(chains.darkFrom));
   }
   for (auto& w : workers) w.join();
 
@@ -152,23 +155,39 @@ TileHierarchy::TileHierarchy(const TileChains& chains) {
     throw Error(ExitCode::RuntimeFailure, "tile hierarchy needs a square power-of-two region");
   size.push_back(chains.tilesX);
   minLitUntil.push_back(chains.litUntil);
-  maxShadowFrom.push_back(chains.shadowFrom);
-  while (size.back() > 1) {
-    const uint32_t fine = size.back(), coarse = fine / 2;
-    const auto& fineMin = minLitUntil.back();
-    const auto& fineMax = maxShadowFrom.back();
-    std::vector<uint32_t> mn(size_t(coarse) * coarse), mx(size_t(coarse) * coarse);
-    for (uint32_t y = 0; y < coarse; ++y) {
-      for (uint32_t x = 0; x < coarse; ++x) {
-        const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
-        mn[size_t(y) * coarse + x] = std::min({fineMin[a], fineMin[a + 1], fineMin[b], fineMin[b + 1]});
-        mx[size_t(y) * coarse + x] = std::max({fineMax[a], fineMax[a + 1], fineMax[b], fineMax[b + 1]});
+  minDarkFrom.push_back(chains.darkFrom);
+  maxDarkFrom.push_back(chains.darkFrom);
+  // One coarser level of `fine` (fine x fine values), each value the min or max of its four.
+  auto coarsen = [](const std::vector<uint32_t>& fine, uint32_t fineSize, auto pick) {
+    const uint32_t coarseSize = fineSize / 2;
+    std::vector<uint32_t> coarse(size_t(coarseSize) * coarseSize);
+    for (uint32_t y = 0; y < coarseSize; ++y)
+      for (uint32_t x = 0; x < coarseSize; ++x) {
+        const size_t a = size_t(2 * y) * fineSize + 2 * x, b = a + fineSize;
+        coarse[size_t(y) * coarseSize + x] = pick(pick(fine[a], fine[a + 1]), pick(fine[b], fine[b + 1]));
       }
-    }
-    size.push_back(coarse);
-    minLitUntil.push_back(std::move(mn));
-    maxShadowFrom.push_back(std::move(mx));
+    return coarse;
+  };
+  const auto lower = [](uint32_t a, uint32_t b) { return std::min(a, b); };
+  const auto upper = [](uint32_t a, uint32_t b) { return std::max(a, b); };
+  while (size.back() > 1) {
+    const uint32_t fine = size.back();
+    minLitUntil.push_back(coarsen(minLitUntil.back(), fine, lower));
+    minDarkFrom.push_back(coarsen(minDarkFrom.back(), fine, lower));
+    maxDarkFrom.push_back(coarsen(maxDarkFrom.back(), fine, upper));
+    size.push_back(fine / 2);
   }
+}
+
+uint32_t TileHierarchy::nextDarkFrom(uint32_t level, size_t index, uint32_t after, uint32_t cap) const {
+  if (maxDarkFrom[level][index] <= after || minDarkFrom[level][index] >= cap) return cap;
+  if (minDarkFrom[level][index] > after) return minDarkFrom[level][index];
+  // Values on both sides of `after` (never at level 0, where min == max): look at the four finer nodes.
+  const uint32_t x = uint32_t(index % size[level]), y = uint32_t(index / size[level]);
+  const size_t fine = size[level - 1];
+  const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
+  for (size_t child : {a, a + 1, b, b + 1}) cap = nextDarkFrom(level - 1, child, after, cap);
+  return cap;
 }
 
 }  // namespace cpvs

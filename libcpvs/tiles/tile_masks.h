@@ -35,6 +35,10 @@ struct TileChains {
   // never). These feed the min-max hierarchy.
   std::vector<uint32_t> litUntil;
   std::vector<uint32_t> shadowFrom;
+  // Per tile: the farthest enter slice + 1 (N where a texel sees nothing). From there on no voxel of the tile
+  // needs light, so a volume lying past it over its whole footprint may be all shadowed even where the chain
+  // kept free voxels lit (seed 004 §3.4: shadowed + free -> shadowed). darkFrom <= shadowFrom.
+  std::vector<uint32_t> darkFrom;
 
   uint32_t tileIndex(uint32_t tx, uint32_t ty) const { return ty * tilesX + tx; }
   uint64_t maskAt(uint32_t tile, uint32_t slice) const;
@@ -50,8 +54,12 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
 struct TileHierarchy {
   std::vector<uint32_t> size;                   // tiles per side at each level
   std::vector<std::vector<uint32_t>> minLitUntil;
-  std::vector<std::vector<uint32_t>> maxShadowFrom;
+  std::vector<std::vector<uint32_t>> minDarkFrom;
+  std::vector<std::vector<uint32_t>> maxDarkFrom;
   explicit TileHierarchy(const TileChains& chains);
+
+  // The smallest darkFrom in (after, cap) over the footprint of node `index` at `level`; cap if none.
+  uint32_t nextDarkFrom(uint32_t level, size_t index, uint32_t after, uint32_t cap) const;
 };
 
 }  // namespace cpvs
