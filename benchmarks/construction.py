@@ -20,11 +20,12 @@ import datetime
 import hashlib
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
 import time
+
+from machine import machine_info, run_text
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -59,35 +60,6 @@ def sha256_file(path):
         for chunk in iter(lambda: f.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
-
-
-def run_text(cmd):
-    try:
-        return subprocess.run(cmd, capture_output=True, text=True, check=False).stdout
-    except OSError:
-        return ""
-
-
-def machine_info(renderer):
-    info = {"model": "", "cpus": os.cpu_count(), "threads_per_core": "", "cores_per_socket": "",
-            "memory_gib": 0.0, "kernel": platform.release(), "renderer": renderer}
-    for line in run_text(["lscpu"]).splitlines():
-        key, _, value = line.partition(":")
-        value = value.strip()
-        if key == "Model name":
-            info["model"] = value
-        elif key == "Thread(s) per core":
-            info["threads_per_core"] = value
-        elif key == "Core(s) per socket":
-            info["cores_per_socket"] = value
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemTotal:"):
-                    info["memory_gib"] = int(line.split()[1]) / 1024**2
-    except OSError:
-        pass
-    return info
 
 
 def git_commit():

@@ -17,10 +17,11 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
+
+from machine import machine_line
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 S = "data/scenes"
@@ -46,25 +47,6 @@ def run(cmd, log):
         sys.stderr.write(f"lookups.py: failed ({r.returncode}): {log[-1]}\n{r.stderr}")
         sys.exit(2)
     return r
-
-
-def machine():
-    model = ""
-    try:
-        for line in subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines():
-            if line.startswith("Model name:"):
-                model = line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    mem = 0.0
-    try:
-        with open("/proc/meminfo") as f:
-            mem = int(f.readline().split()[1]) / 1024**2
-    except OSError:
-        pass
-    load = os.getloadavg()
-    return (f"{model or platform.processor()}, {os.cpu_count()} logical CPUs, {mem:.1f} GiB RAM, Linux "
-            f"{platform.release()}; load average {load[0]:.2f} when the table was written")
 
 
 def rate(x):
@@ -123,7 +105,7 @@ def main():
       f"{a.timing_rounds} interleaved rounds (docs/query.md, \"How throughput is measured\"). "
       f"{a.points} points per scene from `cpvs-sample` (area-weighted, random order, seed 1).")
     w("")
-    w("* Machine: " + machine())
+    w("* Machine: " + machine_line(with_load=True))
     w(f"* Date: {datetime.date.today().isoformat()}; build: Release (`-O3`, baseline x86-64) from `{a.bin}`")
     w("* Targets: unfiltered lookups ≥ 5× Embree occlusion rays; 9×9 PCF ≤ 4× the cost of an unfiltered lookup.")
     w("")

@@ -15,12 +15,13 @@ import argparse
 import datetime
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "benchmarks"))
+from machine import machine_line  # noqa: E402  (shared with the benchmarks)
 
 # name, scene (relative to the repository), what it tests, light arguments. Lights are chosen so that each
 # scene casts shadows on itself from a sun and from a spot whose cone covers the interesting part.
@@ -47,30 +48,6 @@ GENERATED = {"city-t100000-s1.glb": ["city", "--triangles", "100000", "--seed", 
 
 TARGET_RATIO = 10.0
 ANALYSIS_MARKER = "<!-- analysis: everything from this line on is hand-written and kept by run_sweeps.py -->"
-
-
-def run_text(cmd):
-    try:
-        return subprocess.run(cmd, capture_output=True, text=True, check=False).stdout
-    except OSError:
-        return ""
-
-
-def machine():
-    model, cores = "", os.cpu_count()
-    for line in run_text(["lscpu"]).splitlines():
-        k, _, v = line.partition(":")
-        if k == "Model name":
-            model = v.strip()
-    mem = 0.0
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemTotal:"):
-                    mem = int(line.split()[1]) / 1024**2
-    except OSError:
-        pass
-    return f"{model}, {cores} logical CPUs, {mem:.1f} GiB RAM, Linux {platform.release()}"
 
 
 def main():
@@ -184,7 +161,7 @@ def write_doc(a, out_dir, doc, resolutions, points):
     renderer = next((j["renderer"] for _, _, j in jsons if j.get("renderer")), "")
     w("## Machine and command")
     w("")
-    w(f"* {machine()}")
+    w(f"* {machine_line()}")
     if renderer:
         w(f"* Renderer for the bakes: `{renderer}`")
     w("* The machine is shared with other work (2 cores): bake times and throughputs are indicative; "
