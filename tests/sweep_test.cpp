@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "libcpvs/baseline/shadow_map.h"
 #include "libcpvs/baseline/sweep.h"
@@ -244,6 +245,22 @@ TEST(Sweep, RowsOnATinyScene) {
   for (size_t l = 0; l < 2; ++l) EXPECT_LE(rows[4 + l].misclassified, rows[l].misclassified + 1);
   // The CPVS at 256 beats the shadow map of the same bytes.
   for (size_t l = 0; l < 2; ++l) EXPECT_LE(rows[4 + l].misclassified, rows[4 + l].smMisclassified);
+}
+
+TEST(SweepTool, QuietWithAnOutputFolderWritesOnlyTheFiles) {
+  // Pipelines run the sweep with -q --out-dir: the table goes to the files, nothing to the terminal.
+  const std::string dir = test::tempDir();
+  const std::string base = test::toolPath("cpvs-sweep") + " '" + test::sourcePath("data/scenes/Tiny/tiny.gltf") +
+                           "' --resolutions 64 --points 2000 --timing 0.01 --name tiny";
+  const auto quiet = test::runTool(base + " -q --out-dir '" + dir + "'");
+  if (quiet.exitCode != 0 && quiet.output.find("OSMesa") != std::string::npos) GTEST_SKIP() << quiet.output;
+  ASSERT_EQ(quiet.exitCode, 0) << quiet.output;
+  EXPECT_EQ(quiet.output, "");
+  for (const char* ext : {".md", ".svg", ".json"}) EXPECT_TRUE(std::filesystem::exists(dir + "/tiny" + ext)) << ext;
+  // Without an output folder the table is the output, quiet or not.
+  const auto table = test::runTool(base + " -q");
+  ASSERT_EQ(table.exitCode, 0) << table.output;
+  EXPECT_NE(table.output.find("| 64 |"), std::string::npos) << table.output;
 }
 
 }  // namespace

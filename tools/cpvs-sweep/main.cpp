@@ -274,7 +274,7 @@ int run(int argc, char** argv) {
   app.add_option("--timing", o.timing, "Seconds per throughput measurement")->capture_default_str();
   app.add_option("--name", o.name, "Name of the outputs (default: the scene file's stem)");
   app.add_option("--out-dir", o.outDir, "Folder for NAME.md, NAME.svg and NAME.json (none: table to stdout only)");
-  app.add_flag("-q,--quiet", o.quiet, "No progress lines");
+  app.add_flag("-q,--quiet", o.quiet, "No progress lines; with --out-dir, no table on stdout either");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -312,7 +312,7 @@ int run(int argc, char** argv) {
 
   const std::string command = commandLine(argc, argv);
   const std::string md = markdown(o, name, scene, triangles, rows, command, renderer);
-  std::fputs(md.c_str(), stdout);
+  if (!o.quiet || o.outDir.empty()) std::fputs(md.c_str(), stdout);
   if (!o.outDir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.outDir, ec);
