@@ -3,7 +3,10 @@
 #include <array>
 #include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <mutex>
+#include <vector>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,7 +20,35 @@ std::string sourcePath(const std::string& relative) { return std::string(CPVS_SO
 
 std::string toolPath(const std::string& tool) { return std::string(CPVS_BINARY_DIR) + "/bin/" + tool; }
 
+namespace {
+// The folders tempDir made in this process. They are removed when the process ends if every test in it passed,
+// and kept (and named on stderr) when one failed, or when CPVS_KEEP_TEST_DIRS=1, to look into.
+class TempDirs {
+public:
+  void add(const std::filesystem::path& dir) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    dirs_.push_back(dir);
+  }
+  ~TempDirs() {
+    const char* keep = std::getenv("CPVS_KEEP_TEST_DIRS");
+    const bool failed = ::testing::UnitTest::GetInstance()->Failed();
+    if (failed || (keep && std::string(keep) == "1")) {
+      for (const auto& dir : dirs_) std::fprintf(stderr, "kept test folder %s\n", dir.c_str());
+      return;
+    }
+    std::error_code ec;
+    for (const auto& dir : dirs_) std::filesystem::remove_all(dir, ec);
+  }
+
+private:
+  std::mutex mutex_;
+  std::vector<std::filesystem::path> dirs_;
+};
+}  // namespace
+
 std::string tempDir() {
+  // Constructed after gtest's UnitTest singleton (first use is inside a test), so destroyed before it.
+  static TempDirs made;
   static std::atomic<int> counter{0};
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
   std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "cpvs";
@@ -27,6 +58,7 @@ std::string tempDir() {
                    ("cpvs-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++) + "-" + name);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  made.add(dir);
   return dir.string();
 }
 

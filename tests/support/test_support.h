@@ -10,7 +10,9 @@ namespace cpvs::test {
 
 std::string sourcePath(const std::string& relative);  // inside the source tree (data/, tests/)
 std::string toolPath(const std::string& tool);        // build/bin/<tool>
-std::string tempDir();                                // a fresh directory for this test
+// A fresh directory for this test; removed when the test process ends if all its tests passed (kept, and
+// named on stderr, when one failed or CPVS_KEEP_TEST_DIRS=1).
+std::string tempDir();
 
 // Appends an axis-aligned closed box (12 triangles, outward CCW) as a new mesh with one instance.
 void addBox(Scene& scene, const std::string& name, const glm::dvec3& min, const glm::dvec3& max);
