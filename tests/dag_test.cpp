@@ -2,6 +2,7 @@
 // and regions give the same grid as one piece.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "libcpvs/dag/dag_builder.h"
@@ -171,13 +172,20 @@ TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
         EXPECT_NE(chains.mask[i - 1], chains.mask[i]);
       }
       for (uint32_t z = 0; z < 64; ++z) {
-        const uint64_t m = chains.maskAt(t, z);
         if (z < chains.litUntil[t]) {
-          EXPECT_EQ(m, kAllLit);
+          EXPECT_EQ(chains.maskAt(t, z), kAllLit);
         }
-        if (z >= chains.shadowFrom[t]) {
-          EXPECT_EQ(m, kAllShadowed);
-        }
+      }
+      // darkFrom: the farthest enter + 1 of the tile's texels (N when one sees nothing), and the chain turns
+      // all shadowed no earlier.
+      uint32_t farthestEnter = 0;
+      const uint32_t tx = t % chains.tilesX, ty = t / chains.tilesX;
+      for (uint32_t j = 0; j < 64; ++j)
+        farthestEnter = std::max(farthestEnter, depth.enterAt(tx * 8 + (j & 7), ty * 8 + (j >> 3)));
+      EXPECT_EQ(chains.darkFrom[t], std::min(farthestEnter + 1, 64u));
+      const uint32_t last = chains.first[t + 1] - 1;
+      if (chains.mask[last] == kAllShadowed) {
+        EXPECT_GE(chains.start[last], chains.darkFrom[t]);
       }
     }
   }

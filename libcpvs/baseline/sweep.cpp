@@ -40,8 +40,6 @@ double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
   return double(work) / elapsed;
 }
 
-constexpr size_t kLookupBatch = 4096;  // points per LightShadow::visibility call, as in cpvs-query
-
 volatile float gSink;  // keeps the timed loops from being optimised away
 volatile int gIntSink;
 

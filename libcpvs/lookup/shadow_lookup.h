@@ -34,6 +34,7 @@
 // a point behind a perspective view's eye (d <= 0) -> 1; a non-finite point or normal -> 0 (invalid input,
 // the caller is expected to count it); a point outside the light's influence (beyond range, outside a spot's
 // cone) -> 0.
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -142,6 +143,9 @@ struct TopGrid {
 
 // Most top-grid levels a LightShadow builds unless told otherwise (docs/query.md has the measurement behind
 // it: 5 levels, 128 KiB per view, were the fastest at 4k and 16k).
+// Points per LightShadow::visibility batch call in cpvs-query, and in cpvs-sweep's timing so that its
+// lookups/s are the query's.
+inline constexpr size_t kLookupBatch = 4096;
 inline constexpr uint32_t kMaxAutomaticTopGridLevels = 5;
 inline constexpr int kAutomaticTopGrid = -1;
 

@@ -131,7 +131,6 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
 
   chains.first.resize(tileCount + 1);
   chains.litUntil.resize(tileCount);
-  chains.shadowFrom.resize(tileCount);
   size_t total = 0;
   for (size_t t = 0; t < tileCount; ++t) total += perTile[t].size();
   chains.start.reserve(total);
@@ -144,7 +143,6 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
       chains.mask.push_back(entry.mask);
     }
     chains.litUntil[t] = c.size() > 1 ? c[1].start : depth.resolution;
-    chains.shadowFrom[t] = c.back().mask == kAllShadowed ? c.back().start : depth.resolution;
   }
   chains.first[tileCount] = uint32_t(chains.start.size());
   return chains;

@@ -31,13 +31,12 @@ struct TileChains {
   std::vector<uint32_t> first;  // tilesX * tilesY + 1
   std::vector<uint32_t> start;
   std::vector<uint64_t> mask;
-  // Per tile: every slice before litUntil is all lit; every slice from shadowFrom on is all shadowed (N if
-  // never). These feed the min-max hierarchy.
+  // Per tile, feeding the min-max hierarchy: every slice before litUntil is all lit in the chain; darkFrom is
+  // the farthest enter slice + 1 (N where a texel sees nothing). From darkFrom on no voxel of the tile needs
+  // light, so a volume lying past it over its whole footprint may be all shadowed even where the chain kept
+  // free voxels lit (seed 004 §3.4: shadowed + free -> shadowed); the chain is all shadowed from its last entry
+  // at the latest, which is never before darkFrom.
   std::vector<uint32_t> litUntil;
-  std::vector<uint32_t> shadowFrom;
-  // Per tile: the farthest enter slice + 1 (N where a texel sees nothing). From there on no voxel of the tile
-  // needs light, so a volume lying past it over its whole footprint may be all shadowed even where the chain
-  // kept free voxels lit (seed 004 §3.4: shadowed + free -> shadowed). darkFrom <= shadowFrom.
   std::vector<uint32_t> darkFrom;
 
   uint32_t tileIndex(uint32_t tx, uint32_t ty) const { return ty * tilesX + tx; }

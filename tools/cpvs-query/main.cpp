@@ -38,7 +38,6 @@ using namespace cpvs;
 using Clock = std::chrono::steady_clock;
 
 constexpr size_t kChunk = 1 << 16;  // points per streamed chunk (also the timing set)
-constexpr size_t kBatch = 4096;     // points per LightShadow batch call
 constexpr double kRoundSeconds = 0.04;    // per method and round
 
 struct Options {
@@ -246,8 +245,8 @@ void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end
                  const std::vector<SelectedLight>& lights, const LookupOptions& lookup, std::vector<float>& scratch,
                  float* values) {
   const size_t nl = lights.size();
-  for (size_t b = begin; b < end; b += kBatch) {
-    const size_t e = std::min(end, b + kBatch);
+  for (size_t b = begin; b < end; b += kLookupBatch) {
+    const size_t e = std::min(end, b + kLookupBatch);
     scratch.resize(e - b);
     for (size_t l = 0; l < nl; ++l) {
       lights[l].shadow.visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch);
@@ -379,15 +378,15 @@ std::vector<QueryPoint> validPoints(const std::vector<QueryPoint>& points) {
   return valid;
 }
 
-// Lookups per second, one thread, the way the query itself does them (batches of kBatch points).
+// Lookups per second, one thread, the way the query itself does them (batches of kLookupBatch points).
 double lookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<const SelectedLight*>& lights,
                         const LookupOptions& lookup, double seconds) {
-  std::vector<float> out(std::min(valid.size(), kBatch));
+  std::vector<float> out(std::min(valid.size(), kLookupBatch));
   return perSecond(valid.size() * lights.size(), seconds, [&] {
     float sum = 0;
     for (const SelectedLight* light : lights)
-      for (size_t b = 0; b < valid.size(); b += kBatch) {
-        const size_t e = std::min(valid.size(), b + kBatch);
+      for (size_t b = 0; b < valid.size(); b += kLookupBatch) {
+        const size_t e = std::min(valid.size(), b + kLookupBatch);
         light->shadow.visibility(std::span<const QueryPoint>(valid.data() + b, e - b), lookup,
                                  std::span<float>(out.data(), e - b));
         sum += out[0];
