@@ -82,6 +82,7 @@ void dagBuild(benchmark::State& state) {
   }
   state.counters["nodes_built"] = double(stats.nodesBuilt);
   state.counters["nodes_reused"] = double(stats.nodesReused);
+  state.counters["homogeneous"] = double(stats.homogeneous);
   state.counters["finish_ms"] = finishMs;  // the relocation into one array (part of the time above)
 }
 BENCHMARK(dagBuild)->ArgName("reuse")->Arg(0)->Arg(1)->Iterations(2)->Unit(benchmark::kMillisecond);

@@ -191,6 +191,45 @@ TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
   }
 }
 
+TEST(TileHierarchy, NextChangeIsTheFirstChainStartOrDarkFromOfTheFootprint) {
+  // Checked against every tile of the footprint, at every level, for slices across the whole depth.
+  const uint32_t n = 128;
+  const TileChains chains = buildTileChains(syntheticDepth(n, 5), UndefinedMode::Kampe);
+  const TileHierarchy hierarchy(chains);
+  uint64_t checked = 0, found = 0;
+  for (uint32_t level = 0; level < hierarchy.size.size(); ++level) {
+    const uint32_t side = hierarchy.size[level], span = 1u << level;
+    for (uint32_t hy = 0; hy < side; ++hy)
+      for (uint32_t hx = 0; hx < side; ++hx)
+        for (uint32_t after = 0; after < n; after += 3)
+          for (bool withDarkFrom : {false, true}) {
+            uint32_t expected = n;
+            for (uint32_t ty = hy * span; ty < (hy + 1) * span; ++ty)
+              for (uint32_t tx = hx * span; tx < (hx + 1) * span; ++tx) {
+                const uint32_t tile = chains.tileIndex(tx, ty);
+                expected = std::min(expected, chains.nextTransition(tile, after));
+                if (withDarkFrom && chains.darkFrom[tile] > after)
+                  expected = std::min(expected, chains.darkFrom[tile]);
+              }
+            const size_t index = size_t(hy) * side + hx;
+            ASSERT_EQ(hierarchy.nextChange(chains, level, index, after, n, 0, withDarkFrom), expected)
+                << "level " << level << " node " << index << " after " << after;
+            // With a cap, and stopping early: any answer <= enough is allowed once one exists.
+            const uint32_t cap = std::min(after + 9, n), enough = after + 4;
+            const uint32_t capped = hierarchy.nextChange(chains, level, index, after, cap, enough, withDarkFrom);
+            if (expected <= enough && expected < cap) {
+              EXPECT_LE(capped, enough);
+              EXPECT_GT(capped, after);
+            } else {
+              EXPECT_EQ(capped, std::min(expected, cap));
+            }
+            ++checked;
+            found += expected < n;
+          }
+  }
+  EXPECT_GT(found, checked / 4);  // the synthetic map has changes to find
+}
+
 TEST(TileChains, KampeUsesFewerDistinctMasksThanSintorn) {
   // One tile: texel j enters at slice j; texel 0 is an open surface, every other texel is inside a solid
   // to the end. Kampe keeps one mask ({texel 0}) for the whole depth; Sintorn follows every enter depth.

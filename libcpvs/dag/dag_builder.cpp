@@ -1,3 +1,5 @@
+
+
 #include "libcpvs/dag/dag_builder.h"
 
 #include <algorithm>
@@ -85,9 +87,23 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
   }
   // §3.2: nothing changes along z in this footprint from the neighbour's first slice to our last one (no chain
   // entry, no darkFrom), so this volume equals its neighbour nearer the light: take its node without building it.
-  if (nodeReuse_ && neighbour.valid && neighbour.code == ChildCode::Ref && neighbour.nextT > z1) {
-    ++stats_.nodesReused;
-    return neighbour;
+  if (nodeReuse_ && neighbour.valid && neighbour.code == ChildCode::Ref) {
+    if (neighbour.nextT > z1) {
+      ++stats_.nodesReused;
+      return neighbour;
+    }
+    // The carried bound is only a lower bound: below a neighbour known by its node alone (the far child of a
+    // reused or region-level volume), every descendant gets that node's bound. Ask the hierarchy exactly. A
+    // leaf parent's content depends on its chain alone once it passed the shadow test, so darkFrom is left out.
+    const uint32_t next =
+        hierarchy_->nextChange(*chains_, hLevel, h, z0 - size, resolution_, z1, level < leafLevel_);
+    if (next > z1) {
+      ++stats_.nodesReused;
+      Result same = neighbour;
+      same.nextT = next;  // the footprint's first change after the neighbour's first slice, hence after ours
+      for (uint32_t& t : same.farNextT) t = next;
+      return same;
+    }
   }
   if (level == leafLevel_) return buildLeafParent(tx, ty, z0);
 

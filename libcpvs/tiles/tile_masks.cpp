@@ -153,6 +153,9 @@ TileHierarchy::TileHierarchy(const TileChains& chains) {
     throw Error(ExitCode::RuntimeFailure, "tile hierarchy needs a square power-of-two region");
   size.push_back(chains.tilesX);
   minLitUntil.push_back(chains.litUntil);
+  std::vector<uint32_t> lastChange(chains.litUntil.size());
+  for (size_t t = 0; t < lastChange.size(); ++t) lastChange[t] = chains.start[chains.first[t + 1] - 1];
+  maxLastChange.push_back(std::move(lastChange));
   minDarkFrom.push_back(chains.darkFrom);
   maxDarkFrom.push_back(chains.darkFrom);
   // One coarser level of `fine` (fine x fine values), each value the min or max of its four.
@@ -171,6 +174,7 @@ TileHierarchy::TileHierarchy(const TileChains& chains) {
   while (size.back() > 1) {
     const uint32_t fine = size.back();
     minLitUntil.push_back(coarsen(minLitUntil.back(), fine, lower));
+    maxLastChange.push_back(coarsen(maxLastChange.back(), fine, upper));
     minDarkFrom.push_back(coarsen(minDarkFrom.back(), fine, lower));
     maxDarkFrom.push_back(coarsen(maxDarkFrom.back(), fine, upper));
     size.push_back(fine / 2);
@@ -185,6 +189,27 @@ uint32_t TileHierarchy::nextDarkFrom(uint32_t level, size_t index, uint32_t afte
   const size_t fine = size[level - 1];
   const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
   for (size_t child : {a, a + 1, b, b + 1}) cap = nextDarkFrom(level - 1, child, after, cap);
+  return cap;
+}
+
+uint32_t TileHierarchy::nextChange(const TileChains& chains, uint32_t level, size_t index, uint32_t after,
+                                   uint32_t cap, uint32_t enough, bool withDarkFrom) const {
+  // Chain starts lie in [litUntil, lastChange] of their tile (litUntil is the second entry's start).
+  const bool chainMay = minLitUntil[level][index] < cap && maxLastChange[level][index] > after;
+  const bool darkMay = withDarkFrom && maxDarkFrom[level][index] > after && minDarkFrom[level][index] < cap;
+  if (!chainMay && !darkMay) return cap;
+  if (level == 0) {
+    if (chainMay) cap = std::min(cap, chains.nextTransition(uint32_t(index), after));
+    if (darkMay) cap = std::min(cap, maxDarkFrom[0][index]);
+    return cap;
+  }
+  const uint32_t x = uint32_t(index % size[level]), y = uint32_t(index / size[level]);
+  const size_t fine = size[level - 1];
+  const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
+  for (size_t child : {a, a + 1, b, b + 1}) {
+    cap = nextChange(chains, level - 1, child, after, cap, enough, withDarkFrom);
+    if (cap <= enough) break;
+  }
   return cap;
 }
 
