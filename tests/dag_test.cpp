@@ -223,6 +223,18 @@ TEST(TileHierarchy, NextChangeIsTheFirstChainStartOrDarkFromOfTheFootprint) {
             } else {
               EXPECT_EQ(capped, std::min(expected, cap));
             }
+            // Capped at the footprint's minLitUntil no chain starts in range: the smallest darkFrom remains
+            // (how the builder bounds a lit volume).
+            const uint32_t litCap = hierarchy.minLitUntil[level][index];
+            uint32_t firstDark = litCap;
+            for (uint32_t ty = hy * span; ty < (hy + 1) * span; ++ty)
+              for (uint32_t tx = hx * span; tx < (hx + 1) * span; ++tx) {
+                const uint32_t dark = chains.darkFrom[chains.tileIndex(tx, ty)];
+                if (dark > after) firstDark = std::min(firstDark, dark);
+              }
+            if (after < litCap) {
+              EXPECT_EQ(hierarchy.nextChange(chains, level, index, after, litCap, 0, true), firstDark);
+            }
             ++checked;
             found += expected < n;
           }

@@ -1,5 +1,3 @@
-
-
 #include "libcpvs/dag/dag_builder.h"
 
 #include <algorithm>
@@ -82,8 +80,8 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
   if (z1 < minLit) {
     ++stats_.homogeneous;
     // Behind this volume the chains change at minLit at the earliest, and the shadow test above may start
-    // to hold at any darkFrom of the footprint.
-    return {ChildCode::Lit, 0, hierarchy_->nextDarkFrom(hLevel, h, z0, minLit), true};
+    // to hold at any darkFrom of the footprint: the first of those is the next change.
+    return {ChildCode::Lit, 0, hierarchy_->nextChange(*chains_, hLevel, h, z0, minLit, 0, true), true};
   }
   // §3.2: nothing changes along z in this footprint from the neighbour's first slice to our last one (no chain
   // entry, no darkFrom), so this volume equals its neighbour nearer the light: take its node without building it.

@@ -141,11 +141,11 @@ struct TopGrid {
   static uint32_t automaticLevel(const DagView& dag);
 };
 
-// Most top-grid levels a LightShadow builds unless told otherwise (docs/query.md has the measurement behind
-// it: 5 levels, 128 KiB per view, were the fastest at 4k and 16k).
 // Points per LightShadow::visibility batch call in cpvs-query, and in cpvs-sweep's timing so that its
 // lookups/s are the query's.
 inline constexpr size_t kLookupBatch = 4096;
+// Most top-grid levels a LightShadow builds unless told otherwise (docs/query.md has the measurement behind
+// it: 5 levels, 128 KiB per view, were the fastest at 4k and 16k).
 inline constexpr uint32_t kMaxAutomaticTopGridLevels = 5;
 inline constexpr int kAutomaticTopGrid = -1;
 

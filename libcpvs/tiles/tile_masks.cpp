@@ -181,23 +181,14 @@ TileHierarchy::TileHierarchy(const TileChains& chains) {
   }
 }
 
-uint32_t TileHierarchy::nextDarkFrom(uint32_t level, size_t index, uint32_t after, uint32_t cap) const {
-  if (maxDarkFrom[level][index] <= after || minDarkFrom[level][index] >= cap) return cap;
-  if (minDarkFrom[level][index] > after) return minDarkFrom[level][index];
-  // Values on both sides of `after` (never at level 0, where min == max): look at the four finer nodes.
-  const uint32_t x = uint32_t(index % size[level]), y = uint32_t(index / size[level]);
-  const size_t fine = size[level - 1];
-  const size_t a = size_t(2 * y) * fine + 2 * x, b = a + fine;
-  for (size_t child : {a, a + 1, b, b + 1}) cap = nextDarkFrom(level - 1, child, after, cap);
-  return cap;
-}
-
 uint32_t TileHierarchy::nextChange(const TileChains& chains, uint32_t level, size_t index, uint32_t after,
                                    uint32_t cap, uint32_t enough, bool withDarkFrom) const {
   // Chain starts lie in [litUntil, lastChange] of their tile (litUntil is the second entry's start).
   const bool chainMay = minLitUntil[level][index] < cap && maxLastChange[level][index] > after;
   const bool darkMay = withDarkFrom && maxDarkFrom[level][index] > after && minDarkFrom[level][index] < cap;
   if (!chainMay && !darkMay) return cap;
+  // Only darkFroms can answer and all of them lie past `after`: the smallest is the footprint's minimum.
+  if (!chainMay && minDarkFrom[level][index] > after) return minDarkFrom[level][index];
   if (level == 0) {
     if (chainMay) cap = std::min(cap, chains.nextTransition(uint32_t(index), after));
     if (darkMay) cap = std::min(cap, maxDarkFrom[0][index]);

@@ -58,11 +58,10 @@ struct TileHierarchy {
   std::vector<std::vector<uint32_t>> maxDarkFrom;
   explicit TileHierarchy(const TileChains& chains);
 
-  // The smallest darkFrom in (after, cap) over the footprint of node `index` at `level`; cap if none.
-  uint32_t nextDarkFrom(uint32_t level, size_t index, uint32_t after, uint32_t cap) const;
   // The first slice in (after, cap) at which a chain of the footprint starts an entry or (withDarkFrom) a
   // darkFrom of the footprint lies; cap if none. Stops early with any such slice <= enough. Subtrees whose
-  // ranges miss the interval are skipped.
+  // ranges miss the interval are skipped. With cap <= the footprint's minLitUntil no chain can answer, which
+  // leaves the smallest darkFrom in (after, cap).
   uint32_t nextChange(const TileChains& chains, uint32_t level, size_t index, uint32_t after, uint32_t cap,
                       uint32_t enough, bool withDarkFrom) const;
 };
