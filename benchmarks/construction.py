@@ -294,7 +294,7 @@ class Bench:
         # Table 2
         w("## Table 2 — size with the §3.4 undefined-region rule (kampe) vs Sintorn 2014 (closed city)")
         w("")
-        w("DAG bytes (node words + leaf masks) and the whole `.cpvs` file, node reuse on. *Ratio* = sintorn / kampe.")
+        w("DAG bytes (node units + leaf masks) and the whole `.cpvs` file, node reuse on. *Ratio* = sintorn / kampe.")
         w("")
         w("| N | kampe DAG MB | sintorn DAG MB | ratio | kampe file MB | sintorn file MB | unique leaves (kampe / sintorn) |")
         w("|---|---:|---:|---:|---:|---:|---|")

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""What a .cpvs DAG would weigh with narrower node encodings: a design study for a future format version.
+"""What a .cpvs DAG would weigh with narrower node encodings: the design study behind format 2.0.
 
 Format 1.0 stores every node as a u32 header (2 bits per child) and one u32 per referenced child: a word offset
 into NODE, or a leaf index (docs/format.md). Most of those references need far fewer than 32 bits. This script
@@ -34,6 +34,9 @@ def sections(data):
 
 
 def views(data):
+    major = struct.unpack_from("<H", data, 8)[0]
+    if major != 1:
+        sys.exit(f"format {major}.x file: this study reads format 1.0 files (32-bit node words) only")
     secs = sections(data)
     view_sec = next(s for s in secs if s[0] == b"VIEW")
     record = 472

@@ -35,7 +35,7 @@ struct ViewReport {
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;
   uint64_t nodesBuilt = 0, nodesReused = 0;
-  uint64_t bytes = 0;                // node words + leaf masks as stored
+  uint64_t bytes = 0;                // node units + leaf masks as stored
   uint64_t shadowMapBytes = 0;       // a 16-bit shadow map of the same resolution
 };
 

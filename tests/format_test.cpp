@@ -1,6 +1,6 @@
 // The .cpvs container (docs/format.md): round trip of baked DAGs, determinism, golden bytes that pin version
-// 1.0, and a reader that rejects every corrupt, truncated or foreign input with Error(InputInvalid) — never a
-// crash — while opening later 1.x files.
+// 2.0, 1.0 files that still open (converted) and decode the same, and a reader that rejects every corrupt,
+// truncated or foreign input with Error(InputInvalid) — never a crash — while opening later 2.x files.
 //
 // Regenerate the golden file after a deliberate format change (which must also bump the version):
 //   CPVS_UPDATE_GOLDEN=1 ./format_test --gtest_filter='*Golden*'
@@ -144,11 +144,12 @@ CpvsContent tinyContent() {
   CpvsContent c;
   c.settingsJson = R"({"resolution":16,"undefined":"kampe","tool":"cpvs golden"})";
   // Sun, N = 16 (levels 0 and 1). Root: child 0 and child 4 -> node A (shared), child 1 shadowed, others lit.
-  // A (leaf-parent): slice 0 -> leaf 0, slice 1 -> leaf 1, slice 2 shadowed, others lit.
+  // A (leaf-parent): slice 0 -> leaf 0, slice 1 -> leaf 1, slice 2 shadowed, others lit. References count
+  // units from the start of the next level: A is at unit 0 of level 1.
   ShadowDag sun;
   sun.resolution = 16;
   sun.rootCode = ChildCode::Ref;
-  sun.nodes = {0x206, 3, 3, 0x1A, 0, 1};
+  sun.nodes = {0x206, 0, 0, 0x1A, 0, 1};
   sun.leaves = {0x8100000000000081ull, 0x00FF00FF00FF00FFull};
   sun.nodesPerLevel = {1, 1};
   sun.levelOffsets = {0, 3};
@@ -164,7 +165,9 @@ CpvsContent tinyContent() {
   ShadowDag face0;
   face0.resolution = 8;
   face0.rootCode = ChildCode::Ref;
-  face0.nodes = {0x8002 | 0x10, 0, 1};  // slice 0 -> leaf 0, slice 2 shadowed, slice 7 -> leaf 1
+  // Slice 0 -> leaf 0, slice 2 shadowed, slice 7 -> leaf 1 in the two-unit form (code 3), which the writer
+  // only uses for values of 65536 and more but readers accept for any.
+  face0.nodes = {0xC000 | 0x10 | 0x2, 0, 1, 0};
   face0.leaves = {0xF0F0F0F0F0F0F0F0ull, 0x1ull};
   face0.nodesPerLevel = {1};
   face0.levelOffsets = {0};
@@ -238,8 +241,12 @@ void expectSameView(const LightView& a, const LightView& b) {
   EXPECT_EQ(a.empty, b.empty);
 }
 
-void expectSameContent(const CpvsContent& content, const CpvsFile& file) {
-  EXPECT_EQ(file.majorVersion(), kCpvsMajorVersion);
+// sameUnits: the file holds the content's node units as they are (false for a converted 1.0 file, whose
+// DAGs must still decode to the same voxels).
+void expectSameContent(const CpvsContent& content, const CpvsFile& file, bool sameUnits = true) {
+  if (sameUnits) {
+    EXPECT_EQ(file.majorVersion(), kCpvsMajorVersion);
+  }
   EXPECT_EQ(file.settingsJson(), content.settingsJson);
   ASSERT_EQ(file.lights().size(), content.lights.size());
   for (size_t li = 0; li < content.lights.size(); ++li) {
@@ -253,11 +260,13 @@ void expectSameContent(const CpvsContent& content, const CpvsFile& file) {
       expectSameView(v.view, w.view);
       EXPECT_EQ(w.dag.resolution, v.view.resolution);
       EXPECT_EQ(w.dag.rootCode, v.dag.rootCode);
-      EXPECT_TRUE(std::ranges::equal(w.dag.nodes, v.dag.nodes));
+      if (sameUnits) {
+        EXPECT_TRUE(std::ranges::equal(w.dag.nodes, v.dag.nodes));
+      }
       EXPECT_TRUE(std::ranges::equal(w.dag.leaves, v.dag.leaves));
       EXPECT_EQ(w.nodesPerLevel, v.dag.nodesPerLevel);
       // Every voxel decodes the same.
-      const DagView before{v.view.resolution, v.dag.rootCode, v.dag.nodes, v.dag.leaves};
+      const DagView before = v.dag.view();
       const uint32_t n = v.view.resolution;
       uint64_t differences = 0, shadowed = 0;
       for (uint32_t z = 0; z < n; ++z)
@@ -354,7 +363,7 @@ RawSection& sectionOf(RawFile& f, uint32_t type) {
 }
 
 const std::string& goldenPath() {
-  static const std::string path = test::sourcePath("tests/golden/tiny_v1.cpvs");
+  static const std::string path = test::sourcePath("tests/golden/tiny_v2.cpvs");
   return path;
 }
 
@@ -425,7 +434,7 @@ TEST(Format, WritingIsDeterministic) {
   EXPECT_EQ(writeCpvs(again), a);
 }
 
-TEST(Format, GoldenBytesPinVersion1_0) {
+TEST(Format, GoldenBytesPinVersion2_0) {
   const std::string bytes = writeCpvs(tinyContent());
   if (const char* update = std::getenv("CPVS_UPDATE_GOLDEN"); update && std::string(update) == "1") {
     std::filesystem::create_directories(std::filesystem::path(goldenPath()).parent_path());
@@ -435,12 +444,12 @@ TEST(Format, GoldenBytesPinVersion1_0) {
   const Bytes golden = goldenBytes();
   // A change that alters these bytes changes the format: bump kCpvsMinorVersion (compatible additions) or
   // kCpvsMajorVersion, update docs/format.md, and regenerate the golden file.
-  ASSERT_EQ(toBytes(bytes), golden) << "writeCpvs no longer produces tests/golden/tiny_v1.cpvs";
+  ASSERT_EQ(toBytes(bytes), golden) << "writeCpvs no longer produces tests/golden/tiny_v2.cpvs";
 }
 
 TEST(Format, GoldenFileReadsBack) {
   const auto file = CpvsFile::open(goldenPath());
-  EXPECT_EQ(file->majorVersion(), 1);
+  EXPECT_EQ(file->majorVersion(), 2);
   EXPECT_EQ(file->minorVersion(), 0);
   expectSameContent(tinyContent(), *file);
   // Hand-decoded voxels of the sun's DAG (N = 16).
@@ -455,10 +464,52 @@ TEST(Format, GoldenFileReadsBack) {
   EXPECT_TRUE(sun.shadowed(9, 3, 6));    // root child 1 shadowed
   EXPECT_FALSE(sun.shadowed(3, 9, 6));   // root child 2 lit
   EXPECT_TRUE(sun.shadowed(0, 0, 8));    // root child 4 -> A again
+  const DagView& face0 = file->lights()[2].views[0].dag;
+  EXPECT_TRUE(face0.shadowed(4, 0, 0));   // slice 0 -> leaf 0 bit 4
+  EXPECT_TRUE(face0.shadowed(1, 1, 2));   // slice 2 shadowed
+  EXPECT_TRUE(face0.shadowed(0, 0, 7));   // slice 7 -> leaf 1 (two-unit reference) bit 0
+  EXPECT_FALSE(face0.shadowed(1, 0, 7));  // leaf 1 bit 1
   EXPECT_TRUE(file->lights()[2].views[1].dag.shadowed(3, 4, 5));  // all-shadowed face
   EXPECT_FALSE(file->lights()[2].views[3].dag.shadowed(3, 4, 5)); // empty face
   EXPECT_EQ(file->lights()[2].light.name, "bulb");
   EXPECT_TRUE(std::isinf(file->lights()[2].light.range));
+}
+
+// tests/golden/tiny_v1.cpvs holds the same content in format 1.0 (32-bit words, absolute references), as the
+// writer of cpvs 0.1 produced it: it opens, converted, and every voxel decodes the same.
+const std::string& format1GoldenPath() {
+  static const std::string path = test::sourcePath("tests/golden/tiny_v1.cpvs");
+  return path;
+}
+
+TEST(Format, Format1FilesOpenConvertedAndDecodeTheSame) {
+  const auto file = CpvsFile::open(format1GoldenPath());
+  EXPECT_EQ(file->majorVersion(), 1);
+  EXPECT_EQ(file->minorVersion(), 0);
+  expectSameContent(tinyContent(), *file, /*sameUnits=*/false);
+  // Converted to the writer's form: the sun's references relative to level 1, all one unit wide.
+  const DagView& sun = file->lights()[0].views[0].dag;
+  EXPECT_TRUE(std::ranges::equal(sun.nodes, std::vector<uint16_t>{0x206, 0, 0, 0x1A, 0, 1}));
+  EXPECT_EQ(file->lights()[0].views[0].nodeBytes, 6u * 4u);  // as stored: six 32-bit words
+}
+
+TEST(Format, MalformedFormat1DagsAreRejected) {
+  const Bytes v1 = readFile(format1GoldenPath());
+  ASSERT_FALSE(v1.empty());
+  // Section 4 is the sun's NODE, in 1.0 the words {0x206, 3, 3, 0x1A, 0, 1}.
+  auto withWord = [&](size_t word, uint32_t value) {
+    RawFile raw = unpack(v1);
+    putLE(raw.sections[4].bytes, 4 * word, value, 4);
+    return pack(raw);
+  };
+  EXPECT_NE(openError(withWord(3, 0x1A | 0x10000)).find("invalid header"), std::string::npos);
+  EXPECT_NE(openError(withWord(0, 0x206 | 0x3000)).find("invalid header"), std::string::npos);
+  EXPECT_NE(openError(withWord(2, 0)).find("not the start"), std::string::npos);   // a loop to the root
+  EXPECT_NE(openError(withWord(1, 4)).find("not the start"), std::string::npos);   // into a node
+  EXPECT_NE(openError(withWord(5, 2)).find("references leaf 2 of 2"), std::string::npos);
+  RawFile odd = unpack(v1);
+  odd.sections[4].elementSize = 2;  // a 2.0 NODE in a 1.0 file
+  EXPECT_NE(openError(pack(odd)).find("element size"), std::string::npos);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -549,19 +600,19 @@ TEST(Format, ForeignAndTextModeDamagedFilesAreToldApart) {
 
 TEST(Format, AnotherMajorVersionIsRejectedWithWhatToDo) {
   RawFile raw = unpack(goldenBytes());
-  raw.major = 2;
+  raw.major = 3;
   EXPECT_EQ(openError(pack(raw), "scene.cpvs"),
-            "scene.cpvs: written by format version 2.0; this build reads 1.x \u2014 update cpvs or re-bake");
+            "scene.cpvs: written by format version 3.0; this build reads 1.x and 2.x \u2014 update cpvs or re-bake");
   raw.major = 0;
   raw.minor = 9;
   EXPECT_EQ(openError(pack(raw), "old.cpvs"),
-            "old.cpvs: written by format version 0.9; this build reads 1.x \u2014 update cpvs or re-bake");
+            "old.cpvs: written by format version 0.9; this build reads 1.x and 2.x \u2014 update cpvs or re-bake");
 }
 
 TEST(Format, ALaterMinorVersionOpensAndSkipsWhatItAdds) {
   const Bytes golden = goldenBytes();
   RawFile raw = unpack(golden);
-  // The packer's layout (table last) differs from the writer's: still a valid 1.0 file.
+  // The packer's layout (table last) differs from the writer's: still a valid 2.0 file.
   expectSameContent(tinyContent(), *CpvsFile::fromBytes(pack(raw), "repacked"));
 
   raw.minor = 1;
@@ -596,7 +647,7 @@ TEST(Format, ALaterMinorVersionOpensAndSkipsWhatItAdds) {
   EXPECT_EQ(file->sections().size(), unpack(golden).sections.size() + 2);
   EXPECT_EQ(file->sections().back().type, "XTRA");
 
-  // The same additions claimed by a 1.0 file are errors: 1.0 records have exactly the 1.0 size.
+  // The same additions claimed by a 2.0 file are errors: 2.0 records have exactly the 2.0 size.
   raw.minor = 0;
   EXPECT_NE(openError(pack(raw)).find("element size"), std::string::npos);
 }
@@ -610,8 +661,7 @@ struct Mutation {
   std::string expected;  // a substring of the message
 };
 
-uint32_t nodeWord(RawFile& f, size_t section, size_t word) { return uint32_t(getLE(f.sections[section].bytes, 4 * word, 4)); }
-void setNodeWord(RawFile& f, size_t section, size_t word, uint32_t v) { putLE(f.sections[section].bytes, 4 * word, v, 4); }
+void setNodeUnit(RawFile& f, size_t section, size_t unit, uint32_t v) { putLE(f.sections[section].bytes, 2 * unit, v, 2); }
 void setView(RawFile& f, size_t view, size_t field, uint64_t v, int n) {
   putLE(sectionOf(f, kView).bytes, view * kViewRecordSize + field, v, n);
 }
@@ -625,18 +675,19 @@ void setLight(RawFile& f, size_t light, size_t field, uint64_t v, int n) {
 TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
   const Bytes golden = goldenBytes();
   // Golden layout: sections 0..3 BAKE STRS LGHT VIEW, then NODE/LEAF per view; the sun's NODE is section 4:
-  // words {0x206, 3, 3, 0x1A, 0, 1}, levels {1, 1}, 2 leaves. The spot's NODE is section 6.
+  // units {0x206, 0, 0, 0x1A, 0, 1}, levels {1, 1} (level 1 starts at unit 3), 2 leaves. The spot's NODE is
+  // section 6: {0x480, 0}, 1 leaf.
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<Mutation> mutations = {
-      {"reference into the middle of a node", [](RawFile& f) { setNodeWord(f, 4, 1, 4); }, "not the start"},
-      {"reference back to the root (a loop)", [](RawFile& f) { setNodeWord(f, 4, 2, 0); }, "not the start"},
-      {"reference past the nodes", [](RawFile& f) { setNodeWord(f, 4, 1, 1000000); }, "not the start"},
-      {"leaf index out of range", [](RawFile& f) { setNodeWord(f, 4, 5, 2); }, "references leaf 2 of 2"},
-      {"leaf index huge", [](RawFile& f) { setNodeWord(f, 6, 1, 0xFFFFFFFFu); }, "references leaf"},
-      {"header high bits", [](RawFile& f) { setNodeWord(f, 4, 3, 0x1A | 0x10000); }, "invalid header"},
-      {"child code 3", [](RawFile& f) { setNodeWord(f, 4, 0, 0x206 | 0x3000); }, "invalid header"},
-      {"node runs past the words",
-       [](RawFile& f) { setNodeWord(f, 4, 3, nodeWord(f, 4, 3) | 0x8000); }, "runs past"},
+      {"reference into the middle of a node", [](RawFile& f) { setNodeUnit(f, 4, 1, 1); }, "not the start"},
+      {"reference past the nodes", [](RawFile& f) { setNodeUnit(f, 4, 1, 60000); }, "not the start"},
+      // Child 0 made two units wide: the root takes 4 units, and A's extent no longer ends at the section's end.
+      {"a wide code moves the node boundaries", [](RawFile& f) { setNodeUnit(f, 4, 0, 0x207); }, "cover 5 of"},
+      {"leaf index out of range", [](RawFile& f) { setNodeUnit(f, 4, 5, 2); }, "references leaf 2 of 2"},
+      {"leaf index huge", [](RawFile& f) { setNodeUnit(f, 6, 1, 0xFFFF); }, "references leaf 65535 of 1"},
+      {"node runs past the units", [](RawFile& f) { setNodeUnit(f, 4, 3, 0x1A | 0x8000); }, "runs past"},
+      {"wide reference runs past the units", [](RawFile& f) { setNodeUnit(f, 4, 3, 0x1A | 0x4); }, "runs past"},
+      {"wide leaf reference at the end", [](RawFile& f) { setNodeUnit(f, 6, 0, 0x4C0); }, "runs past"},
       {"level counts do not tile the words", [](RawFile& f) { setView(f, 0, 216, 2, 8); }, "level"},
       {"level count absurd", [](RawFile& f) { setView(f, 0, 224, uint64_t(1) << 62, 8); }, "claims"},
       {"level count missing", [](RawFile& f) { setView(f, 0, 224, 0, 8); }, "cover"},
@@ -649,7 +700,7 @@ TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
       {"projection", [](RawFile& f) { setView(f, 0, 0, 2, 1); }, "projection"},
       {"mapping", [](RawFile& f) { setView(f, 0, 1, 7, 1); }, "mapping"},
       {"face", [](RawFile& f) { setView(f, 0, 2, 6, 1); }, "cube face"},
-      {"unknown view flag in 1.0", [](RawFile& f) { setView(f, 0, 3, 2, 1); }, "flags"},
+      {"unknown view flag in 2.0", [](RawFile& f) { setView(f, 0, 3, 2, 1); }, "flags"},
       {"near after far", [](RawFile& f) { setViewF64(f, 0, 200, 100.0); }, "near"},
       {"NaN bound", [nan](RawFile& f) { setViewF64(f, 0, 168, nan); }, "not finite"},
       {"empty lateral extent", [](RawFile& f) { setViewF64(f, 0, 176, -1.5); }, "lateral extent"},
@@ -657,7 +708,7 @@ TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
       {"log depth with near 0", [](RawFile& f) { setViewF64(f, 1, 200, 0.0); }, "near > 0"},
       {"node section index", [](RawFile& f) { setView(f, 0, 16, 5, 4); }, "'NODE'"},
       {"leaf section index", [](RawFile& f) { setView(f, 0, 20, 99, 4); }, "'LEAF'"},
-      {"node word count", [](RawFile& f) { setView(f, 0, 24, 7, 8); }, "node words"},
+      {"node unit count", [](RawFile& f) { setView(f, 0, 24, 7, 8); }, "node units"},
       {"leaf count", [](RawFile& f) { setView(f, 0, 32, uint64_t(1) << 40, 8); }, "leaves"},
       {"view of another light", [](RawFile& f) { setView(f, 0, 12, 1, 4); }, "belongs to light"},
       {"light type", [](RawFile& f) { setLight(f, 0, 0, 3, 4); }, "light type"},
@@ -669,7 +720,7 @@ TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
       {"NaN range", [nan](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, nan); }, "range"},
       {"zero range", [](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, 0.0); }, "range"},
       {"NaN colour", [](RawFile& f) { setLight(f, 0, 24, 0x7FC00000u, 4); }, "not finite"},
-      {"reserved light field in 1.0", [](RawFile& f) { setLight(f, 0, 36, 1, 4); }, "reserved"},
+      {"reserved light field in 2.0", [](RawFile& f) { setLight(f, 0, 36, 1, 4); }, "reserved"},
       {"record size", [](RawFile& f) { sectionOf(f, kView).bytes.push_back(0); }, "multiple"},
       {"NODE element size", [](RawFile& f) { f.sections[4].elementSize = 8; }, "element size"},
       {"odd NODE size", [](RawFile& f) { f.sections[4].bytes.push_back(0); }, "multiple"},

@@ -1,7 +1,7 @@
 // End-to-end golden bytes (issue 3): cpvs-bake on the shipped Tiny scene at N = 64, with a sun and a spot given
 // on the command line (so the result does not depend on the scene's own lights) and every setting spelled out
 // (so it does not depend on the tool's defaults), must reproduce
-// tests/golden/tiny_scene_bake64_v1.cpvs byte for byte — with one thread and with two. This pins the whole
+// tests/golden/tiny_scene_bake64_v2.cpvs byte for byte — with one thread and with two. This pins the whole
 // pipeline (import, views, depth rendering on OSMesa, masks, DAG, container) where format_test pins the
 // container alone with synthetic content.
 //
@@ -9,10 +9,13 @@
 // version) and also when the tool version changes (it is recorded in the BAKE block). After checking that the
 // change is intended (cpvs-info on old and new file shows what moved), regenerate with:
 //   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
-// and commit the new tests/golden/tiny_scene_bake64_v1.cpvs. A change in the container layout must also bump
-// the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v1.cpvs.
+// and commit the new tests/golden/tiny_scene_bake64_v2.cpvs. A change in the container layout must also bump
+// the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v2.cpvs.
+// tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0; it stays, to show that
+// old files open and decode to the same voxels.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -36,7 +39,7 @@ constexpr const char* kBakeArguments =
     " --sun 0.3,-1,0.2 --spot 0,5,0,0,-1,0,0.6,20";
 
 const std::string& goldenPath() {
-  static const std::string path = sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs");
+  static const std::string path = sourcePath("tests/golden/tiny_scene_bake64_v2.cpvs");
   return path;
 }
 
@@ -93,9 +96,36 @@ TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) {
   EXPECT_TRUE(bake(dir, " --threads 1") == golden) << "--threads 1 differs from the golden file";
 }
 
+TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
+  const auto current = CpvsFile::open(goldenPath());
+  const auto old = CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs"));
+  EXPECT_EQ(old->majorVersion(), 1);
+  ASSERT_EQ(old->lights().size(), current->lights().size());
+  uint64_t shadowed = 0;
+  for (size_t li = 0; li < old->lights().size(); ++li) {
+    const CpvsFile::View& a = old->lights()[li].views[0];
+    const CpvsFile::View& b = current->lights()[li].views[0];
+    EXPECT_EQ(a.nodesPerLevel, b.nodesPerLevel);
+    EXPECT_TRUE(std::ranges::equal(a.dag.leaves, b.dag.leaves));
+    // The conversion is the writer's encoding: the same units, which in the file are half the bytes or less.
+    EXPECT_TRUE(std::ranges::equal(a.dag.nodes, b.dag.nodes));
+    EXPECT_LE(2 * b.nodeBytes, a.nodeBytes);
+    const uint32_t n = a.view.resolution;
+    uint64_t differences = 0;
+    for (uint32_t z = 0; z < n; ++z)
+      for (uint32_t y = 0; y < n; ++y)
+        for (uint32_t x = 0; x < n; ++x) {
+          differences += a.dag.shadowed(x, y, z) != b.dag.shadowed(x, y, z);
+          shadowed += b.dag.shadowed(x, y, z);
+        }
+    EXPECT_EQ(differences, 0u) << "light " << li;
+  }
+  EXPECT_GT(shadowed, 0u);
+}
+
 TEST(GoldenBake, ThePinnedFileIsWhatItClaims) {
   const auto file = CpvsFile::open(goldenPath());
-  EXPECT_EQ(file->majorVersion(), 1);
+  EXPECT_EQ(file->majorVersion(), 2);
   EXPECT_EQ(file->minorVersion(), 0);
   // The BAKE block records what the bake depended on, and nothing about when or where it ran.
   const std::string& settings = file->settingsJson();

@@ -2,7 +2,8 @@
 // lights, views, DAG levels, bytes and checksums, as text and as JSON that agrees with the runtime reader; the
 // kind of input is decided by the magic, not the name; and corrupt copies (flipped bytes in every part of the
 // file, cuts at and around every section boundary, foreign magic, text-mode damage, a future major version)
-// are rejected with exit code 2 and a message that names the file — never a crash.
+// are rejected with exit code 2 and a message that names the file — never a crash. The bake is a format 2.0
+// file (16-bit node units); a format 1.0 file (32-bit node words, tests/golden/tiny_v1.cpvs) is shown in words.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -124,7 +125,7 @@ TEST_F(CpvsInfo, TextShowsHeaderSettingsLightsViewsAndChecksums) {
   const std::string& out = r.output;
   auto has = [&](const std::string& s) { EXPECT_NE(out.find(s), std::string::npos) << "missing '" << s << "' in\n" << out; };
   has("file: " + *path_ + "\n");
-  has("format: .cpvs 1.0 ");
+  has("format: .cpvs 2.0 (this build reads 1.x and 2.x, writes 2.0)\n");
   has("tool: cpvs-bake " + std::string(kVersion) + "\n");
   std::smatch m;
   ASSERT_TRUE(std::regex_search(out, m, std::regex("input hash: ([0-9a-f]{16})\n"))) << out;
@@ -140,7 +141,9 @@ TEST_F(CpvsInfo, TextShowsHeaderSettingsLightsViewsAndChecksums) {
   has("view 0: N 64, orthographic, linear depth, near ");
   has("view 0: N 64, perspective, logarithmic depth, near ");
   for (const char* face : {"+X", "-X", "+Y", "-Y", "+Z", "-Z"}) has(std::string("(face ") + face + "): N 64, perspective");
-  // Per view: the node counts of the four levels of N = 64, unique leaves and bytes, as the reader sees them.
+  // Per view: the node counts of the four levels of N = 64, node units (u16, used in place: the reader's span
+  // is the view's NODE section, sections 4, 6, 8, ...), unique leaves and bytes, as the reader sees them.
+  size_t nodeSection = 4;
   for (const auto& light : file_->lights())
     for (const auto& v : light.views) {
       std::string levels;
@@ -149,11 +152,16 @@ TEST_F(CpvsInfo, TextShowsHeaderSettingsLightsViewsAndChecksums) {
         levels.append(" ").append(std::to_string(c));  // (not " " + string: a false GCC 12 -Wrestrict)
         nodes += c;
       }
+      ASSERT_EQ(file_->sections()[nodeSection].type, "NODE");
+      const uint64_t nodeBytes = file_->sections()[nodeSection].size;
+      EXPECT_EQ(nodeBytes, v.dag.nodes.size() * 2);
+      nodeSection += 2;
       has("nodes per level (root first):" + levels + " = " + std::to_string(nodes) + " nodes in " +
-          std::to_string(v.dag.nodes.size()) + " words");
-      has("unique leaves " + std::to_string(v.dag.leaves.size()) + " (");
-      has("; " + std::to_string(v.dag.nodes.size() * 4 + v.dag.leaves.size() * 8) + " bytes\n");
+          std::to_string(v.dag.nodes.size()) + " units (" + std::to_string(nodeBytes) + " bytes); unique leaves " +
+          std::to_string(v.dag.leaves.size()) + " (" + std::to_string(v.dag.leaves.size() * 8) + " bytes); " +
+          std::to_string(nodeBytes + v.dag.leaves.size() * 8) + " bytes\n");
     }
+  EXPECT_EQ(out.find(" words ("), std::string::npos) << out;
   has("sections (20):\n");
   for (const auto& s : file_->sections()) {
     char checksum[20];
@@ -172,8 +180,8 @@ TEST_F(CpvsInfo, JsonAgreesWithTheReader) {
   EXPECT_EQ(j["file"], *path_);
   EXPECT_EQ(j["kind"], "cpvs");
   EXPECT_EQ(j["valid"], true);
-  EXPECT_EQ(j["formatVersion"], "1.0");
-  EXPECT_EQ(j["major"], 1);
+  EXPECT_EQ(j["formatVersion"], "2.0");
+  EXPECT_EQ(j["major"], 2);
   EXPECT_EQ(j["minor"], 0);
   EXPECT_EQ(j["header"]["size"], 64);
   EXPECT_EQ(j["header"]["flags"], 0);
@@ -196,6 +204,7 @@ TEST_F(CpvsInfo, JsonAgreesWithTheReader) {
   const char* faces[] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
   size_t views = 0;
   uint64_t dagBytes = 0;
+  size_t nodeSection = 4;  // BAKE STRS LGHT VIEW, then NODE LEAF per view
   for (size_t li = 0; li < 3; ++li) {
     const json& jl = j["lights"][li];
     const auto& fl = file_->lights()[li];
@@ -226,9 +235,14 @@ TEST_F(CpvsInfo, JsonAgreesWithTheReader) {
       EXPECT_EQ(jv["empty"], fv.view.empty);
       EXPECT_EQ(jv["levels"], 4);
       EXPECT_EQ(jv["nodesPerLevel"].get<std::vector<uint64_t>>(), fv.nodesPerLevel);
-      EXPECT_EQ(jv["nodeWords"], fv.dag.nodes.size());
+      EXPECT_FALSE(jv.contains("nodeWords"));  // format 1's name
+      EXPECT_EQ(jv["nodeUnits"], fv.dag.nodes.size());
+      ASSERT_EQ(file_->sections()[nodeSection].type, "NODE");
+      EXPECT_EQ(jv["nodeBytes"], file_->sections()[nodeSection].size);
+      EXPECT_EQ(jv["nodeBytes"], fv.dag.nodes.size() * 2);
+      nodeSection += 2;
       EXPECT_EQ(jv["uniqueLeaves"], fv.dag.leaves.size());
-      EXPECT_EQ(jv["bytes"], fv.dag.nodes.size() * 4 + fv.dag.leaves.size() * 8);
+      EXPECT_EQ(jv["bytes"], fv.dag.nodes.size() * 2 + fv.dag.leaves.size() * 8);
       EXPECT_EQ(jv["rootCode"], fv.dag.rootCode == ChildCode::Ref ? "ref" : fv.dag.rootCode == ChildCode::Lit ? "lit" : "shadowed");
       ++views;
       dagBytes += jv["bytes"].get<uint64_t>();
@@ -274,7 +288,7 @@ TEST_F(CpvsInfo, TheKindOfInputIsDecidedByTheMagicNotTheName) {
   // A .cpvs named like a scene, and a scene named like a .cpvs.
   const auto asScene = runOn(bytes_, "looks-like-a-scene.gltf");
   EXPECT_EQ(asScene.exitCode, 0) << asScene.output;
-  EXPECT_NE(asScene.output.find("format: .cpvs 1.0"), std::string::npos) << asScene.output;
+  EXPECT_NE(asScene.output.find("format: .cpvs 2.0"), std::string::npos) << asScene.output;
   const auto asCpvs = runOn(readFile(sourcePath("data/scenes/Tiny/tiny.gltf")), "looks-like-a-bake.cpvs");
   EXPECT_EQ(asCpvs.exitCode, 0) << asCpvs.output;
   EXPECT_NE(asCpvs.output.find("Box: 12 triangles, closed"), std::string::npos) << asCpvs.output;
@@ -290,7 +304,55 @@ TEST_F(CpvsInfo, ALaterMinorVersionIsShownAsSuch) {
   resealHeader(later);
   const auto r = runOn(later, "later.cpvs");
   EXPECT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("format: .cpvs 1.3 (this build reads 1.x"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("format: .cpvs 2.3 (this build reads 1.x and 2.x, writes 2.0)"), std::string::npos)
+      << r.output;
+}
+
+// A format 1.0 file is still read (its DAGs converted to 16-bit units on open) and shown as it is stored: node
+// words (u32) and the NODE section's bytes in the file; the JSON gives the converted units and the file's bytes.
+TEST_F(CpvsInfo, AFormat1FileIsShownInWords) {
+  const std::string v1 = sourcePath("tests/golden/tiny_v1.cpvs");
+  const auto old = CpvsFile::open(v1);
+  ASSERT_EQ(old->majorVersion(), 1);
+  const auto r = runTool(info() + " " + v1);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("format: .cpvs 1.0 (this build reads 1.x and 2.x, writes 2.0)\n"), std::string::npos)
+      << r.output;
+  EXPECT_EQ(r.output.find(" units ("), std::string::npos) << r.output;
+  const json j = jsonOf(v1, 0);
+  EXPECT_EQ(j["formatVersion"], "1.0");
+  size_t nodeSection = 4, views = 0, nonEmpty = 0;
+  uint64_t dagBytes = 0;
+  for (size_t li = 0; li < old->lights().size(); ++li)
+    for (size_t vi = 0; vi < old->lights()[li].views.size(); ++vi) {
+      const auto& v = old->lights()[li].views[vi];
+      const json& jv = j["lights"][li]["views"][vi];
+      const auto& node = old->sections()[nodeSection];
+      ASSERT_EQ(node.type, "NODE");
+      ASSERT_EQ(node.elementSize, 4u);
+      nodeSection += 2;
+      uint64_t nodes = 0;
+      for (uint64_t c : v.nodesPerLevel) nodes += c;
+      const uint64_t bytes = node.size + v.dag.leaves.size() * 8;
+      EXPECT_NE(r.output.find(" = " + std::to_string(nodes) + " nodes in " + std::to_string(node.size / 4) +
+                              " words (" + std::to_string(node.size) + " bytes); unique leaves " +
+                              std::to_string(v.dag.leaves.size()) + " (" + std::to_string(v.dag.leaves.size() * 8) +
+                              " bytes); " + std::to_string(bytes) + " bytes\n"),
+                std::string::npos)
+          << r.output;
+      EXPECT_EQ(jv["nodeUnits"], v.dag.nodes.size());
+      EXPECT_EQ(jv["nodeBytes"], node.size);
+      EXPECT_EQ(jv["bytes"], bytes);
+      if (node.size > 0) {
+        ++nonEmpty;
+        EXPECT_LT(v.dag.nodes.size() * 2, node.size);  // converted: smaller than the file's words
+      }
+      ++views;
+      dagBytes += bytes;
+    }
+  EXPECT_EQ(views, 8u);
+  EXPECT_GT(nonEmpty, 0u);
+  EXPECT_EQ(j["totals"]["dagBytes"], dagBytes);
 }
 
 TEST_F(CpvsInfo, HelpDocumentsCpvsInputAndExitCodes) {
@@ -415,19 +477,29 @@ TEST_F(CpvsInfo, WrongMagicTextModeDamageAndAFutureMajorAreRejectedWithWhatToDo)
 
   // A genuine file of a future major version (its header checksum is right): told what to do.
   Bytes future = bytes_;
-  putLE(future, 8, 2, 2);
+  putLE(future, 8, 3, 2);
   putLE(future, 10, 1, 2);
   resealHeader(future);
   const auto major = runOn(future, "future.cpvs");
-  expectRejected(major, "future.cpvs", "major 2");
-  EXPECT_NE(major.output.find("future.cpvs: written by format version 2.1; this build reads 1.x"), std::string::npos)
+  expectRejected(major, "future.cpvs", "major 3");
+  EXPECT_NE(major.output.find("future.cpvs: written by format version 3.1; this build reads 1.x and 2.x — update "
+                              "cpvs or re-bake"),
+            std::string::npos)
       << major.output;
-  EXPECT_NE(major.output.find("update cpvs or re-bake"), std::string::npos) << major.output;
   writeFile(scratch() + "/future.cpvs", future);
   const json majorJson = jsonOf(scratch() + "/future.cpvs", 2);
   EXPECT_EQ(majorJson["valid"], false);
-  EXPECT_NE(majorJson["error"].get<std::string>().find("format version 2.1"), std::string::npos);
+  EXPECT_NE(majorJson["error"].get<std::string>().find("format version 3.1"), std::string::npos);
   EXPECT_EQ(majorJson["checksums"]["headerChecksumOk"], true);
+  // Nor is a major below the oldest one this build reads.
+  Bytes ancient = bytes_;
+  putLE(ancient, 8, 0, 2);
+  resealHeader(ancient);
+  const auto zero = runOn(ancient, "ancient.cpvs");
+  expectRejected(zero, "ancient.cpvs", "major 0");
+  EXPECT_NE(zero.output.find("ancient.cpvs: written by format version 0.0; this build reads 1.x and 2.x"),
+            std::string::npos)
+      << zero.output;
 
   // A directory and a missing file.
   const auto directory = runTool(info() + " " + scratch());

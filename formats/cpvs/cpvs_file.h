@@ -1,10 +1,10 @@
 #pragma once
-// The .cpvs container, version 1.0 (byte-level spec: docs/format.md). Little-endian, pointer-free,
+// The .cpvs container, version 2.0 (byte-level spec: docs/format.md). Little-endian, pointer-free,
 // memory-mappable; a 64-byte header, a section table, 64-byte aligned sections each with an XXH3-64 checksum,
 // zero padding; no timestamps or random ids (same content, same bytes).
 //
 // This header and its .cpp files belong to the engine-side runtime (cpvs_runtime): no GL, Embree, glTF or
-// JSON library. Little-endian hosts only (the node words and leaf masks are used in place).
+// JSON library. Little-endian hosts only (the node units and leaf masks are used in place).
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -17,22 +17,25 @@
 
 namespace cpvs {
 
-// Same-major rule: a reader of 1.x opens every 1.y file. A minor version may add section types (readers skip
+// Same-major rule: a reader of 2.x opens every 2.y file. A minor version may add section types (readers skip
 // the ones they do not know) and append fields to light and view records (readers read the prefix they know,
 // the record size is in the section table); it never changes the meaning of an existing byte. Anything else
 // bumps the major version, which readers reject with a message that says what to do.
-inline constexpr uint16_t kCpvsMajorVersion = 1;
+// Format 2.0 stores node references in 16 or 32 bits (1.0: always 32); this reader still opens 1.x files,
+// converting their DAGs on open.
+inline constexpr uint16_t kCpvsMajorVersion = 2;
 inline constexpr uint16_t kCpvsMinorVersion = 0;
+inline constexpr uint16_t kCpvsOldestReadableMajor = 1;
 // PNG-style magic: a high-bit byte, the name, CR LF, Ctrl-Z — catches 7-bit and text-mode corruption.
 inline constexpr uint8_t kCpvsMagic[8] = {0x89, 'C', 'P', 'V', 'S', '\r', '\n', 0x1A};
 
-// Layout constants of version 1.0 (docs/format.md has the tables).
+// Layout constants of version 2.0, the same as 1.0 but for the NODE element (docs/format.md has the tables).
 namespace cpvsformat {
 inline constexpr uint32_t kHeaderSize = 64;
 inline constexpr uint32_t kSectionEntrySize = 32;
 inline constexpr uint32_t kAlignment = 64;          // of the section table and of every section
-inline constexpr uint32_t kLightRecordSize = 112;   // LGHT record, 1.0
-inline constexpr uint32_t kViewRecordSize = 472;    // VIEW record, 1.0
+inline constexpr uint32_t kLightRecordSize = 112;   // LGHT record, 1.0 and 2.0
+inline constexpr uint32_t kViewRecordSize = 472;    // VIEW record, 1.0 and 2.0
 inline constexpr uint32_t kMaxLevels = 32;          // nodesPerLevel slots in a VIEW record
 inline constexpr uint32_t kMaxResolution = 1u << 20;
 // Section types, as the four bytes in the file (first character in the lowest byte).
@@ -43,7 +46,7 @@ inline constexpr uint32_t kBake = fourcc('B', 'A', 'K', 'E');  // bake settings,
 inline constexpr uint32_t kStrs = fourcc('S', 'T', 'R', 'S');  // string pool (light names)
 inline constexpr uint32_t kLght = fourcc('L', 'G', 'H', 'T');  // light records
 inline constexpr uint32_t kView = fourcc('V', 'I', 'E', 'W');  // view records
-inline constexpr uint32_t kNode = fourcc('N', 'O', 'D', 'E');  // one view's node words (u32)
+inline constexpr uint32_t kNode = fourcc('N', 'O', 'D', 'E');  // one view's node units (u16; 1.x: u32 words)
 inline constexpr uint32_t kLeaf = fourcc('L', 'E', 'A', 'F');  // one view's leaf masks (u64)
 }  // namespace cpvsformat
 
@@ -75,8 +78,9 @@ class CpvsFile {
 public:
   struct View {
     LightView view;
-    DagView dag;                          // spans into the file's NODE and LEAF sections
+    DagView dag;                          // spans into the file's NODE and LEAF sections (format 1: a converted copy)
     std::vector<uint64_t> nodesPerLevel;  // one count per level, root level first
+    uint64_t nodeBytes = 0;               // size of the view's NODE section in the file
   };
   struct LightEntry {
     Light light;
@@ -123,6 +127,7 @@ private:
   std::vector<LightEntry> lights_;
   std::string settingsJson_;
   std::vector<SectionInfo> sections_;
+  std::vector<std::unique_ptr<ShadowDag>> converted_;  // format-1 DAGs in the stored form of format 2
 };
 
 }  // namespace cpvs

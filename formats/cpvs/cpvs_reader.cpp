@@ -113,41 +113,48 @@ void checkMagic(const Reader& r) {
   r.fail("not a .cpvs file (it does not start with the .cpvs magic bytes 89 43 50 56 53 0D 0A 1A)");
 }
 
-// Structural validation of one view's DAG (shadow_dag.h): level by level from the root, every node header
-// uses codes 0..2 in its 16 low bits, every reference points to the start of a node of the next level (or,
-// from the leaf-parent level, to a leaf), and the per-level node counts tile the node words exactly.
-void validateDag(const Reader& r, const std::string& what, ChildCode rootCode, uint32_t levels,
-                 std::span<const uint32_t> nodes, uint64_t leafCount, std::span<const uint64_t> nodesPerLevel) {
-  const uint64_t words = nodes.size();
+// Structural validation of one view's DAG (shadow_dag.h), in the stored form of format 2 (Unit = uint16_t:
+// references relative to the next level, either width) or the build form of format 1 (Unit = uint32_t: codes
+// 0..2 in the header's 16 low bits, absolute word references). Level by level from the root: every node fits,
+// every reference points to the start of a node of the next level (or, from the leaf-parent level, to a leaf),
+// and the per-level node counts tile the node units exactly. Returns the unit where each level starts.
+template <class Unit>
+std::vector<uint64_t> validateDag(const Reader& r, const std::string& what, ChildCode rootCode, uint32_t levels,
+                                  std::span<const Unit> nodes, uint64_t leafCount,
+                                  std::span<const uint64_t> nodesPerLevel) {
+  constexpr bool buildForm = sizeof(Unit) == 4;
+  const std::string unit = buildForm ? "word" : "unit";
+  const auto unitCount = [](uint32_t header) { return buildForm ? nodeWordCount(header) : nodeUnitCount(header); };
+  const uint64_t units = nodes.size();
   std::vector<uint64_t> levelStart(levels + 1, 0);
-  std::vector<uint64_t> isStart((words + 63) / 64, 0);  // bitmap of node starts (words <= file size / 4)
+  std::vector<uint64_t> isStart((units + 63) / 64, 0);  // bitmap of node starts (units <= file size / 2)
   uint64_t offset = 0;
   for (uint32_t l = 0; l < levels; ++l) {
     levelStart[l] = offset;
     const uint64_t count = nodesPerLevel[l];
-    if (count > words - offset)
-      r.fail(what + ": DAG level " + std::to_string(l) + " claims " + std::to_string(count) +
-             " nodes but only " + std::to_string(words - offset) + " node words are left");
+    if (count > units - offset)
+      r.fail(what + ": DAG level " + std::to_string(l) + " claims " + std::to_string(count) + " nodes but only " +
+             std::to_string(units - offset) + " node " + unit + "s are left");
     for (uint64_t i = 0; i < count; ++i) {
-      if (offset >= words)
+      if (offset >= units)
         r.fail(what + ": DAG level " + std::to_string(l) + " node " + std::to_string(i) + " starts past the " +
-               std::to_string(words) + " node words");
+               std::to_string(units) + " node " + unit + "s");
       const uint32_t header = nodes[offset];
-      if ((header >> 16) != 0 || (header & (header >> 1) & 0x5555u) != 0)
+      if (buildForm && ((header >> 16) != 0 || (header & (header >> 1) & 0x5555u) != 0))
         r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(offset) +
                ": invalid header 0x" + hex(header).substr(8) + " (child codes must be 0..2, high bits zero)");
-      const unsigned k = nodeWordCount(header);
-      if (k > words - offset)
-        r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(offset) +
-               " runs past the end of the node words");
+      const unsigned k = unitCount(header);
+      if (k > units - offset)
+        r.fail(what + ": DAG level " + std::to_string(l) + " node at " + unit + " " + std::to_string(offset) +
+               " runs past the end of the node " + unit + "s");
       isStart[offset >> 6] |= uint64_t(1) << (offset & 63);
       offset += k;
     }
   }
   levelStart[levels] = offset;
-  if (offset != words)
+  if (offset != units)
     r.fail(what + ": the DAG's per-level node counts cover " + std::to_string(offset) + " of its " +
-           std::to_string(words) + " node words");
+           std::to_string(units) + " node " + unit + "s");
   const uint64_t rootLevelNodes = levels > 0 ? nodesPerLevel[0] : 0;
   if (rootCode == ChildCode::Ref ? rootLevelNodes != 1 : rootLevelNodes != 0)
     r.fail(what + ": the root level holds " + std::to_string(rootLevelNodes) + " nodes (expected " +
@@ -158,21 +165,49 @@ void validateDag(const Reader& r, const std::string& what, ChildCode rootCode, u
     const uint64_t lo = leafParent ? 0 : levelStart[l + 1], hi = leafParent ? 0 : levelStart[l + 1 + 1];
     for (uint64_t at = levelStart[l]; at < levelStart[l + 1];) {
       const uint32_t header = nodes[at];
-      const unsigned k = nodeWordCount(header);
-      for (unsigned j = 1; j < k; ++j) {
-        const uint64_t ref = nodes[at + j];
+      uint64_t next = at + 1;  // the next reference's first unit, in child order
+      for (unsigned c = 0; c < 8; ++c) {
+        const uint32_t code = (header >> (2 * c)) & 3u;
+        if (code < 2) continue;
+        uint64_t ref = nodes[next++];
+        if constexpr (!buildForm) {
+          if (code == 3) ref |= uint64_t(nodes[next++]) << 16;
+          ref += lo;  // relative to the next level
+        }
         if (leafParent) {
           if (ref >= leafCount)
-            r.fail(what + ": DAG leaf-parent node at word " + std::to_string(at) + " references leaf " +
+            r.fail(what + ": DAG leaf-parent node at " + unit + " " + std::to_string(at) + " references leaf " +
                    std::to_string(ref) + " of " + std::to_string(leafCount));
         } else if (ref < lo || ref >= hi || !((isStart[ref >> 6] >> (ref & 63)) & 1))
-          r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(at) +
-                 " references word " + std::to_string(ref) + ", which is not the start of a level-" +
+          r.fail(what + ": DAG level " + std::to_string(l) + " node at " + unit + " " + std::to_string(at) +
+                 " references " + unit + " " + std::to_string(ref) + ", which is not the start of a level-" +
                  std::to_string(l + 1) + " node");
       }
-      at += k;
+      at += unitCount(header);
     }
   }
+  return levelStart;
+}
+
+// A format-1 DAG (validated) in the stored form of format 2: references made relative to their level, then
+// encoded as the baker does.
+std::unique_ptr<ShadowDag> convertFormat1Dag(uint32_t resolution, ChildCode rootCode, std::span<const uint32_t> words,
+                                             std::span<const uint64_t> levelStart, std::span<const uint64_t> leaves,
+                                             std::span<const uint64_t> nodesPerLevel) {
+  const size_t levels = nodesPerLevel.size();
+  std::vector<std::vector<uint32_t>> local(levels);
+  for (size_t l = 0; l < levels; ++l) {
+    const uint64_t base = l + 1 < levels ? levelStart[l + 1] : 0;
+    local[l].assign(words.begin() + levelStart[l], words.begin() + levelStart[l + 1]);
+    for (size_t i = 0; i < local[l].size();) {
+      const unsigned count = nodeWordCount(local[l][i]);
+      for (unsigned k = 1; k < count; ++k) local[l][i + k] -= uint32_t(base);
+      i += count;
+    }
+  }
+  const std::vector<std::span<const uint32_t>> spans(local.begin(), local.end());
+  return std::make_unique<ShadowDag>(encodeDag(resolution, rootCode, spans, nodesPerLevel,
+                                               std::vector<uint64_t>(leaves.begin(), leaves.end())));
 }
 
 }  // namespace
@@ -243,15 +278,18 @@ void CpvsFile::parse(const std::string& name) {
   major_ = r.u16(8);
   minor_ = r.u16(10);
   const bool headerOk = XXH3_64bits(data_, 56) == r.u64(56);
-  if (major_ != kCpvsMajorVersion)
-    r.fail("written by format version " + std::to_string(major_) + "." + std::to_string(minor_) +
-           "; this build reads " + std::to_string(kCpvsMajorVersion) + ".x — update cpvs or re-bake" +
+  if (major_ != kCpvsMajorVersion && major_ != kCpvsOldestReadableMajor)
+    r.fail("written by format version " + std::to_string(major_) + "." + std::to_string(minor_) + "; this build reads " +
+           std::to_string(kCpvsOldestReadableMajor) + ".x and " + std::to_string(kCpvsMajorVersion) +
+           ".x — update cpvs or re-bake" +
            (headerOk ? "" : " (or the header is corrupt: its checksum does not match)"));
   if (!headerOk) r.fail("header checksum mismatch — the file is corrupt");
-  const bool strict = minor_ == 0;  // reserved fields are zero in 1.0; later minors may give them meaning
+  const bool strict = minor_ == 0;  // reserved fields are zero in x.0; later minors may give them meaning
+  const bool format1 = major_ == 1;  // 32-bit node words, converted on open (the only copy this reader makes)
+  const std::string dotZero = std::to_string(major_) + ".0";
   if (r.u32(12) != kHeaderSize)
     r.fail("header size " + std::to_string(r.u32(12)) + " (expected " + std::to_string(kHeaderSize) + ")");
-  if (strict && (r.u32(20) != 0 || r.u64(48) != 0)) r.fail("reserved header fields are not zero in a 1.0 file");
+  if (strict && (r.u32(20) != 0 || r.u64(48) != 0)) r.fail("reserved header fields are not zero in a " + dotZero + " file");
   const uint64_t declared = r.u64(32);
   if (declared > size)
     r.fail("truncated: the header says " + std::to_string(declared) + " bytes, the file has " + std::to_string(size));
@@ -335,7 +373,7 @@ void CpvsFile::parse(const std::string& name) {
       case kStrs: single(strs); expectElement(1, false); break;
       case kLght: single(lght); expectElement(kLightRecordSize, true); break;
       case kView: single(view); expectElement(kViewRecordSize, true); break;
-      case kNode: expectElement(4, false); break;
+      case kNode: expectElement(format1 ? 4 : 2, false); break;
       case kLeaf: expectElement(8, false); break;
       default: break;  // a section type from a later minor version: skipped
     }
@@ -376,7 +414,7 @@ void CpvsFile::parse(const std::string& name) {
     nextView += views;
     for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + 20 + 4 * c);
     l.intensity = r.f32(at + 32);
-    if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a 1.0 file");
+    if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a " + dotZero + " file");
     l.range = r.f64(at + 40);
     l.innerConeAngle = r.f64(at + 48);
     l.outerConeAngle = r.f64(at + 56);
@@ -400,7 +438,7 @@ void CpvsFile::parse(const std::string& name) {
       if (projection > 1) r.fail(vwhat + ": unknown projection " + std::to_string(projection));
       if (mapping > 1) r.fail(vwhat + ": unknown depth mapping " + std::to_string(mapping));
       if (face < -1 || face > 5) r.fail(vwhat + ": cube face " + std::to_string(face) + " (expected -1..5)");
-      if (strict && (flags & ~1u) != 0) r.fail(vwhat + ": unknown flags " + std::to_string(flags) + " in a 1.0 file");
+      if (strict && (flags & ~1u) != 0) r.fail(vwhat + ": unknown flags " + std::to_string(flags) + " in a " + dotZero + " file");
       v.projection = Projection(projection);
       v.mapping = DepthMapping(mapping);
       v.face = face;
@@ -415,7 +453,7 @@ void CpvsFile::parse(const std::string& name) {
       if (r.u8(w + 9) != levels)
         r.fail(vwhat + ": " + std::to_string(r.u8(w + 9)) + " DAG levels for resolution " +
                std::to_string(v.resolution) + " (expected " + std::to_string(levels) + ")");
-      if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a 1.0 file");
+      if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
       if (r.u32(w + 12) != li)
         r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + 12)) + ", not " + std::to_string(li));
       const uint64_t nodeSection = r.u32(w + 16), leafSection = r.u32(w + 20);
@@ -426,13 +464,15 @@ void CpvsFile::parse(const std::string& name) {
       const Entry& nodeS = entries[nodeSection];
       const Entry& leafS = entries[leafSection];
       const uint64_t words = r.u64(w + 24), leafCount = r.u64(w + 32);
-      if (words != nodeS.size / 4)
-        r.fail(vwhat + ": " + std::to_string(words) + " node words, but section " + std::to_string(nodeSection) +
-               " 'NODE' holds " + std::to_string(nodeS.size / 4));
+      const uint64_t nodeElement = format1 ? 4 : 2;
+      const std::string unit = format1 ? " node words" : " node units";
+      if (words != nodeS.size / nodeElement)
+        r.fail(vwhat + ": " + std::to_string(words) + unit + ", but section " + std::to_string(nodeSection) +
+               " 'NODE' holds " + std::to_string(nodeS.size / nodeElement));
       if (leafCount != leafS.size / 8)
         r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
                " 'LEAF' holds " + std::to_string(leafS.size / 8));
-      if (words > (uint64_t(1) << 32) || leafCount > (uint64_t(1) << 32))
+      if (words > UINT32_MAX || leafCount > (uint64_t(1) << 32))
         r.fail(vwhat + ": DAG too large for 32-bit references");
       bool finite = true;
       for (int c = 0; c < 4; ++c)
@@ -463,11 +503,27 @@ void CpvsFile::parse(const std::string& name) {
                                 std::to_string(levels) + " levels");
       }
       // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
-      const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data_ + nodeS.offset), size_t(words));
       const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data_ + leafS.offset),
                                              size_t(leafCount));
-      validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-      out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
+      out.nodeBytes = nodeS.size;
+      if (format1) {
+        const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data_ + nodeS.offset), size_t(words));
+        const std::vector<uint64_t> levelStart =
+            validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
+        try {
+          converted_.push_back(
+              convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel));
+        } catch (const Error& e) {
+          r.fail(vwhat + ": cannot convert the format-1 DAG: " + e.what());
+        }
+        out.dag = converted_.back()->view();
+      } else {
+        const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data_ + nodeS.offset), size_t(words));
+        const std::vector<uint64_t> levelStart =
+            validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
+        out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
+        out.dag.setLevelStarts(levelStart);
+      }
       entry.views.push_back(std::move(out));
     }
     lights_.push_back(std::move(entry));

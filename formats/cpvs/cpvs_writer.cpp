@@ -1,4 +1,4 @@
-// Writes the .cpvs container, version 1.0 (docs/format.md). Every byte is written explicitly (little-endian,
+// Writes the .cpvs container, version 2.0 (docs/format.md). Every byte is written explicitly (little-endian,
 // no struct images), padding is zero, and nothing depends on the time, the machine or memory addresses: the
 // same content gives the same bytes.
 #include <bit>
@@ -90,7 +90,7 @@ std::string writeCpvs(const CpvsContent& content) {
   sections.push_back({kView, kViewRecordSize, 0, viewCount * kViewRecordSize});
   for (const BakedLight& light : content.lights)
     for (const BakedView& v : light.views) {
-      sections.push_back({kNode, 4, 0, v.dag.nodes.size() * 4});
+      sections.push_back({kNode, 2, 0, v.dag.nodes.size() * 2});
       sections.push_back({kLeaf, 8, 0, v.dag.leaves.size() * 8});
     }
   const uint64_t tableOffset = kHeaderSize;
@@ -163,7 +163,7 @@ std::string writeCpvs(const CpvsContent& content) {
       out.f64(w + 200, v.near);
       out.f64(w + 208, v.far);
       for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(w + 216 + 8 * k, dag.nodesPerLevel[k]);
-      out.raw(sections[sectionIndex].offset, dag.nodes.data(), dag.nodes.size() * 4);
+      out.raw(sections[sectionIndex].offset, dag.nodes.data(), dag.nodes.size() * 2);
       out.raw(sections[sectionIndex + 1].offset, dag.leaves.data(), dag.leaves.size() * 8);
       sectionIndex += 2;
       ++viewIndex;

@@ -57,7 +57,7 @@ struct SweepRow {
   uint32_t resolution = 0;
   double bakeMs = 0;           // the light's views: depth + peel + masks + DAG (bakeScene's report)
   double bakeWallMs = 0;       // the whole bakeScene call at this resolution (all lights)
-  uint64_t bytes = 0;          // the light's DAG bytes (node words + leaf masks), all views
+  uint64_t bytes = 0;          // the light's DAG bytes (node units + leaf masks), all views
   uint64_t fileBytes = 0;      // the whole .cpvs at this resolution (all lights)
   uint64_t points = 0;
   uint64_t interiorSamples = 0;  // samples dropped as inside a closed solid (for the whole scene)

@@ -120,7 +120,7 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
       if (neighbour.code == ChildCode::Ref) {
         const std::vector<uint32_t>& words = tables_[level].words();
         const uint32_t header = words[neighbour.ref];
-        childNeighbour.code = ChildCode(childCodeOf(header, c + 4));
+        childNeighbour.code = ChildCode(wordCodeOf(header, c + 4));
         if (childNeighbour.code == ChildCode::Ref)
           childNeighbour.ref = words[neighbour.ref + 1 + refSlot(header, c + 4)];
       }
@@ -163,35 +163,16 @@ ShadowDag DagBuilder::finish() {
     if (!added) throw Error(ExitCode::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);
 
-  ShadowDag dag;
-  dag.resolution = resolution_;
-  dag.rootCode = root.code;
-  uint64_t total = 0;
-  for (const NodeTable& table : tables_) {
-    dag.levelOffsets.push_back(total);
-    dag.nodesPerLevel.push_back(table.size());
-    total += table.words().size();
-  }
-  if (total > UINT32_MAX) throw Error(ExitCode::RuntimeFailure, "DAG too large for 32-bit node offsets");
-  dag.nodes.reserve(total);
-  // Concatenate levels and turn level-local references into absolute offsets (the leaf level keeps leaf
-  // indices).
-  for (uint32_t level = 0; level <= leafLevel_; ++level) {
-    const std::vector<uint32_t>& words = tables_[level].words();
-    const uint32_t childBase = level < leafLevel_ ? uint32_t(dag.levelOffsets[level + 1]) : 0;
-    for (size_t i = 0; i < words.size();) {
-      const uint32_t header = words[i];
-      const unsigned count = nodeWordCount(header);
-      dag.nodes.push_back(header);
-      for (unsigned k = 1; k < count; ++k) dag.nodes.push_back(words[i + k] + childBase);
-      i += count;
-    }
-  }
   // The root must sit at offset 0: level 0 holds exactly the root when it is a node.
   if (root.code == ChildCode::Ref && root.ref != 0)
     throw Error(ExitCode::RuntimeFailure, "DAG builder: root is not the first node");
-  dag.leaves = leafTable_.leaves();
-  return dag;
+  std::vector<std::span<const uint32_t>> levelWords;
+  std::vector<uint64_t> nodesPerLevel;
+  for (const NodeTable& table : tables_) {
+    levelWords.emplace_back(table.words());
+    nodesPerLevel.push_back(table.size());
+  }
+  return encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()));
 }
 
 ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {

@@ -1,14 +1,22 @@
 #pragma once
-// The shadow DAG of one light view, pointer-free (DESIGN.md §4.4, §6).
+// The shadow DAG of one light view, pointer-free (DESIGN.md §4.4, §6; byte-level spec in docs/format.md).
 //
 // Node levels l = 0..L with L = log2(N) - 3. A node at level l covers a cube of s = N >> l voxels.
 //  * Octree nodes (s > 8) have 8 children of s/2 in Z-order: child c = (zbit << 2) | (ybit << 1) | xbit,
 //    so the four children nearer the light come first.
 //  * Leaf-parent nodes (s == 8, level L) split z only: child c is the 8x8x1 slice z0 + c.
-// A node is stored as words: word 0 holds 2 bits per child (bits 2c..2c+1): 0 lit, 1 shadowed, 2 reference;
-// then one word per referenced child, in child order. References from levels < L are word offsets into
-// `nodes`; references from level L index `leaves`, 64-bit masks whose bit (y & 7) * 8 + (x & 7) is set when
-// shadowed. Nodes are stored level by level from the root, which sits at offset 0 when rootCode is Ref.
+// Leaves are 64-bit masks whose bit (y & 7) * 8 + (x & 7) is set when shadowed.
+//
+// Stored form (format 2): a node is a run of u16 units. Unit 0, the header, holds 2 bits per child
+// (bits 2c..2c+1): 0 lit, 1 shadowed, 2 reference in one unit, 3 reference in two units (low half first).
+// The references follow in child order. A reference from level l < L counts units from the start of level
+// l + 1; one from level L indexes `leaves`. Most references are small, so most take one unit: the DAG is
+// 1.5-1.9x smaller than with 32-bit words (benchmarks/ref_width_estimate.py). Nodes are stored level by level
+// from the root, which sits at unit 0 when rootCode is Ref.
+//
+// Build form ("words", used while building and for format-1 files): a u32 header with codes 0..2 and one u32
+// per referenced child; references are word offsets.
+#include <bit>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -17,33 +25,48 @@ namespace cpvs {
 
 enum class ChildCode : uint8_t { Lit = 0, Shadowed = 1, Ref = 2 };
 
+inline constexpr uint32_t kMaxDagLevels = 32;
+
 struct DagView {
   uint32_t resolution = 0;
   ChildCode rootCode = ChildCode::Lit;
-  std::span<const uint32_t> nodes;
+  std::span<const uint16_t> nodes;
   std::span<const uint64_t> leaves;
+  // childBase[log2(s)]: what a reference from a node of edge s is counted from — the unit where the next
+  // level starts, or 0 for leaf parents (s = 8), whose references are leaf indices.
+  uint32_t childBase[kMaxDagLevels] = {};
 
   uint32_t levels() const;  // L + 1
   // Visibility of voxel (x, y, z), all in [0, N): true when shadowed. Assumes a validated DAG.
   bool shadowed(uint32_t x, uint32_t y, uint32_t z) const;
+  // Where child c (a reference) of the node of edge `size` at unit `offset` is: its first unit, or its leaf
+  // index below a leaf parent.
+  uint32_t child(uint32_t offset, uint32_t header, unsigned c, uint32_t size) const;
+  // Fills childBase from the unit where each level starts (root level first, levels() entries).
+  void setLevelStarts(std::span<const uint64_t> levelStarts);
 };
 
 struct ShadowDag {
   uint32_t resolution = 0;
   ChildCode rootCode = ChildCode::Lit;
-  std::vector<uint32_t> nodes;
+  std::vector<uint16_t> nodes;
   std::vector<uint64_t> leaves;
   std::vector<uint64_t> nodesPerLevel;  // unique nodes at each level
-  std::vector<uint64_t> levelOffsets;   // word offset where each level starts in `nodes`
+  std::vector<uint64_t> levelOffsets;   // unit where each level starts in `nodes`
 
-  DagView view() const { return {resolution, rootCode, nodes, leaves}; }
-  uint64_t bytes() const { return nodes.size() * 4 + leaves.size() * 8; }
+  DagView view() const;
+  uint64_t bytes() const { return nodes.size() * 2 + leaves.size() * 8; }
 };
-
-inline uint32_t childCodeOf(uint32_t header, unsigned child) { return (header >> (2 * child)) & 3u; }
 
 // Population counts without the POPCNT instruction: the build targets baseline x86-64, where
 // __builtin_popcount is a libgcc call. Every walk and every validation of a loaded file counts bits per node.
+// GCC turns these into one POPCNT where the target has it: the hot walks are compiled twice
+// (CPVS_POPCNT_CLONES), and the loader picks the POPCNT copy on the CPUs that have it (nearly all x86-64).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__POPCNT__)
+#define CPVS_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
+#else
+#define CPVS_POPCNT_CLONES
+#endif
 inline uint32_t popcount32(uint32_t v) {
   v = v - ((v >> 1) & 0x55555555u);
   v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);
@@ -55,11 +78,45 @@ inline uint32_t popcount64(uint64_t v) {
   return uint32_t((((v + (v >> 4)) & 0x0F0F0F0F0F0F0F0Full) * 0x0101010101010101ull) >> 56);
 }
 
+// --- Stored form (u16 units) ---
+
+// Child c's code as a ChildCode value: 0 lit, 1 shadowed, 2 reference of either width.
+inline uint32_t childCodeOf(uint32_t header, unsigned child) {
+  const uint32_t raw = (header >> (2 * child)) & 3u;
+  return raw - (raw & (raw >> 1));
+}
+inline bool isWideRef(uint32_t header, unsigned child) { return ((header >> (2 * child)) & 3u) == 3u; }
+// One bit per unit the references take: the high bit of a reference's code, and the low bit too when wide.
+inline uint32_t refUnitBits(uint32_t header) { return (header & 0xAAAAu) | (header & (header >> 1) & 0x5555u); }
+inline unsigned nodeUnitCount(uint32_t header) { return 1u + popcount32(refUnitBits(header)); }
+// Child c's reference as stored: relative to the child level, or a leaf index. For a child that is not a
+// reference the result is meaningless but the reads stay inside the node, so walks can call it unconditionally.
+inline uint32_t readRef(const uint16_t* nodes, uint32_t offset, uint32_t header, unsigned child) {
+  const bool ref = (header >> (2 * child + 1)) & 1u;
+  const uint32_t at = offset + (ref ? 1 + popcount32(refUnitBits(header) & ((1u << (2 * child)) - 1u)) : 0u);
+  const uint32_t wide = isWideRef(header, child) ? 1u : 0u;
+  // When narrow the "high half" re-reads `at`: no branch.
+  return uint32_t(nodes[at]) | ((uint32_t(nodes[at + wide]) << 16) & (0u - wide));
+}
+
+inline uint32_t DagView::child(uint32_t offset, uint32_t header, unsigned c, uint32_t size) const {
+  return childBase[std::countr_zero(size)] + readRef(nodes.data(), offset, header, c);
+}
+
+// --- Build form (u32 words) ---
+
+inline uint32_t wordCodeOf(uint32_t header, unsigned child) { return (header >> (2 * child)) & 3u; }
 // Index among the node's reference words of child `child` (which must be a reference).
 inline unsigned refSlot(uint32_t header, unsigned child) {
   const uint32_t refBits = header & 0xAAAAu;  // the high bit of each 2-bit code marks a reference
   return popcount32(refBits & ((1u << (2 * child)) - 1u));
 }
 inline unsigned nodeWordCount(uint32_t header) { return 1u + popcount32(header & 0xAAAAu); }
+
+// Encodes a DAG given in build form, one word array per level (root level first) whose references are word
+// offsets into the next level's array (leaf indices at the last level), into the stored form. Nodes keep
+// their order within a level. Throws Error(RuntimeFailure) if a level would not fit 32-bit references.
+ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
+                    std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves);
 
 }  // namespace cpvs

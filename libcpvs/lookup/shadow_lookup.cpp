@@ -49,7 +49,7 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
     if (code == uint32_t(ChildCode::Lit)) return 0;
     if (code == uint32_t(ChildCode::Shadowed))
       return overlap(ox, ox + 7, f.x0, f.x1) * overlap(oy, oy + 7, f.y0, f.y1);
-    const uint64_t mask = dag.leaves[dag.nodes[offset + 1 + refSlot(header, c)]];
+    const uint64_t mask = dag.leaves[dag.child(offset, header, c, 8)];
     return popcount64(mask & tileMask(f, ox, oy));
   }
   const uint32_t half = size >> 1;
@@ -69,7 +69,7 @@ uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t 
       if (code == uint32_t(ChildCode::Shadowed)) {
         count += oxCount * oyCount;
       } else {
-        count += countNode(dag, dag.nodes[offset + 1 + refSlot(header, c)], half, cx, cy, z, f);
+        count += countNode(dag, dag.child(offset, header, c, size), half, cx, cy, z, f);
       }
     }
   }
@@ -87,20 +87,20 @@ uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t 
 // Walks from a node of edge `size` with child code `code` (offset: its words) down to voxel (x, y, z).
 inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t x, uint32_t y,
                  uint32_t z) {
-  const uint32_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = dag.nodes.data();
   for (uint32_t half = size >> 1; half >= 8; half >>= 1) {
     if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
     const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
     const uint32_t header = nodes[offset];
     code = childCodeOf(header, c);
-    if (code == uint32_t(ChildCode::Ref)) offset = nodes[offset + 1 + refSlot(header, c)];
+    if (code == uint32_t(ChildCode::Ref)) offset = dag.child(offset, header, c, half * 2);
   }
   if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
   const unsigned c = z & 7u;
   const uint32_t header = nodes[offset];
   code = childCodeOf(header, c);
   if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
-  const uint64_t mask = dag.leaves[nodes[offset + 1 + refSlot(header, c)]];
+  const uint64_t mask = dag.leaves[dag.child(offset, header, c, 8)];
   return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
 }
 
@@ -316,7 +316,7 @@ uint32_t shadowedTexels(const DagView& dag, int32_t x, int32_t y, uint32_t z, in
   return shadowedTexels(dag, none, x, y, z, pcfKernel);
 }
 
-bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t y, uint32_t z) {
+CPVS_POPCNT_CLONES bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t y, uint32_t z) {
   if (grid.empty()) return walk(dag, uint32_t(dag.rootCode), 0, dag.resolution, x, y, z);
   const uint32_t s = grid.shift, level = grid.level;
   const uint32_t cell =
@@ -326,7 +326,8 @@ bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t
 
 TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
   TopGrid grid;
-  if (dag.resolution < 16) return grid;
+  // Entries pack a unit offset above a 2-bit code: no grid for a DAG of 2^30 units (2 GiB) or more.
+  if (dag.resolution < 16 || dag.nodes.size() >= (size_t(1) << 30)) return grid;
   const uint32_t log2n = uint32_t(std::countr_zero(dag.resolution));
   level = std::min(level, log2n - 3);  // cells of at least 8 voxels: a leaf-parent node
   if (level == 0) return grid;
@@ -351,20 +352,20 @@ TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
             uint32_t child = code;  // homogeneous: every child has the parent's code
             if (code == uint32_t(ChildCode::Ref)) {
               child = childCodeOf(header, c);
-              if (child == uint32_t(ChildCode::Ref)) child |= dag.nodes[offset + 1 + refSlot(header, c)] << 2;
+              if (child == uint32_t(ChildCode::Ref)) child |= dag.child(offset, header, c, dag.resolution >> l) << 2;
             }
             next[(size_t(z) * nextWidth + y) * nextWidth + x] = child;
           }
         }
     current.swap(next);
   }
-  // Root offset 0 is encoded as (0 << 2) | Ref; offsets fit in 30 bits for any DAG a .cpvs can hold here.
+  // Root offset 0 is encoded as (0 << 2) | Ref; offsets fit in 30 bits (checked above).
   grid.cells = std::move(current);
   return grid;
 }
 
 uint32_t TopGrid::automaticLevel(const DagView& dag) {
-  const uint64_t dagBytes = uint64_t(dag.nodes.size()) * 4 + uint64_t(dag.leaves.size()) * 8;
+  const uint64_t dagBytes = uint64_t(dag.nodes.size()) * 2 + uint64_t(dag.leaves.size()) * 8;
   uint32_t level = kMaxAutomaticTopGridLevels;
   while (level > 0 && (uint64_t(4) << (3 * level)) * 8 > dagBytes) --level;
   return level;
@@ -458,7 +459,7 @@ struct LightShadow::PendingPoint {
 
 namespace {
 
-// One step of a walk: a node to read (size >= 8: node words at `offset`) or a leaf mask (size == 0: leaves[offset]).
+// One step of a walk: a node to read (size >= 8: the node at unit `offset`) or a leaf mask (size == 0: leaves[offset]).
 struct Task {
   uint32_t point;  // index into the pending points
   uint32_t offset;
@@ -494,11 +495,11 @@ private:
 constexpr size_t kWalksInFlight = 24;
 
 inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
-// A node is at most 9 words (header + 8 references) and may straddle two cache lines: fetch both.
-
-inline void prefetchNode(const uint32_t* node) {
+// A node is at most 17 units (34 bytes: a header and 8 wide references) and may straddle two cache lines:
+// fetch its first and its last possible byte.
+inline void prefetchNode(const uint16_t* node) {
   __builtin_prefetch(node, 0, 3);
-  __builtin_prefetch(node + 8, 0, 3);
+  __builtin_prefetch(reinterpret_cast<const char*>(node) + 33, 0, 3);
 }
 
 inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size) {
@@ -511,7 +512,7 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
 // level before any takes the next, in a loop without data-dependent branches (the child's code decides only
 // which values are kept), so the loop runs at the speed of its loads: each child's node is prefetched when
 // its reference is read and read one pass over the batch later, by which time it has arrived from memory.
-void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
+CPVS_POPCNT_CLONES void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
   struct Walk {
     uint32_t x, y, z;
     uint32_t offset;  // the node's words, then (after the leaf-parent level) the leaf's index
@@ -522,7 +523,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
   for (uint32_t view = 0; view < dags_.size(); ++view) {
     const DagView& dag = dags_[view];
     const TopGrid& grid = grids_[view];
-    const uint32_t* nodes = dag.nodes.data();
+    const uint16_t* nodes = dag.nodes.data();
     // Start: the root, or the top-grid cell (whose code may answer at once).
     walks.clear();
     const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
@@ -546,6 +547,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
     // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
     for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
       const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+      const uint32_t base = dag.childBase[bit + 1];
       size_t kept = 0;
       for (size_t i = 0; i < active; ++i) {
         Walk walk = w[i];
@@ -554,8 +556,8 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
         const uint32_t code = childCodeOf(header, c);
         const bool ref = code == uint32_t(ChildCode::Ref);
         out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;  // final unless a reference
-        // Without a reference this re-reads the header: in bounds, and no branch.
-        walk.offset = nodes[walk.offset + (ref ? 1u + refSlot(header, c) : 0u)];
+        // Without a reference this reads the header again: in bounds, and no branch.
+        walk.offset = base + readRef(nodes, walk.offset, header, c);
         prefetchNode(nodes + walk.offset);
         w[kept] = walk;
         kept += ref ? 1u : 0u;
@@ -571,7 +573,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
       const uint32_t code = childCodeOf(header, c);
       const bool ref = code == uint32_t(ChildCode::Ref);
       out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
-      walk.offset = ref ? nodes[walk.offset + 1u + refSlot(header, c)] : 0u;
+      walk.offset = ref ? readRef(nodes, walk.offset, header, c) : 0u;
       prefetch(dag.leaves.data() + walk.offset);
       w[kept] = walk;
       kept += ref ? 1u : 0u;
@@ -586,7 +588,7 @@ void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<fl
   }
 }
 
-void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
+CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
                              std::span<float> out) const {
   if (out.size() != points.size())
     throw Error(ExitCode::RuntimeFailure, "LightShadow::visibility: output and point spans differ in size");
@@ -662,7 +664,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
     const Task t = queue.pop();
     const PendingPoint& pp = pending[t.point];
     const DagView& dag = dags_[pp.view];
-    const uint32_t* nodes = dag.nodes.data();
+    const uint16_t* nodes = dag.nodes.data();
     if (t.size == 0) {  // a leaf mask
       counts[t.point] += popcount64(dag.leaves[t.offset] & tileMask(pp.f, t.ox, t.oy));
       continue;
@@ -674,7 +676,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
       if (code == uint32_t(ChildCode::Shadowed)) {
         counts[t.point] += area(pp.f, t.ox, t.oy, 8);
       } else if (code == uint32_t(ChildCode::Ref)) {
-        const uint32_t leaf = nodes[t.offset + 1 + refSlot(header, c)];
+        const uint32_t leaf = readRef(nodes, t.offset, header, c);
         prefetch(dag.leaves.data() + leaf);
         queue.push({t.point, leaf, t.ox, t.oy, 0});
       }
@@ -695,7 +697,7 @@ void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupO
           counts[t.point] += area(pp.f, cx, cy, half);
           continue;
         }
-        const uint32_t child = nodes[t.offset + 1 + refSlot(header, c)];
+        const uint32_t child = dag.child(t.offset, header, c, t.size);
         prefetchNode(nodes + child);
         queue.push({t.point, child, cx, cy, half});
       }

@@ -60,7 +60,8 @@ uint64_t sum(const std::vector<uint64_t>& v) {
   return s;
 }
 
-uint64_t dagBytes(const CpvsFile::View& v) { return v.dag.nodes.size() * 4 + v.dag.leaves.size() * 8; }
+// As stored in the file (a format-1 file's 32-bit node words count at their size there).
+uint64_t dagBytes(const CpvsFile::View& v) { return v.nodeBytes + v.dag.leaves.size() * 8; }
 
 // The BAKE block is JSON text by convention; a file from another writer may hold anything (it is checksummed,
 // not interpreted by the reader), so this never throws.
@@ -88,7 +89,8 @@ void printText(const std::string& path, const CpvsFile& file) {
 
   out << "file: " << path << "\n";
   out << "format: .cpvs " << file.majorVersion() << "." << file.minorVersion() << " (this build reads "
-      << kCpvsMajorVersion << ".x, writes " << kCpvsMajorVersion << "." << kCpvsMinorVersion << ")\n";
+      << kCpvsOldestReadableMajor << ".x and " << kCpvsMajorVersion << ".x, writes " << kCpvsMajorVersion << "."
+      << kCpvsMinorVersion << ")\n";
   out << "header: " << loadLE(d + 12, 4) << " bytes, flags " << loadLE(d + 20, 4) << ", "
       << file.sections().size() << " sections in a table at offset " << tableOffset << ", file size "
       << file.fileSize() << " bytes\n";
@@ -126,8 +128,9 @@ void printText(const std::string& path, const CpvsFile& file) {
       out << "      DAG: root " << codeName(v.dag.rootCode) << ", " << v.nodesPerLevel.size()
           << " levels; nodes per level (root first):";
       for (uint64_t c : v.nodesPerLevel) out << " " << c;
-      out << " = " << sum(v.nodesPerLevel) << " nodes in " << v.dag.nodes.size() << " words ("
-          << v.dag.nodes.size() * 4 << " bytes); unique leaves " << v.dag.leaves.size() << " ("
+      const bool words = file.majorVersion() == 1;  // format 1: 32-bit node words in the file
+      out << " = " << sum(v.nodesPerLevel) << " nodes in " << v.nodeBytes / (words ? 4 : 2)
+          << (words ? " words (" : " units (") << v.nodeBytes << " bytes); unique leaves " << v.dag.leaves.size() << " ("
           << v.dag.leaves.size() * 8 << " bytes); " << dagBytes(v) << " bytes\n";
       ++viewCount;
       dagTotal += dagBytes(v);
@@ -190,7 +193,8 @@ void printJson(const std::string& path, const CpvsFile& file) {
                        {"levels", v.nodesPerLevel.size()},
                        {"nodesPerLevel", v.nodesPerLevel},
                        {"nodes", sum(v.nodesPerLevel)},
-                       {"nodeWords", v.dag.nodes.size()},
+                       {"nodeUnits", v.dag.nodes.size()},
+                       {"nodeBytes", v.nodeBytes},
                        {"uniqueLeaves", v.dag.leaves.size()},
                        {"bytes", dagBytes(v)}});
       ++viewCount;

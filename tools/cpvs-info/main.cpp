@@ -140,10 +140,11 @@ int main(int argc, char** argv) {
                "Or what a baked .cpvs file holds: format version, tool version, input hash and bake settings;\n"
                "per light its type, name, colour, intensity, range and cone; per view its cube face, resolution\n"
                "N, projection, near/far, depth mapping, nodes per DAG level, unique leaves and bytes; the\n"
-               "sections with their XXH3-64 checksums. The file is validated in full first: a corrupt,\n"
-               "truncated or foreign file, or one of another major format version, is reported with exit\n"
-               "code 2, naming the file and what is wrong, with the checksum status of every section that can\n"
-               "be located. The kind of input is decided by its first bytes, not by its name.\n"
+               "sections with their XXH3-64 checksums. Format 1.x files are read too (their DAGs converted).\n"
+               "The file is validated in full first: a corrupt, truncated or foreign file, or one of a major\n"
+               "format version this build does not read, is reported with exit code 2, naming the file and\n"
+               "what is wrong, with the checksum status of every section that can be located. The kind of\n"
+               "input is decided by its first bytes, not by its name.\n"
                "Format: docs/format.md.",
                kTool};
   app.footer(cpvs::tools::exitCodeHelp());

@@ -148,7 +148,7 @@ def write_doc(a, out_dir, doc, resolutions, points):
       "(at that N): on a circle of radius 2 voxels on the surface and 2 voxels out along the normal, as "
       "`cpvs-query --reference` defines it (docs/query.md) — the figure that excludes shadow edges and occluders "
       "closer to the surface than the voxels can resolve.")
-    w("* *bytes*: the light's DAG (node words + leaf masks); *bake*: depth + peel + masks + DAG of the light's "
+    w("* *bytes*: the light's DAG (node units + leaf masks); *bake*: depth + peel + masks + DAG of the light's "
       "views; *lookups/s*: one thread, batches of 4096 points as cpvs-query makes them, with the ratio to Embree's "
       "rays timed beside them.")
     w("")
