@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <random>
 
 #include "libcpvs/dag/dag_builder.h"
@@ -189,6 +190,50 @@ TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
       }
     }
   }
+}
+
+TEST(TileChains, MostAlignedSliceHasTheMostTrailingZerosOfItsWindow) {
+  const auto zeros = [](uint32_t v) { return v == 0 ? 32 : std::countr_zero(v); };
+  for (uint32_t earliest = 0; earliest < 300; ++earliest)
+    for (uint32_t latest = earliest; latest < 300; ++latest) {
+      const uint32_t s = mostAlignedSlice(earliest, latest);
+      ASSERT_GE(s, earliest);
+      ASSERT_LE(s, latest);
+      for (uint32_t z = earliest; z <= latest; ++z) ASSERT_LE(zeros(z), zeros(s)) << earliest << ".." << latest;
+    }
+  EXPECT_EQ(mostAlignedSlice(37, 30), 30u);  // an empty window keeps the latest slice
+  EXPECT_EQ(mostAlignedSlice(1u << 31, ~0u), 1u << 31);
+}
+
+TEST(TileChains, KampeStartsEachEntryAtTheMostAlignedSliceItsWindowAllows) {
+  // Entry i may start after entry i - 1 and past the enter slice of every texel it shadows, and must start by
+  // the first exit among the texels entry i - 1 keeps lit (or the last slice, for the final all-shadowed
+  // entry). Kampe takes the most aligned slice of that window; Sintorn keeps the latest.
+  const uint32_t n = 256;
+  const DepthRegion depth = syntheticDepth(n, 11);
+  const TileChains chains = buildTileChains(depth, UndefinedMode::Kampe);
+  uint64_t entries = 0, moved = 0;
+  for (uint32_t t = 0; t < chains.tilesX * chains.tilesY; ++t) {
+    const uint32_t tx = t % chains.tilesX, ty = t / chains.tilesX;
+    uint32_t e[64], x[64];
+    for (uint32_t j = 0; j < 64; ++j) {
+      e[j] = depth.enterAt(tx * 8 + (j & 7), ty * 8 + (j >> 3));
+      x[j] = depth.exitAt(tx * 8 + (j & 7), ty * 8 + (j >> 3));
+    }
+    for (uint32_t i = chains.first[t] + 1; i < chains.first[t + 1]; ++i) {
+      uint32_t earliest = chains.start[i - 1] + 1, latest = n - 1;
+      for (uint32_t j = 0; j < 64; ++j) {
+        if (chains.mask[i] >> j & 1) earliest = std::max(earliest, e[j] + 1);
+        if (!(chains.mask[i - 1] >> j & 1)) latest = std::min(latest, x[j]);
+      }
+      ASSERT_LE(earliest, latest) << "tile " << t << " entry " << i;
+      ASSERT_EQ(chains.start[i], mostAlignedSlice(earliest, latest)) << "tile " << t << " entry " << i;
+      ++entries;
+      moved += chains.start[i] != latest;
+    }
+  }
+  EXPECT_GT(entries, 500u);
+  EXPECT_GT(moved, 50u);  // the synthetic map has solids thick enough to leave a choice
 }
 
 TEST(TileHierarchy, NextChangeIsTheFirstChainStartOrDarkFromOfTheFootprint) {

@@ -11,8 +11,10 @@
 //   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
 // and commit the new tests/golden/tiny_scene_bake64_v2.cpvs. A change in the container layout must also bump
 // the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v2.cpvs.
-// tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0; it stays, to show that
-// old files open and decode to the same voxels.
+// tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0, and
+// tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs the same DAGs by cpvs 0.2 in format 2.0 (before
+// cpvs 0.3 placed Kampe's mask changes differently); both stay, to show that 1.x files open, convert to
+// exactly the writer's 2.0 units and decode to the same voxels.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -97,7 +99,7 @@ TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) {
 }
 
 TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
-  const auto current = CpvsFile::open(goldenPath());
+  const auto current = CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs"));
   const auto old = CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs"));
   EXPECT_EQ(old->majorVersion(), 1);
   ASSERT_EQ(old->lights().size(), current->lights().size());

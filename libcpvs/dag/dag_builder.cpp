@@ -59,9 +59,12 @@ DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_
     else
       children[c] = {ChildCode::Ref, leafTable_.intern(mask), 0, true};
   }
-  // The tile's darkFrom needs no place in the bound: where it is not a chain entry itself (a tile wholly inside
-  // solids past its front surfaces), a built leaf parent holds the chain's change at the nearest exit, behind it.
-  return intern(leafLevel_, children, ch.nextTransition(tile, z0));
+  // The bound counts the tile's darkFrom too: the chain may keep a partial mask past it (Kampe places the
+  // all-shadowed entry anywhere in its window), while coarser volumes behind this one that lie past every
+  // darkFrom of their footprint are shadowed, so they differ from this leaf parent's column.
+  const uint32_t darkFrom = ch.darkFrom[tile];
+  const uint32_t next = ch.nextTransition(tile, z0);
+  return intern(leafLevel_, children, darkFrom > z0 ? std::min(next, darkFrom) : next);
 }
 
 DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour) {
@@ -98,7 +101,9 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
     if (next > z1) {
       ++stats_.nodesReused;
       Result same = neighbour;
-      same.nextT = next;  // the footprint's first change after the neighbour's first slice, hence after ours
+      // The footprint's first change after the neighbour's first slice, hence after ours; a leaf parent's
+      // bound counts its darkFrom as buildLeafParent's does (this volume passed the shadow test: it lies after).
+      same.nextT = level < leafLevel_ ? next : std::min(next, chains_->darkFrom[chains_->tileIndex(tx, ty)]);
       for (uint32_t& t : same.farNextT) t = next;
       return same;
     }

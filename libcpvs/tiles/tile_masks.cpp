@@ -1,6 +1,7 @@
 #include "libcpvs/tiles/tile_masks.h"
 
 #include <algorithm>
+#include <bit>
 #include <string>
 #include <thread>
 
@@ -36,6 +37,18 @@ uint32_t TileChains::nextTransition(uint32_t tile, uint32_t slice) const {
   return it == end ? resolution : *it;
 }
 
+uint32_t mostAlignedSlice(uint32_t earliest, uint32_t latest) {
+  if (earliest >= latest) return latest;
+  // Clear low bits of `latest` for as long as the result stays in the window; the value left has the most
+  // trailing zeros of the window (two such values would have an even multiple between them).
+  const uint32_t span = uint32_t(std::bit_width(earliest ^ latest));  // the bits where the two differ
+  for (uint32_t k = span; k > 0; --k) {
+    const uint32_t s = latest & ~((uint32_t(1) << k) - 1);
+    if (s >= earliest) return s;
+  }
+  return latest;
+}
+
 namespace {
 
 struct Entry {
@@ -59,16 +72,27 @@ void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, Un
     for (int j = 0; j < 64; ++j) m |= uint64_t(e[j] < z) << j;
     return m;
   };
+  // A new entry may start anywhere after the previous one and past the enter slice of every texel it shadows,
+  // up to `latest` (where the previous entry stops being allowed). Kampe starts it at the most aligned slice of
+  // that window: neighbouring tiles whose windows overlap then agree on it, so whole DAG volumes stay
+  // homogeneous or repeat along z. Sintorn and None keep the latest slice (Sintorn's rule fixes it anyway).
+  const bool align = mode == UndefinedMode::Kampe;
+  auto place = [&](uint64_t m, uint32_t latest) {
+    uint32_t earliest = out.back().start + 1;
+    for (int j = 0; j < 64; ++j)
+      if (m >> j & 1) earliest = std::max(earliest, e[j] + 1);
+    return align ? mostAlignedSlice(earliest, latest) : latest;
+  };
   uint64_t current = kAllLit;
   uint32_t z = minX;  // nothing needs shadow before the nearest exit
   while (z < n) {
     if (z > maxE) {  // nothing needs light any more
-      out.push_back({z, kAllShadowed});
+      out.push_back({place(kAllShadowed, z), kAllShadowed});
       return;
     }
     const uint64_t m = shadowable(z);
     if (m != current) {
-      out.push_back({z, m});
+      out.push_back({place(m, z), m});
       current = m;
     }
     if (current == kAllShadowed) return;
@@ -81,6 +105,10 @@ void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, Un
       // Keep the mask until a texel outside it must be shadowed (Kampe; None has x = e + 1).
       for (int j = 0; j < 64; ++j)
         if (!(current >> j & 1)) next = std::min(next, x[j]);
+    }
+    if (align && next > maxE + 1 && maxE + 1 < n) {  // all shadowed is allowed from maxE + 1 to next
+      out.push_back({place(kAllShadowed, std::min(next, n - 1)), kAllShadowed});
+      return;
     }
     z = std::min(next, maxE + 1);
   }

@@ -10,7 +10,8 @@ namespace cpvs {
 
 // How free voxels (inside closed solids, e < z < x) are resolved.
 enum class UndefinedMode : uint8_t {
-  Kampe = 0,    // seed 004 §3.4: greedy masks that shadow as much as allowed, reused as long as allowed
+  Kampe = 0,    // seed 004 §3.4: greedy masks that shadow as much as allowed, each started at the most aligned
+                // slice its window allows (tile_masks.cpp, docs/construction.md §1)
   Sintorn = 1,  // Sintorn 2014: lit+free -> lit, shadow+free -> shadow, mixed -> free becomes shadow
   None = 2,     // no free voxels: every texel exits right after its first surface (as for open geometry)
 };
@@ -44,6 +45,10 @@ struct TileChains {
   // The first chain start strictly after `slice` (N when the tile does not change again).
   uint32_t nextTransition(uint32_t tile, uint32_t slice) const;
 };
+
+// The slice of [earliest, latest] with the most trailing zero bits (latest when earliest >= latest): where
+// Kampe chains start an entry whose window allows any slice of that range.
+uint32_t mostAlignedSlice(uint32_t earliest, uint32_t latest);
 
 // Builds the chains of a region from its depth maps. Tiles are independent; `threads` > 1 splits rows
 // between threads (the result does not depend on it).
