@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <random>
+#include <string>
 
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -159,6 +160,50 @@ TEST(Dag, VolumesPastEveryFrontSurfaceOfTheirFootprintAreShadowed) {
       expectExact(dag.view(), depth);
     }
   }
+}
+
+TEST(Dag, LevelsAndLeavesAreStoredMostReferencedFirst) {
+  // cpvs-bake's order (NodeOrder::MostReferencedFirst): within every level, and in the leaf pool, a node or
+  // leaf is referenced at least as often as the next one, so the popular ones take one-unit references.
+  const ShadowDag dag = buildDag(buildTileChains(syntheticDepth(256, 4), UndefinedMode::Kampe), true);
+  const DagView view = dag.view();
+  const size_t levels = dag.nodesPerLevel.size();
+  ASSERT_GE(levels, 4u);
+  std::vector<std::vector<uint32_t>> counts(levels + 1);  // per level by node position; [levels]: leaves
+  std::vector<std::vector<uint32_t>> starts(levels);      // unit offsets of each level's nodes
+  for (size_t l = 0; l < levels; ++l) {
+    uint32_t at = uint32_t(dag.levelOffsets[l]);
+    for (uint64_t k = 0; k < dag.nodesPerLevel[l]; ++k) {
+      starts[l].push_back(at);
+      at += nodeUnitCount(dag.nodes[at]);
+    }
+    counts[l].assign(starts[l].size(), 0);
+  }
+  counts[levels].assign(dag.leaves.size(), 0);
+  uint64_t popularSeen = 0;
+  for (size_t l = 0; l < levels; ++l) {
+    const uint32_t size = dag.resolution >> l;
+    for (uint32_t at : starts[l]) {
+      const uint32_t header = dag.nodes[at];
+      for (unsigned c = 0; c < 8; ++c) {
+        if (childCodeOf(header, c) != uint32_t(ChildCode::Ref)) continue;
+        const uint32_t target = view.child(at, header, c, size);
+        if (l + 1 == levels) {
+          ++counts[levels][target];
+        } else {
+          const auto it = std::lower_bound(starts[l + 1].begin(), starts[l + 1].end(), target);
+          ASSERT_TRUE(it != starts[l + 1].end() && *it == target) << "level " << l << " refers inside a node";
+          ++counts[l + 1][size_t(it - starts[l + 1].begin())];
+        }
+      }
+    }
+  }
+  for (size_t l = 1; l <= levels; ++l) {
+    for (size_t i = 1; i < counts[l].size(); ++i)
+      ASSERT_GE(counts[l][i - 1], counts[l][i]) << (l == levels ? "leaves" : "level " + std::to_string(l)) << " at " << i;
+    popularSeen += !counts[l].empty() && counts[l].front() > 1;
+  }
+  EXPECT_GT(popularSeen, 2u);  // shared subtrees exist, so the order is not trivially flat
 }
 
 TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {

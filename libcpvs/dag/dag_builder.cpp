@@ -177,7 +177,8 @@ ShadowDag DagBuilder::finish() {
     levelWords.emplace_back(table.words());
     nodesPerLevel.push_back(table.size());
   }
-  return encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()));
+  return encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),
+                   NodeOrder::MostReferencedFirst);
 }
 
 ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {

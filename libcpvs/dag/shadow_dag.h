@@ -113,10 +113,19 @@ inline unsigned refSlot(uint32_t header, unsigned child) {
 }
 inline unsigned nodeWordCount(uint32_t header) { return 1u + popcount32(header & 0xAAAAu); }
 
+// How encodeDag orders the nodes of each level (and the leaves). Any order is a valid file; the order decides
+// how many references fit one unit.
+enum class NodeOrder : uint8_t {
+  AsGiven,              // as in the build form (format-1 files converted on open keep their order)
+  MostReferencedFirst,  // by how many references point at them, most first, ties as given (what cpvs-bake
+                        // writes: the popular nodes land in the first 65,536 units of their level)
+};
+
 // Encodes a DAG given in build form, one word array per level (root level first) whose references are word
-// offsets into the next level's array (leaf indices at the last level), into the stored form. Nodes keep
-// their order within a level. Throws Error(RuntimeFailure) if a level would not fit 32-bit references.
+// offsets into the next level's array (leaf indices at the last level), into the stored form. Throws
+// Error(RuntimeFailure) if a level would not fit 32-bit references.
 ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
-                    std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves);
+                    std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves,
+                    NodeOrder order = NodeOrder::AsGiven);
 
 }  // namespace cpvs
