@@ -237,6 +237,70 @@ TEST(TileChains, MasksOnlyGainBitsAndSummariesMatch) {
   }
 }
 
+// The chain rules of docs/construction.md §1 applied texel by texel, as directly as they read: the reference
+// the sorted walk in tile_masks.cpp must reproduce.
+std::vector<std::pair<uint32_t, uint64_t>> referenceChain(const uint32_t (&e)[64], const uint32_t (&x)[64],
+                                                          uint32_t n, UndefinedMode mode) {
+  std::vector<std::pair<uint32_t, uint64_t>> out{{0, kAllLit}};
+  uint32_t minX = n, maxE = 0;
+  for (int j = 0; j < 64; ++j) minX = std::min(minX, x[j]), maxE = std::max(maxE, e[j]);
+  auto place = [&](uint64_t m, uint32_t latest) {
+    uint32_t earliest = out.back().first + 1;
+    for (int j = 0; j < 64; ++j)
+      if (m >> j & 1) earliest = std::max(earliest, e[j] + 1);
+    return mode == UndefinedMode::Kampe ? mostAlignedSlice(earliest, latest) : latest;
+  };
+  uint64_t current = kAllLit;
+  for (uint32_t z = minX; z < n;) {
+    if (z > maxE) {
+      out.push_back({place(kAllShadowed, z), kAllShadowed});
+      break;
+    }
+    uint64_t m = 0;
+    for (int j = 0; j < 64; ++j) m |= uint64_t(e[j] < z) << j;
+    if (m != current) out.push_back({place(m, z), current = m});
+    uint32_t next = n;
+    for (int j = 0; j < 64; ++j) {
+      if (mode == UndefinedMode::Sintorn && e[j] >= z) next = std::min(next, e[j] + 1);
+      if (mode != UndefinedMode::Sintorn && !(current >> j & 1)) next = std::min(next, x[j]);
+    }
+    if (mode == UndefinedMode::Kampe && next > maxE + 1 && maxE + 1 < n) {
+      out.push_back({place(kAllShadowed, std::min(next, n - 1)), kAllShadowed});
+      break;
+    }
+    z = std::min(next, maxE + 1);
+  }
+  return out;
+}
+
+TEST(TileChains, EveryTileFollowsTheRulesTexelByTexel) {
+  for (uint32_t seed : {1u, 6u, 9u}) {
+    const uint32_t n = 256;
+    const DepthRegion depth = syntheticDepth(n, seed);
+    for (UndefinedMode mode : {UndefinedMode::Kampe, UndefinedMode::Sintorn, UndefinedMode::None}) {
+      const TileChains chains = buildTileChains(depth, mode, 2);
+      uint64_t entries = 0;
+      for (uint32_t t = 0; t < chains.tilesX * chains.tilesY; ++t) {
+        uint32_t e[64], x[64];
+        for (uint32_t j = 0; j < 64; ++j) {
+          const uint32_t px = t % chains.tilesX * 8 + (j & 7), py = t / chains.tilesX * 8 + (j >> 3);
+          e[j] = depth.enterAt(px, py);
+          x[j] = mode == UndefinedMode::None ? std::min(e[j] + 1, n) : depth.exitAt(px, py);
+          if (e[j] >= n) x[j] = n;
+        }
+        const auto expected = referenceChain(e, x, n, mode);
+        ASSERT_EQ(chains.first[t + 1] - chains.first[t], expected.size()) << "tile " << t;
+        for (size_t i = 0; i < expected.size(); ++i) {
+          ASSERT_EQ(chains.start[chains.first[t] + i], expected[i].first) << "tile " << t << " entry " << i;
+          ASSERT_EQ(chains.mask[chains.first[t] + i], expected[i].second) << "tile " << t << " entry " << i;
+        }
+        entries += expected.size();
+      }
+      EXPECT_GT(entries, 2 * uint64_t(chains.tilesX) * chains.tilesY);
+    }
+  }
+}
+
 TEST(TileChains, MostAlignedSliceHasTheMostTrailingZerosOfItsWindow) {
   const auto zeros = [](uint32_t v) { return v == 0 ? 32 : std::countr_zero(v); };
   for (uint32_t earliest = 0; earliest < 300; ++earliest)

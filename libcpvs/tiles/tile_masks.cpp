@@ -57,67 +57,71 @@ struct Entry {
 };
 
 // One tile's chain. e[j], x[j]: enter and exit slices of texel j (bit j).
+//
+// Every mask the rules produce shadows the texels whose enter slice lies in front of some slice z, so masks
+// are prefixes of the texels sorted by enter slice. Walking that order with a cursor makes each step O(1):
+// the next mask's farthest enter is the last texel taken, and the first exit among the texels still lit is
+// a suffix minimum. (tests/dag_test.cpp compares it with the rules applied texel by texel.)
 void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, UndefinedMode mode,
                 std::vector<Entry>& out) {
   out.clear();
   out.push_back({0, kAllLit});
-  uint32_t minX = n, maxE = 0;
-  for (int j = 0; j < 64; ++j) {
-    minX = std::min(minX, x[j]);
-    maxE = std::max(maxE, e[j]);
+  uint64_t byEnter[64];  // (enter << 8) | texel, sorted: texel order breaks ties, so the walk is deterministic
+  for (uint32_t j = 0; j < 64; ++j) byEnter[j] = (uint64_t(e[j]) << 8) | j;
+  std::sort(byEnter, byEnter + 64);
+  uint32_t enterAt[64], litExitFrom[65];  // enter of the k-th texel; min exit of texels k..63 (n past the end)
+  litExitFrom[64] = n;
+  for (int k = 63; k >= 0; --k) {
+    enterAt[k] = uint32_t(byEnter[k] >> 8);
+    litExitFrom[k] = std::min(litExitFrom[k + 1], x[byEnter[k] & 63]);
   }
-  // Bits allowed to be shadowed at slice z: every texel whose first surface is in front of z.
-  auto shadowable = [&](uint32_t z) {
-    uint64_t m = 0;
-    for (int j = 0; j < 64; ++j) m |= uint64_t(e[j] < z) << j;
-    return m;
-  };
+  const uint32_t minX = litExitFrom[0], maxE = enterAt[63];
   // A new entry may start anywhere after the previous one and past the enter slice of every texel it shadows,
   // up to `latest` (where the previous entry stops being allowed). Kampe starts it at the most aligned slice of
   // that window: neighbouring tiles whose windows overlap then agree on it, so whole DAG volumes stay
   // homogeneous or repeat along z. Sintorn and None keep the latest slice (Sintorn's rule fixes it anyway).
   const bool align = mode == UndefinedMode::Kampe;
-  auto place = [&](uint64_t m, uint32_t latest) {
-    uint32_t earliest = out.back().start + 1;
-    for (int j = 0; j < 64; ++j)
-      if (m >> j & 1) earliest = std::max(earliest, e[j] + 1);
+  auto place = [&](uint32_t farthestEnter, uint32_t latest) {
+    const uint32_t earliest = std::max(out.back().start + 1, farthestEnter + 1);
     return align ? mostAlignedSlice(earliest, latest) : latest;
   };
+  uint32_t taken = 0;  // texels in the current mask: byEnter[0, taken)
   uint64_t current = kAllLit;
   uint32_t z = minX;  // nothing needs shadow before the nearest exit
   while (z < n) {
     if (z > maxE) {  // nothing needs light any more
-      out.push_back({place(kAllShadowed, z), kAllShadowed});
+      out.push_back({place(maxE, z), kAllShadowed});
       return;
     }
-    const uint64_t m = shadowable(z);
-    if (m != current) {
-      out.push_back({place(m, z), m});
-      current = m;
-    }
-    if (current == kAllShadowed) return;
-    uint32_t next = n;
-    if (mode == UndefinedMode::Sintorn) {
-      // The mask follows the enter depths slice by slice: it changes after the next enter depth.
-      for (int j = 0; j < 64; ++j)
-        if (e[j] >= z) next = std::min(next, e[j] + 1);
-    } else {
-      // Keep the mask until a texel outside it must be shadowed (Kampe; None has x = e + 1).
-      for (int j = 0; j < 64; ++j)
-        if (!(current >> j & 1)) next = std::min(next, x[j]);
-    }
+    // The mask at z shadows every texel whose first surface is in front of z.
+    const uint32_t before = taken;
+    while (taken < 64 && enterAt[taken] < z) current |= uint64_t(1) << (byEnter[taken++] & 63);
+    if (taken != before) out.push_back({place(enterAt[taken - 1], z), current});
+    if (taken == 64) return;
+    // Sintorn: the mask follows the enter depths slice by slice, changing after the next enter depth.
+    // Kampe (and None, whose x = e + 1): the mask is kept until a texel outside it must be shadowed.
+    const uint32_t next = mode == UndefinedMode::Sintorn ? enterAt[taken] + 1 : litExitFrom[taken];
     if (align && next > maxE + 1 && maxE + 1 < n) {  // all shadowed is allowed from maxE + 1 to next
-      out.push_back({place(kAllShadowed, std::min(next, n - 1)), kAllShadowed});
+      out.push_back({place(maxE, std::min(next, n - 1)), kAllShadowed});
       return;
     }
     z = std::min(next, maxE + 1);
   }
 }
 
+// The chains of one band of tile rows, appended tile after tile to flat arrays (no allocation per tile).
+struct ChainBand {
+  std::vector<uint32_t> start;
+  std::vector<uint64_t> mask;
+  std::vector<uint32_t> length;  // entries per tile of the band
+};
+
 void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, uint32_t rowEnd, uint32_t tilesX,
-               std::vector<std::vector<Entry>>& chains, std::vector<uint32_t>& darkFrom) {
+               ChainBand& band, std::vector<uint32_t>& darkFrom) {
   uint32_t e[64], x[64];
   const uint32_t n = depth.resolution;
+  std::vector<Entry> chain;
+  band.length.reserve(size_t(rowEnd - rowBegin) * tilesX);
   for (uint32_t ty = rowBegin; ty < rowEnd; ++ty) {
     for (uint32_t tx = 0; tx < tilesX; ++tx) {
       for (uint32_t j = 0; j < 64; ++j) {
@@ -126,7 +130,12 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
         x[j] = mode == UndefinedMode::None ? std::min(e[j] + 1, n) : depth.exitAt(px, py);
         if (e[j] >= n) x[j] = n;
       }
-      buildChain(e, x, n, mode, chains[size_t(ty) * tilesX + tx]);
+      buildChain(e, x, n, mode, chain);
+      for (const Entry& entry : chain) {
+        band.start.push_back(entry.start);
+        band.mask.push_back(entry.mask);
+      }
+      band.length.push_back(uint32_t(chain.size()));
       darkFrom[size_t(ty) * tilesX + tx] = std::min(*std::max_element(e, e + 64) + 1, n);
     }
   }
@@ -145,34 +154,39 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   chains.tilesY = rect.height / 8;
   const size_t tileCount = size_t(chains.tilesX) * chains.tilesY;
 
-  std::vector<std::vector<Entry>> perTile(tileCount);
   chains.darkFrom.resize(tileCount);
   threads = std::max(1u, std::min(threads, chains.tilesY));
+  std::vector<ChainBand> bands(threads);
   std::vector<std::thread> workers;
   for (unsigned t = 0; t < threads; ++t) {
     const uint32_t begin = uint32_t(uint64_t(chains.tilesY) * t / threads);
     const uint32_t end = uint32_t(uint64_t(chains.tilesY) * (t + 1) / threads);
-    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(perTile),
+    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(bands[t]),
                          std::ref(chains.darkFrom));
   }
   for (auto& w : workers) w.join();
 
-  chains.first.resize(tileCount + 1);
-  chains.litUntil.resize(tileCount);
+  // Bands hold consecutive rows in order: the region's chains are their concatenation.
   size_t total = 0;
-  for (size_t t = 0; t < tileCount; ++t) total += perTile[t].size();
+  for (const ChainBand& band : bands) total += band.start.size();
+  if (total > UINT32_MAX) throw Error(ExitCode::RuntimeFailure, "too many tile-chain entries in one region");
   chains.start.reserve(total);
   chains.mask.reserve(total);
-  for (size_t t = 0; t < tileCount; ++t) {
-    const auto& c = perTile[t];
-    chains.first[t] = uint32_t(chains.start.size());
-    for (const Entry& entry : c) {
-      chains.start.push_back(entry.start);
-      chains.mask.push_back(entry.mask);
+  chains.first.reserve(tileCount + 1);
+  chains.litUntil.reserve(tileCount);
+  for (ChainBand& band : bands) {
+    const uint32_t offset = uint32_t(chains.start.size());
+    uint32_t at = 0;
+    for (uint32_t length : band.length) {
+      chains.first.push_back(offset + at);
+      chains.litUntil.push_back(length > 1 ? band.start[at + 1] : depth.resolution);
+      at += length;
     }
-    chains.litUntil[t] = c.size() > 1 ? c[1].start : depth.resolution;
+    chains.start.insert(chains.start.end(), band.start.begin(), band.start.end());
+    chains.mask.insert(chains.mask.end(), band.mask.begin(), band.mask.end());
+    band = ChainBand();
   }
-  chains.first[tileCount] = uint32_t(chains.start.size());
+  chains.first.push_back(uint32_t(chains.start.size()));
   return chains;
 }
 
