@@ -445,7 +445,8 @@ private:
     uint32_t width = 0, height = 0;
     GLuint enterDepth = 0, frontDepth = 0, backDepth = 0, kinds = 0, backCount = 0;
     GLuint cursors[2] = {0, 0}, counts[2] = {0, 0};
-    GLuint enterFbo = 0, frontFbo = 0, backFbo = 0, stateFbo[2] = {0, 0};
+    GLuint enterFbo = 0, frontFbo = 0, backFbo = 0, stateFbo[2] = {0, 0}, resolveFbo = 0;
+    bool peel = false;  // the peel state (front/back layers, cursors and counts) exists
   };
 
   void checkError(const char* what) const {
@@ -545,39 +546,48 @@ private:
     return fbo;
   }
 
-  void ensureTargets(uint32_t w, uint32_t h) {
-    if (targets_.width == w && targets_.height == h) return;
-    freeTargets();
-    context_->gl().GetError();
+  // The region's render targets, kept while the region size stays. The peel state (29 of the 41 bytes per
+  // texel) is made only once a region has closed triangles: Mesa zero-fills textures when it creates them,
+  // which took a quarter of an open scene's bake at 8k.
+  void ensureTargets(uint32_t w, uint32_t h, bool withPeel) {
     Targets& t = targets_;
-    t.enterDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
+    if (t.width != w || t.height != h) {
+      freeTargets();
+      context_->gl().GetError();
+      t.enterDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
+      t.kinds = makeTexture(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, w, h);
+      t.cursors[1] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);  // also the resolve's output
+      checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " region buffers").c_str());
+      t.width = w;
+      t.height = h;
+      t.enterFbo = makeFramebuffer(t.enterDepth, {t.kinds});
+      t.resolveFbo = makeFramebuffer(0, {t.cursors[1]});
+      checkError("creating region framebuffers");
+    }
+    if (!withPeel || t.peel) return;
     t.frontDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
     t.backDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
-    t.kinds = makeTexture(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, w, h);
     t.backCount = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
-    for (int i = 0; i < 2; ++i) {
-      t.cursors[i] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);
-      t.counts[i] = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
-    }
-    checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " region buffers").c_str());
-    t.width = w;
-    t.height = h;
-    t.enterFbo = makeFramebuffer(t.enterDepth, {t.kinds});
+    t.cursors[0] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);
+    for (int i = 0; i < 2; ++i) t.counts[i] = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
+    checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " peel buffers").c_str());
+    t.peel = true;
     t.frontFbo = makeFramebuffer(t.frontDepth, {});
     t.backFbo = makeFramebuffer(t.backDepth, {t.backCount});
     for (int i = 0; i < 2; ++i) t.stateFbo[i] = makeFramebuffer(0, {t.cursors[i], t.counts[i]});
-    checkError("creating region framebuffers");
+    checkError("creating peel framebuffers");
   }
 
   void freeTargets() {
     const gl::Functions& g = context_->gl();
     Targets& t = targets_;
-    for (GLuint* fbo : {&t.enterFbo, &t.frontFbo, &t.backFbo, &t.stateFbo[0], &t.stateFbo[1]})
+    for (GLuint* fbo : {&t.enterFbo, &t.frontFbo, &t.backFbo, &t.stateFbo[0], &t.stateFbo[1], &t.resolveFbo})
       if (*fbo) g.DeleteFramebuffers(1, fbo), *fbo = 0;
     for (GLuint* tex : {&t.enterDepth, &t.frontDepth, &t.backDepth, &t.kinds, &t.backCount, &t.cursors[0],
                         &t.cursors[1], &t.counts[0], &t.counts[1]})
       if (*tex) g.DeleteTextures(1, tex), *tex = 0;
     t.width = t.height = 0;
+    t.peel = false;
   }
 
   void bindTexture(GLuint program, const char* name, int unit, GLuint texture) const {
@@ -643,7 +653,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   gl::CurrentContext current(*context_);
   const gl::Functions& g = context_->gl();
   g.GetError();
-  ensureTargets(rect.width, rect.height);
+  ensureTargets(rect.width, rect.height, closedCount > 0);
   const Targets& t = targets_;
 
   g.Finish();
@@ -807,7 +817,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   }
 
   // 4. Resolve into the spare state texture and read back once.
-  g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[1 - cur]);
+  g.BindFramebuffer(GL_FRAMEBUFFER, openOnly ? t.resolveFbo : t.stateFbo[1 - cur]);
   g.UseProgram(resolveProgram_);
   bindTexture(resolveProgram_, "enterDepth", 0, t.enterDepth);
   bindTexture(resolveProgram_, "kinds", 1, t.kinds);
