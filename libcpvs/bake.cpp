@@ -1,5 +1,6 @@
 #include "libcpvs/bake.h"
 
+#include <algorithm>
 #include <chrono>
 #include <future>
 
@@ -37,6 +38,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash) {
                       {"undefined", undefinedModeName(settings.undefinedMode)},
                       {"node_reuse", settings.nodeReuse},
                       {"max_peels", settings.peel.maxPeels},
+                      {"region", std::min(settings.regionSize, settings.resolution)},
                       {"input_hash", hash}};
   return j.dump();
 }
@@ -57,8 +59,9 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
                              l.direction.x, l.direction.y, l.direction.z};
     XXH3_64bits_update(state, values, sizeof values);
   }
+  // The region size orders the nodes within each level, so it is part of what the bytes depend on.
   const uint64_t s[] = {settings.resolution, uint64_t(settings.undefinedMode), settings.nodeReuse,
-                        settings.peel.maxPeels};
+                        settings.peel.maxPeels, std::min(settings.regionSize, settings.resolution)};
   XXH3_64bits_update(state, s, sizeof s);
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);

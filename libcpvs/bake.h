@@ -18,7 +18,9 @@ struct BakeSettings {
   bool nodeReuse = true;           // seed 004 §3.2; off only to measure it
   unsigned threads = 2;            // tile chains and DAG building overlap with rendering when > 1
   RasterBackend backend = RasterBackend::OSMesa;
-  uint32_t regionSize = 4096;      // clamped to the renderer's limit and to N
+  // Clamped to the renderer's limit and to N. 1024 on llvmpipe: a region's 41 MB of GL buffers stay in the
+  // CPU's cache (docs/depth-maps.md "Regions" has the measurement).
+  uint32_t regionSize = 1024;
   PeelSettings peel;
 };
 

@@ -132,7 +132,7 @@ TEST(GoldenBake, ThePinnedFileIsWhatItClaims) {
   // The BAKE block records what the bake depended on, and nothing about when or where it ran.
   const std::string& settings = file->settingsJson();
   for (const std::string s : {"\"tool\":\"cpvs-bake\"", "\"resolution\":64", "\"undefined\":\"kampe\"",
-                              "\"node_reuse\":true", "\"input_hash\":\""})
+                              "\"node_reuse\":true", "\"region\":64", "\"input_hash\":\""})
     EXPECT_NE(settings.find(s), std::string::npos) << s << " in " << settings;
   EXPECT_EQ(settings.find("tiny.gltf"), std::string::npos) << settings;
   EXPECT_EQ(settings.find("threads"), std::string::npos) << settings;

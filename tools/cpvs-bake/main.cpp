@@ -29,7 +29,7 @@ struct Options {
   bool noNodeReuse = false;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::string backend = "osmesa";
-  std::string regionSize = "4k";
+  std::string regionSize = "1k";
   uint32_t maxPeels = 2;
   std::string report;
   std::string dumpDepth;
