@@ -18,41 +18,10 @@ Nothing is rewritten. Leaves stay 8 bytes each in both.
 
     python3 benchmarks/node_code_estimate.py FILE.cpvs [FILE.cpvs ...]
 """
-import array
-import struct
 import sys
 from collections import Counter
 
-VIEW_RECORD = 472
-
-
-def sections(data):
-    count = struct.unpack_from("<I", data, 16)[0]
-    table = struct.unpack_from("<Q", data, 24)[0]
-    out = []
-    for i in range(count):
-        kind, _, offset, size, _ = struct.unpack_from("<4sIQQQ", data, table + 32 * i)
-        out.append((kind, offset, size))
-    return out
-
-
-def views(data):
-    major = struct.unpack_from("<H", data, 8)[0]
-    if major != 2:
-        sys.exit(f"format {major}.x file: this study reads format 2.x files (16-bit node units)")
-    secs = sections(data)
-    view_sec = next(s for s in secs if s[0] == b"VIEW")
-    for v in range(view_sec[2] // VIEW_RECORD):
-        at = view_sec[1] + v * VIEW_RECORD
-        node_index, leaf_index = struct.unpack_from("<II", data, at + 16)
-        levels = [n for n in struct.unpack_from("<32Q", data, at + 216) if n]
-        node_sec, leaf_sec = secs[node_index], secs[leaf_index]
-        units = array.array("H")
-        units.frombytes(data[node_sec[1]:node_sec[1] + node_sec[2]])
-        if sys.byteorder != "little":
-            units.byteswap()
-        yield v, levels, units, leaf_sec[2] // 8
-
+from cpvs_views import views
 
 def parse(levels, units):
     """Per level: (units in the level, [(unit offset in level, [(child, code, target)])]); targets are unit
@@ -139,7 +108,7 @@ def main():
     print("|---|---:|---:|---:|---:|---|---|---:|")
     for path in sys.argv[1:]:
         data = open(path, "rb").read()
-        for v, levels, units, leaf_count in views(data):
+        for v, levels, units, leaf_count in views(data, 2):
             if not levels:
                 continue
             parsed = parse(levels, units)

@@ -15,41 +15,12 @@ Nothing is rewritten; the numbers are exact for those encodings (every node is r
 
     python3 benchmarks/ref_width_estimate.py FILE.cpvs [FILE.cpvs ...]
 """
-import array
-import struct
 import sys
 from collections import Counter
 
+from cpvs_views import views
+
 NARROW_LIMIT = 1 << 16
-
-
-def sections(data):
-    count = struct.unpack_from("<I", data, 16)[0]
-    table = struct.unpack_from("<Q", data, 24)[0]
-    out = []
-    for i in range(count):
-        kind, _, offset, size, _ = struct.unpack_from("<4sIQQQ", data, table + 32 * i)
-        out.append((kind, offset, size))
-    return out
-
-
-def views(data):
-    major = struct.unpack_from("<H", data, 8)[0]
-    if major != 1:
-        sys.exit(f"format {major}.x file: this study reads format 1.0 files (32-bit node words) only")
-    secs = sections(data)
-    view_sec = next(s for s in secs if s[0] == b"VIEW")
-    record = 472
-    for v in range(view_sec[2] // record):
-        at = view_sec[1] + v * record
-        node_index, leaf_index = struct.unpack_from("<II", data, at + 16)
-        levels = [n for n in struct.unpack_from("<32Q", data, at + 216) if n]
-        node_sec, leaf_sec = secs[node_index], secs[leaf_index]
-        words = array.array("I")
-        words.frombytes(data[node_sec[1]:node_sec[1] + node_sec[2]])
-        if sys.byteorder != "little":
-            words.byteswap()
-        yield v, levels, words, leaf_sec[2] // 8
 
 
 def parse_levels(levels, words):
@@ -98,7 +69,7 @@ def main(paths):
     for path in paths:
         with open(path, "rb") as f:
             data = f.read()
-        for v, levels, words, leaf_count in views(data):
+        for v, levels, words, leaf_count in views(data, 1):
             if not levels:
                 continue
             by_level = parse_levels(levels, words)
