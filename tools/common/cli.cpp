@@ -3,15 +3,9 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <filesystem>
 #include <iostream>
 #include <new>
 #include <sstream>
-
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "libcpvs/version.h"
 
@@ -122,38 +116,6 @@ int runMain(const char* toolName, const std::function<int()>& body) {
 
 void addVersionFlag(CLI::App& app, const char* toolName) {
   app.set_version_flag("--version", std::string(toolName) + " " + kVersion);
-}
-
-void writeFileAtomically(const std::string& path, const std::string& bytes) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::string temp = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
-  const int fd = mkstemp(temp.data());
-  if (fd < 0) throw Error(ExitCode::OutputFailed, path + ": cannot create a temporary file beside it: " + std::strerror(errno));
-  size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string reason = std::strerror(errno);
-      ::close(fd);
-      ::unlink(temp.c_str());
-      throw Error(ExitCode::OutputFailed, path + ": write failed: " + reason);
-    }
-    written += size_t(n);
-  }
-  fchmod(fd, 0644);
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(temp.c_str());
-    throw Error(ExitCode::OutputFailed, path + ": write failed: " + reason);
-  }
-  if (std::rename(temp.c_str(), path.c_str()) != 0) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(temp.c_str());
-    throw Error(ExitCode::OutputFailed, path + ": cannot rename the finished file into place: " + reason);
-  }
 }
 
 }  // namespace cpvs::tools

@@ -33,8 +33,5 @@ int runMain(const char* toolName, const std::function<int()>& body);
 // Sets --version on the app to print "<tool> <version>".
 void addVersionFlag(CLI::App& app, const char* toolName);
 
-// Writes `bytes` to `path` atomically: a temporary file beside it, fsync, then rename. Throws
-// Error(OutputFailed) naming the path.
-void writeFileAtomically(const std::string& path, const std::string& bytes);
 
 }  // namespace cpvs::tools

@@ -14,6 +14,7 @@
 #include "formats/io/exr_image.h"
 #include "libcpvs/bake.h"
 #include "libcpvs/version.h"
+#include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/common/progress.h"
 

@@ -28,6 +28,7 @@
 #include "libcpvs/lookup/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
+#include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/common/progress.h"
 #include "tools/cpvs-query/error_stats.h"
@@ -99,59 +100,26 @@ void parallelRanges(size_t count, unsigned threads, Fn&& fn) {
   if (error) std::rethrow_exception(error);
 }
 
-// A file written in pieces under a temporary name and renamed into place by commit(); removed otherwise.
+// The CSV output, streamed through a 1 MiB buffer into an AtomicFile (renamed into place by commit()).
 class AtomicOutput {
 public:
-  explicit AtomicOutput(const std::string& path) : path_(path) {
-    namespace fs = std::filesystem;
-    const fs::path target(path);
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    temp_ = (dir / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
-    fd_ = ::mkstemp(temp_.data());
-    if (fd_ < 0) throw Error(ExitCode::OutputFailed, path + ": cannot create a file beside it: " + std::strerror(errno));
-    buffer_.reserve(1 << 20);
-  }
-  ~AtomicOutput() {
-    if (fd_ >= 0) {
-      ::close(fd_);
-      ::unlink(temp_.c_str());
-    }
-  }
+  explicit AtomicOutput(const std::string& path) : file_(path) { buffer_.reserve(1 << 20); }
   std::string& buffer() { return buffer_; }
   void flushIfFull() {
     if (buffer_.size() >= (1u << 20)) flush();
   }
-  void flush() {
-    size_t written = 0;
-    while (written < buffer_.size()) {
-      const ssize_t n = ::write(fd_, buffer_.data() + written, buffer_.size() - written);
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + std::strerror(errno));
-      }
-      written += size_t(n);
-    }
-    buffer_.clear();
-  }
   void commit() {
     flush();
-    ::fchmod(fd_, 0644);
-    if (::fsync(fd_) != 0 || ::close(fd_) != 0) {
-      fd_ = -1;
-      ::unlink(temp_.c_str());
-      throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + std::strerror(errno));
-    }
-    fd_ = -1;
-    if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
-      const std::string reason = std::strerror(errno);
-      ::unlink(temp_.c_str());
-      throw Error(ExitCode::OutputFailed, path_ + ": cannot rename the finished file into place: " + reason);
-    }
+    file_.commit();
   }
 
 private:
-  std::string path_, temp_;
-  int fd_ = -1;
+  void flush() {
+    file_.write(buffer_);
+    buffer_.clear();
+  }
+
+  tools::AtomicFile file_;
   std::string buffer_;
 };
 

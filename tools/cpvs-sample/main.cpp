@@ -4,6 +4,7 @@
 
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/surface_samples.h"
+#include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 
 namespace {

@@ -15,6 +15,7 @@
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/baseline/sweep.h"
 #include "libcpvs/version.h"
+#include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/cpvs-sweep/svg_plot.h"
 

@@ -1,0 +1,106 @@
+// Atomic outputs (DESIGN.md §7): a committed file holds exactly its bytes; an abandoned one, an error or a
+// Ctrl-C leaves neither a partial target nor a stray temporary beside it.
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "libcpvs/error.h"
+#include "support/test_support.h"
+#include "tools/common/atomic_file.h"
+
+namespace cpvs {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string readAll(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+size_t entries(const fs::path& dir) {
+  size_t n = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++n;
+  return n;
+}
+
+TEST(AtomicFile, CommitPutsTheBytesInPlaceAndNothingElse) {
+  const fs::path dir = test::tempDir();
+  const fs::path target = dir / "out.bin";
+  {
+    tools::AtomicFile file(target.string());
+    EXPECT_TRUE(fs::exists(file.temporaryPath()));
+    EXPECT_FALSE(fs::exists(target));  // nothing under the final name before commit
+    file.write("first ");
+    file.write(std::string(100000, 'x'));
+    file.commit();
+  }
+  EXPECT_EQ(readAll(target), "first " + std::string(100000, 'x'));
+  EXPECT_EQ(entries(dir), 1u);
+  struct stat st {};
+  ASSERT_EQ(::stat(target.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0644u);
+  tools::writeFileAtomically(target.string(), "second");
+  EXPECT_EQ(readAll(target), "second");
+  EXPECT_EQ(entries(dir), 1u);
+}
+
+TEST(AtomicFile, AnAbandonedFileLeavesTheOldTargetAndNoTemporary) {
+  const fs::path dir = test::tempDir();
+  const fs::path target = dir / "out.bin";
+  tools::writeFileAtomically(target.string(), "old");
+  {
+    tools::AtomicFile file(target.string());
+    file.write("new but unfinished");
+  }  // an exception unwinding looks the same
+  EXPECT_EQ(readAll(target), "old");
+  EXPECT_EQ(entries(dir), 1u);
+}
+
+TEST(AtomicFile, CtrlCWhileWritingRemovesTheTemporary) {
+  for (int sig : {SIGINT, SIGTERM}) {
+    const fs::path dir = test::tempDir();
+    const fs::path target = dir / "out.bin";
+    tools::writeFileAtomically(target.string(), "old");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      tools::AtomicFile file(target.string());
+      tools::AtomicFile second((dir / "other.bin").string());
+      file.write("partial");
+      std::raise(sig);
+      ::_exit(0);  // not reached: the handler removes the temporaries and dies of the signal
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status)) << "signal " << sig;
+    if (WIFSIGNALED(status)) {
+      EXPECT_EQ(WTERMSIG(status), sig);
+    }
+    EXPECT_EQ(readAll(target), "old");
+    EXPECT_EQ(entries(dir), 1u) << "signal " << sig << ": a temporary was left in " << dir;
+  }
+}
+
+TEST(AtomicFile, AFolderThatCannotBeWrittenIsAnOutputError) {
+  const fs::path target = fs::path(test::tempDir()) / "missing" / "out.bin";
+  try {
+    tools::writeFileAtomically(target.string(), "x");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), ExitCode::OutputFailed);
+    EXPECT_NE(std::string(e.what()).find(target.string()), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace cpvs
