@@ -312,6 +312,8 @@ TEST(TileChains, MostAlignedSliceHasTheMostTrailingZerosOfItsWindow) {
     }
   EXPECT_EQ(mostAlignedSlice(37, 30), 30u);  // an empty window keeps the latest slice
   EXPECT_EQ(mostAlignedSlice(1u << 31, ~0u), 1u << 31);
+  EXPECT_EQ(mostAlignedSlice(0x7FFFFFFFu, 0x80000000u), 0x80000000u);  // they differ in every bit
+  EXPECT_EQ(mostAlignedSlice(0, ~0u), 0u);
 }
 
 TEST(TileChains, KampeStartsEachEntryAtTheMostAlignedSliceItsWindowAllows) {

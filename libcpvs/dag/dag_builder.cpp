@@ -59,12 +59,10 @@ DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_
     else
       children[c] = {ChildCode::Ref, leafTable_.intern(mask), 0, true};
   }
-  // The bound counts the tile's darkFrom too: the chain may keep a partial mask past it (Kampe places the
-  // all-shadowed entry anywhere in its window), while coarser volumes behind this one that lie past every
-  // darkFrom of their footprint are shadowed, so they differ from this leaf parent's column.
-  const uint32_t darkFrom = ch.darkFrom[tile];
-  const uint32_t next = ch.nextTransition(tile, z0);
-  return intern(leafLevel_, children, darkFrom > z0 ? std::min(next, darkFrom) : next);
+  // The bound counts the tile's darkFrom too (it lies after z0: this volume passed the shadow test). The chain
+  // may keep a partial mask past it (Kampe places the all-shadowed entry anywhere in its window), while
+  // coarser volumes behind this one that lie past every darkFrom of their footprint are shadowed.
+  return intern(leafLevel_, children, std::min(ch.nextTransition(tile, z0), ch.darkFrom[tile]));
 }
 
 DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour) {

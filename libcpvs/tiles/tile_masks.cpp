@@ -39,14 +39,13 @@ uint32_t TileChains::nextTransition(uint32_t tile, uint32_t slice) const {
 
 uint32_t mostAlignedSlice(uint32_t earliest, uint32_t latest) {
   if (earliest >= latest) return latest;
-  // Clear low bits of `latest` for as long as the result stays in the window; the value left has the most
-  // trailing zeros of the window (two such values would have an even multiple between them).
-  const uint32_t span = uint32_t(std::bit_width(earliest ^ latest));  // the bits where the two differ
-  for (uint32_t k = span; k > 0; --k) {
-    const uint32_t s = latest & ~((uint32_t(1) << k) - 1);
-    if (s >= earliest) return s;
-  }
-  return latest;
+  // The window's values share the bits above the highest bit b where earliest and latest differ (latest has
+  // it set). Their common prefix followed by zeros is the most aligned value if it is earliest itself;
+  // otherwise the prefix with bit b set and zeros below is (it lies in (earliest, latest]).
+  const uint32_t b = uint32_t(std::bit_width(earliest ^ latest)) - 1;
+  const uint64_t below = (uint64_t(1) << (b + 1)) - 1;  // 64-bit: b may be 31
+  if ((uint64_t(latest) & ~below) == earliest) return earliest;
+  return latest & ~((uint32_t(1) << b) - 1);
 }
 
 namespace {
@@ -62,8 +61,9 @@ struct Entry {
 // are prefixes of the texels sorted by enter slice. Walking that order with a cursor makes each step O(1):
 // the next mask's farthest enter is the last texel taken, and the first exit among the texels still lit is
 // a suffix minimum. (tests/dag_test.cpp compares it with the rules applied texel by texel.)
-void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, UndefinedMode mode,
-                std::vector<Entry>& out) {
+// Returns the tile's farthest enter slice.
+uint32_t buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, UndefinedMode mode,
+                    std::vector<Entry>& out) {
   out.clear();
   out.push_back({0, kAllLit});
   uint64_t byEnter[64];  // (enter << 8) | texel, sorted: texel order breaks ties, so the walk is deterministic
@@ -91,22 +91,23 @@ void buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n, Un
   while (z < n) {
     if (z > maxE) {  // nothing needs light any more
       out.push_back({place(maxE, z), kAllShadowed});
-      return;
+      return maxE;
     }
     // The mask at z shadows every texel whose first surface is in front of z.
     const uint32_t before = taken;
     while (taken < 64 && enterAt[taken] < z) current |= uint64_t(1) << (byEnter[taken++] & 63);
     if (taken != before) out.push_back({place(enterAt[taken - 1], z), current});
-    if (taken == 64) return;
+    if (taken == 64) return maxE;
     // Sintorn: the mask follows the enter depths slice by slice, changing after the next enter depth.
     // Kampe (and None, whose x = e + 1): the mask is kept until a texel outside it must be shadowed.
     const uint32_t next = mode == UndefinedMode::Sintorn ? enterAt[taken] + 1 : litExitFrom[taken];
     if (align && next > maxE + 1 && maxE + 1 < n) {  // all shadowed is allowed from maxE + 1 to next
       out.push_back({place(maxE, std::min(next, n - 1)), kAllShadowed});
-      return;
+      return maxE;
     }
     z = std::min(next, maxE + 1);
   }
+  return maxE;
 }
 
 // The chains of one band of tile rows, appended tile after tile to flat arrays (no allocation per tile).
@@ -130,13 +131,13 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
         x[j] = mode == UndefinedMode::None ? std::min(e[j] + 1, n) : depth.exitAt(px, py);
         if (e[j] >= n) x[j] = n;
       }
-      buildChain(e, x, n, mode, chain);
+      const uint32_t farthestEnter = buildChain(e, x, n, mode, chain);
       for (const Entry& entry : chain) {
         band.start.push_back(entry.start);
         band.mask.push_back(entry.mask);
       }
       band.length.push_back(uint32_t(chain.size()));
-      darkFrom[size_t(ty) * tilesX + tx] = std::min(*std::max_element(e, e + 64) + 1, n);
+      darkFrom[size_t(ty) * tilesX + tx] = std::min(farthestEnter + 1, n);
     }
   }
 }
