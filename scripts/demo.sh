@@ -38,7 +38,7 @@ echo
 echo "Outputs are in $out:"
 echo "  subpass.cpvs         the baked shadows (inspect with build/bin/cpvs-info)"
 echo "  bake-report.json     timings per phase, nodes per level, bytes vs a 16-bit shadow map"
-echo "  depth/*.exr          enter/exit depth maps in slice units (any EXR viewer)"
+echo "  depth/*.exr          enter/exit depth maps in slice units, one per light, view and 1k region (any EXR viewer)"
 echo "  points.csv           the sampled surface points (x,y,z,nx,ny,nz)"
 echo "  visibility.csv       one column per light, one row per point, in [0, 1] (3x3 PCF)"
 echo "  query-report.json    lookup throughput and error against Embree"
