@@ -138,17 +138,16 @@ std::vector<Plane> perspectivePlanes(double tanHalf, double range, double minDep
 
 }  // namespace
 
-GridPoint toGrid(const LightView& view, const glm::dvec3& world) {
-  const glm::dvec3 v = transformPoint(view.viewFromWorld, world);
-  const glm::dvec3 abd = lateralAndDepth(view, v);
-  const double n = view.resolution;
+GridPoint toGrid(const ViewMapping& mapping, const glm::dvec3& world) {
+  const GridLanes<double, bool> lanes = mapToGrid<double, bool>(mapping, world.x, world.y, world.z);
   GridPoint g;
-  g.depth = abd.z;
-  g.inFront = view.projection == Projection::Orthographic || abd.z > 0;
-  g.uvs = {n * (abd.x - view.xMin) / (view.xMax - view.xMin), n * (abd.y - view.yMin) / (view.yMax - view.yMin),
-           depthToSlice(view, abd.z)};
+  g.uvs = {lanes.u, lanes.v, lanes.s};
+  g.depth = lanes.depth;
+  g.inFront = lanes.inFront;
   return g;
 }
+
+GridPoint toGrid(const LightView& view, const glm::dvec3& world) { return toGrid(ViewMapping(view), world); }
 
 Voxel toVoxel(const LightView& view, const glm::dvec3& uvs) {
   const double maxIndex = double(view.resolution) - 1.0;
@@ -160,12 +159,7 @@ Voxel toVoxel(const LightView& view, const glm::dvec3& uvs) {
   return {cell(uvs.x), cell(uvs.y), cell(uvs.z)};
 }
 
-double depthToSlice(const LightView& view, double depth) {
-  const double n = view.resolution;
-  if (view.mapping == DepthMapping::Linear) return n * (depth - view.near) / (view.far - view.near);
-  if (!(depth > 0)) return -kInf;
-  return n * std::log(depth / view.near) / std::log(view.far / view.near);
-}
+double depthToSlice(const LightView& view, double depth) { return sliceOfDepth<double, bool>(ViewMapping(view), depth); }
 
 double sliceToDepth(const LightView& view, double slice) {
   const double t = slice / double(view.resolution);

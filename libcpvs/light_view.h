@@ -8,6 +8,7 @@
 #include <glm/glm.hpp>
 
 #include "libcpvs/scene.h"
+#include "libcpvs/view_mapping.h"
 
 namespace cpvs {
 
@@ -45,6 +46,8 @@ struct Voxel {
 };
 
 GridPoint toGrid(const LightView& view, const glm::dvec3& world);
+// The same with the view's constants computed beforehand (ViewMapping(view)): the same bits.
+GridPoint toGrid(const ViewMapping& mapping, const glm::dvec3& world);
 // floor + clamp to [0, N-1]; the only rounding rule (DESIGN.md §3).
 Voxel toVoxel(const LightView& view, const glm::dvec3& uvs);
 inline Voxel worldToVoxel(const LightView& view, const glm::dvec3& world) {

@@ -304,11 +304,10 @@ TEST(Lookup, HoistedToGridIsToGridBitForBit) {
   std::uniform_real_distribution<double> coord(-8.0, 8.0);
   for (const Light& light : {spot, directional, point})
     for (const LightView& view : makeLightViews(light, world, 1024)) {
-      const ViewConstants constants(view);
+      const ViewMapping mapping(view);
       for (int i = 0; i < 2000; ++i) {
         const glm::dvec3 p(coord(rng), coord(rng), coord(rng));
-        glm::dvec3 v;
-        const GridPoint a = toGrid(view, constants, p, v), b = toGrid(view, p);
+        const GridPoint a = toGrid(mapping, p), b = toGrid(view, p);
         ASSERT_EQ(a.inFront, b.inFront);
         if (!b.inFront) continue;
         ASSERT_EQ(a.depth, b.depth);

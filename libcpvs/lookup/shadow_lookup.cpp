@@ -7,6 +7,7 @@
 #include <string>
 
 #include "libcpvs/error.h"
+#include "libcpvs/lookup/batch_cells.h"
 
 namespace cpvs {
 namespace {
@@ -133,79 +134,20 @@ glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world) {
   return glm::transpose(gridFromViewT) * rotation;
 }
 
-ViewConstants::ViewConstants(const LightView& view)
-    : rotation(view.viewFromWorld),
-      orthographic(view.projection == Projection::Orthographic),
-      linear(view.mapping == DepthMapping::Linear) {
-  const double n = view.resolution;
-  su = (view.xMax - view.xMin) / n;
-  sv = (view.yMax - view.yMin) / n;
-  logRatio = std::log(view.far / view.near);
-  invDs = linear ? (view.far - view.near) / n : logRatio / n;
-}
-
-namespace {
-// toGrid below, inlined into the lookups' hot loops.
-[[gnu::always_inline]] inline GridPoint toGridInline(const LightView& view, const ViewConstants& constants,
-                                                     const glm::dvec3& world, glm::dvec3& viewPoint) {
-  // The same operations in the same order as light_view.cpp's toGrid / lateralAndDepth / depthToSlice.
-  const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
-  viewPoint = v;
-  const double d = -v.z;
-  double a = v.x, b = v.y;
-  if (!constants.orthographic) {
-    a = v.x / d;
-    b = v.y / d;
-  }
-  const double n = view.resolution;
-  GridPoint g;
-  g.depth = d;
-  g.inFront = constants.orthographic || d > 0;
-  double s;
-  if (constants.linear) {
-    s = n * (d - view.near) / (view.far - view.near);
-  } else {
-    s = d > 0 ? n * std::log(d / view.near) / constants.logRatio : -std::numeric_limits<double>::infinity();
-  }
-  g.uvs = {n * (a - view.xMin) / (view.xMax - view.xMin), n * (b - view.yMin) / (view.yMax - view.yMin), s};
-  return g;
-}
-}  // namespace
-
-GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
-                 glm::dvec3& viewPoint) {
-  return toGridInline(view, constants, world, viewPoint);
-}
-
-namespace {
-
 // J^-T n in closed form, up to a positive factor. J = G R with R the view's rotation (orthonormal, so
 // R^-T = R) and G = d(u, v, s) / d(view) (gridJacobian), hence J^-T n = G^-T (R n): solve G^T m = R n, G
 // being upper triangular up to the sign of its last row. Orthographic: G = diag(1/su, 1/sv, -1/ds);
-// perspective: rows (1/(su d), 0, x/(su d^2)), (0, 1/(sv d), y/(sv d^2)), (0, 0, -1/ds).
-// `lateral` = (a, b) = view-space (x / d, y / d) for perspective views (unused for orthographic ones), d the
-// view-space depth.
-inline glm::dvec3 gridNormalAt(const ViewConstants& c, double d, double a, double b, const glm::dvec3& normal) {
-  const glm::dvec3 nv = c.rotation * normal;
-  const double invDs = c.linear ? c.invDs : c.invDs * d;  // 1 / (ds/dd)
-  if (c.orthographic) return {nv.x * c.su, nv.y * c.sv, -nv.z * invDs};
-  return {nv.x * d * c.su, nv.y * d * c.sv, (nv.x * a + nv.y * b - nv.z) * invDs};
-}
-
-// toVoxel for a q already known to have u, v in [0, N): floor and clamp, the same integers (for values >= 0
-// truncation is floor; the depth clamps to [0, N - 1], NaN to 0 as in toVoxel).
-inline Voxel voxelOf(const glm::dvec3& q, double maxIndex) {
-  const double z = q.z >= 0 ? (q.z < maxIndex ? q.z : maxIndex) : 0.0;
-  return {int32_t(q.x), int32_t(q.y), int32_t(z)};
-}
-
-}  // namespace
-
+// perspective: rows (1/(su d), 0, x/(su d^2)), (0, 1/(sv d), y/(sv d^2)), (0, 0, -1/ds), with (x, y) the
+// view-space point and d its depth. cell_lanes.h's cellLanes computes the same per lane for the bias.
 glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal) {
   if (normal == glm::dvec3(0.0)) return glm::dvec3(0.0);
+  const ViewMapping c(view);
   const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
   const double d = -v.z;
-  return gridNormalAt(ViewConstants(view), d, v.x / d, v.y / d, normal);
+  const glm::dvec3 nv = glm::dmat3(view.viewFromWorld) * normal;
+  const double invDs = c.linear ? c.invDs : c.invDs * d;  // 1 / (ds/dd)
+  if (c.orthographic) return {nv.x * c.uStep, nv.y * c.vStep, -nv.z * invDs};
+  return {nv.x * d * c.uStep, nv.y * d * c.vStep, (nv.x * (v.x / d) + nv.y * (v.y / d) - nv.z) * invDs};
 }
 
 double biasDistance(const glm::dvec3& m, int pcfKernel, double margin) {
@@ -214,75 +156,45 @@ double biasDistance(const glm::dvec3& m, int pcfKernel, double margin) {
 
 LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm::dvec3& normal,
                       const LookupOptions& options) {
-  return lookupCell(view, ViewConstants(view), point, normal, options);
+  return lookupCell(ViewMapping(view), point, normal, options);
 }
 
 namespace {
-// lookupCell below, inlined into the batch loop (the single-point entry points call it through lookupCell).
-[[gnu::always_inline]] inline LookupCell lookupCellInline(const LightView& view, const ViewConstants& constants,
-                                                          const glm::dvec3& point, const glm::dvec3& normal,
-                                                          const LookupOptions& options) {
+
+CellSettings cellSettings(const LookupOptions& options) {
+  CellSettings settings;
+  settings.kernelHalf = 0.5 * double(options.pcfKernel);
+  settings.margin = options.biasMargin;
+  settings.backFacingIsShadow = options.orientation == NormalOrientation::AsGiven;
+  return settings;
+}
+
+}  // namespace
+
+LookupCell lookupCell(const ViewMapping& mapping, const glm::dvec3& point, const glm::dvec3& normal,
+                      const LookupOptions& options) {
   LookupCell cell;
   if (!finite(point) || !finite(normal)) {
     cell.kind = LookupCell::Kind::Invalid;
     return cell;
   }
-  if (view.empty) return cell;
-  glm::dvec3 v;
-  const GridPoint g = toGridInline(view, constants, point, v);
-  if (!g.inFront) return cell;
-  // Written out in scalars (glm's vector code shuffles a lot here): m = J^-T n (gridNormalAt), the back-face
-  // test, the unit normal and the bias, computed for every point and selected at the end, so the one
-  // unpredictable outcome (front or back face) costs no branch.
-  const glm::dmat3& r = constants.rotation;
-  const double nvx = r[0][0] * normal.x + r[1][0] * normal.y + r[2][0] * normal.z;
-  const double nvy = r[0][1] * normal.x + r[1][1] * normal.y + r[2][1] * normal.z;
-  const double nvz = r[0][2] * normal.x + r[1][2] * normal.y + r[2][2] * normal.z;
-  const double d = g.depth;
-  double mx, my, mz;
-  if (constants.orthographic) {
-    const double invDs = constants.linear ? constants.invDs : constants.invDs * d;
-    mx = nvx * constants.su;
-    my = nvy * constants.sv;
-    mz = -nvz * invDs;
-  } else {
-    const double invDs = constants.linear ? constants.invDs : constants.invDs * d;
-    const double invD = 1.0 / d;
-    mx = nvx * d * constants.su;
-    my = nvy * d * constants.sv;
-    mz = ((nvx * v.x + nvy * v.y) * invD - nvz) * invDs;
-  }
-  const bool back = mz > 0;  // the surface faces away from the light
-  const double flip = back ? -1.0 : 1.0;  // TowardLight: face the light
-  mx *= flip;
-  my *= flip;
-  mz *= flip;
-  const double length2 = mx * mx + my * my + mz * mz;
-  const bool biased = length2 > 0 && length2 <= std::numeric_limits<double>::max();
-  const double inv = biased ? 1.0 / std::sqrt(length2) : 0.0;
-  const double ux = mx * inv, uy = my * inv, uz = mz * inv;
-  const double b = 0.5 * double(options.pcfKernel) * (std::abs(ux) + std::abs(uy)) + options.biasMargin;
-  const glm::dvec3 q(g.uvs.x + b * ux, g.uvs.y + b * uy, g.uvs.z + b * uz);
-  cell.uvs = q;
-  if (back && options.orientation == NormalOrientation::AsGiven) {
+  if (mapping.empty) return cell;
+  const CellSettings settings = cellSettings(options);
+  const CellLanes<double, bool> lanes =
+      cellLanes<double, bool>(mapping, settings, point.x, point.y, point.z, normal.x, normal.y, normal.z);
+  if (!lanes.grid.inFront) return cell;
+  if (lanes.back && settings.backFacingIsShadow) {
     cell.kind = LookupCell::Kind::BackFacing;
-    cell.uvs = g.uvs;
+    cell.uvs = {lanes.grid.u, lanes.grid.v, lanes.grid.s};
     return cell;
   }
-  const double n = view.resolution;
-  if (!(q.x >= 0 && q.x < n && q.y >= 0 && q.y < n)) return cell;  // also catches NaN
-  const Voxel voxel = voxelOf(q, n - 1.0);
+  cell.uvs = {lanes.qu, lanes.qv, lanes.qs};
+  if (!lanes.inside) return cell;
   cell.kind = LookupCell::Kind::Voxel;
-  cell.x = voxel.x;
-  cell.y = voxel.y;
-  cell.z = voxel.z;
+  cell.x = int32_t(lanes.qu);
+  cell.y = int32_t(lanes.qv);
+  cell.z = int32_t(clampedSlice(lanes.qs, mapping.resolution - 1.0));
   return cell;
-}
-}  // namespace
-
-LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
-                      const glm::dvec3& normal, const LookupOptions& options) {
-  return lookupCellInline(view, constants, point, normal, options);
 }
 
 uint32_t shadowedTexels(const DagView& dag, const TopGrid& grid, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
@@ -386,9 +298,9 @@ bool withinInfluence(const Light& light, const glm::dvec3& point) {
 
 namespace {
 
-float cellVisibility(const LightView& view, const ViewConstants& constants, const DagView& dag, const TopGrid& grid,
-                     const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) {
-  const LookupCell cell = lookupCell(view, constants, point, normal, options);
+float cellVisibility(const ViewMapping& mapping, const DagView& dag, const TopGrid& grid, const glm::dvec3& point,
+                     const glm::dvec3& normal, const LookupOptions& options) {
+  const LookupCell cell = lookupCell(mapping, point, normal, options);
   if (cell.kind == LookupCell::Kind::Invalid || cell.kind == LookupCell::Kind::BackFacing) return 0.0f;
   if (cell.kind == LookupCell::Kind::Lit) return 1.0f;
   const int k = options.pcfKernel;
@@ -404,7 +316,7 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
   if (!finite(point) || !finite(normal)) return 0.0f;
   if (!withinInfluence(light, point)) return 0.0f;
   static const TopGrid none;
-  return cellVisibility(view, ViewConstants(view), dag, none, point, normal, {pcfKernel, orientation});
+  return cellVisibility(ViewMapping(view), dag, none, point, normal, {pcfKernel, orientation});
 }
 
 LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
@@ -413,8 +325,15 @@ LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::
   if (views_.size() != dags_.size()) throw Error(ExitCode::InputInvalid, "light '" + light.name + "': views and DAGs differ in number");
   for (const DagView& dag : dags_)
     grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
-  for (const LightView& view : views_) constants_.emplace_back(view);
-  if (light_.type == LightType::Spot) cosOuter_ = std::cos(std::min(light_.outerConeAngle, 3.14159265358979323846 / 2));
+  for (const LightView& view : views_) mappings_.emplace_back(view);
+  if (light_.type == LightType::Spot) {
+    for (int i = 0; i < 3; ++i) {
+      spot_.position[i] = light_.position[i];
+      spot_.direction[i] = light_.direction[i];
+    }
+    spot_.range = light_.range;
+    spot_.cosOuter = std::cos(std::min(light_.outerConeAngle, 3.14159265358979323846 / 2));
+  }
 }
 
 size_t LightShadow::topGridBytes() const {
@@ -427,12 +346,8 @@ int LightShadow::viewIndex(const glm::dvec3& point) const {
   if (views_.empty()) return -1;
   switch (light_.type) {
     case LightType::Directional: return 0;
-    case LightType::Spot: {  // selectView's rule with the cone's cosine computed once
-      const glm::dvec3 toPoint = point - light_.position;
-      const double distance = glm::length(toPoint);
-      if (!(distance <= light_.range) || distance == 0) return -1;
-      return glm::dot(toPoint, light_.direction) / distance < cosOuter_ ? -1 : 0;
-    }
+    case LightType::Spot:  // selectView's rule with the cone's cosine computed once, as the batch has it
+      return insideSpot<double, bool>(spot_, point.x, point.y, point.z) ? 0 : -1;
     case LightType::Point: break;
   }
   const auto index = selectView(light_, views_, point);
@@ -444,7 +359,7 @@ float LightShadow::visibility(const glm::dvec3& point, const glm::dvec3& normal,
   const int index = viewIndex(point);
   if (index < 0) return 0.0f;
   const size_t i = size_t(index);
-  return cellVisibility(views_[i], constants_[i], dags_[i], grids_[i], point, normal, options);
+  return cellVisibility(mappings_[i], dags_[i], grids_[i], point, normal, options);
 }
 
 // ---- batches: interleaved walks ----------------------------------------------------------------------
@@ -458,6 +373,25 @@ struct LightShadow::PendingPoint {
 };
 
 namespace {
+
+// Reused buffers of a batch (per thread: one LightShadow serves many threads).
+struct BatchScratch {
+  std::vector<int32_t> x, y, z;
+  std::vector<uint8_t> state;
+  std::vector<uint32_t> indices, face;
+  std::vector<LightShadow::PendingPoint> pending;
+  void resize(size_t count) {
+    if (x.size() >= count) return;
+    x.resize(count);
+    y.resize(count);
+    z.resize(count);
+    state.resize(count);
+    indices.resize(count);
+    face.resize(count);
+    pending.resize(count);
+  }
+};
+constexpr uint32_t kNoView = ~0u;
 
 // One step of a walk: a node to read (size >= 8: the node at unit `offset`) or a leaf mask (size == 0: leaves[offset]).
 struct Task {
@@ -599,31 +533,68 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
     return k <= 1 ? (shadowed ? 0.0f : 1.0f) : float(1.0 - double(shadowed) / kernelArea);
   };
 
-  // Phase 1: view, biased voxel, footprint; answers that need no DAG are written at once.
-  std::vector<PendingPoint> pending;  // LightShadow::PendingPoint
-  pending.reserve(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
-    out[i] = 0.0f;
-    const SurfacePoint& p = points[i];
-    if (!finite(p.position) || !finite(p.normal)) continue;
-    const int index = viewIndex(p.position);
-    if (index < 0) continue;
-    const size_t vi = size_t(index);
-    const LookupCell cell = lookupCellInline(views_[vi], constants_[vi], p.position, p.normal, options);
-    if (cell.kind == LookupCell::Kind::Lit) out[i] = 1.0f;
-    if (cell.kind != LookupCell::Kind::Voxel) continue;
-    const DagView& dag = dags_[vi];
+  // Phase 1: where each point lands (batch_cells.h: four points at a time where the CPU has AVX2); answers
+  // that need no DAG are written at once, the others become pending walks.
+  const size_t count = points.size();
+  static_assert(sizeof(SurfacePoint) == 6 * sizeof(double), "mapCells reads points as 6 doubles");
+  thread_local BatchScratch scratch;
+  scratch.resize(count);
+  std::vector<PendingPoint>& pendingStore = scratch.pending;
+  size_t pendingCount = 0;
+  CellBatchInput in;
+  in.settings = cellSettings(options);
+  in.points = reinterpret_cast<const double*>(points.data());
+  const CellBatchOutput cells{scratch.x.data(), scratch.y.data(), scratch.z.data(), scratch.state.data()};
+  // Lane j of a mapped run (point indices[j], or j) into out[] and the pending walks.
+  auto collect = [&](uint32_t view, const uint32_t* indices, size_t lanes) {
+    const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
-    const Footprint f{uint32_t(std::max<int64_t>(0, cell.x - h)), uint32_t(std::min<int64_t>(n - 1, cell.x + h)),
-                      uint32_t(std::max<int64_t>(0, cell.y - h)), uint32_t(std::min<int64_t>(n - 1, cell.y + h))};
-    if (dag.rootCode == ChildCode::Lit) {
-      out[i] = 1.0f;
-    } else if (dag.rootCode == ChildCode::Shadowed) {
-      out[i] = value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
-    } else {
-      pending.push_back({f, uint32_t(cell.z), uint32_t(vi), uint32_t(i)});
+    for (size_t j = 0; j < lanes; ++j) {
+      const uint32_t i = indices ? indices[j] : uint32_t(j);
+      const uint8_t state = cells.state[j];
+      const int64_t x = cells.x[j], y = cells.y[j];
+      const Footprint f{uint32_t(std::max<int64_t>(0, x - h)), uint32_t(std::min<int64_t>(n - 1, x + h)),
+                        uint32_t(std::max<int64_t>(0, y - h)), uint32_t(std::min<int64_t>(n - 1, y + h))};
+      float answer = state == kCellLit ? 1.0f : 0.0f;
+      if (state == kCellVoxel && dag.rootCode != ChildCode::Ref)  // a DAG of one colour: no walk
+        answer = dag.rootCode == ChildCode::Lit ? 1.0f : value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
+      out[i] = answer;
+      // Written every time, kept only for a walk: no branch on the point's (unpredictable) outcome.
+      pendingStore[pendingCount] = {f, uint32_t(cells.z[j]), view, i};
+      pendingCount += state == kCellVoxel && dag.rootCode == ChildCode::Ref ? 1u : 0u;
+    }
+  };
+  if (views_.size() == 1) {  // directional and spot lights: the influence test runs in mapCells
+    in.mapping = &mappings_[0];
+    in.spot = light_.type == LightType::Spot ? &spot_ : nullptr;
+    in.count = count;
+    mapCells(in, cells);
+    collect(0, nullptr, count);
+  } else {  // point lights: the cube face of each point first, then each face's points together
+    std::vector<uint32_t>& order = scratch.indices;
+    std::vector<uint32_t>& face = scratch.face;
+    std::vector<uint32_t> starts(views_.size() + 1, 0);  // then: where each view's run begins in `order`
+    for (size_t i = 0; i < count; ++i) {
+      out[i] = 0.0f;
+      const SurfacePoint& p = points[i];
+      const int index = finite(p.position) ? viewIndex(p.position) : -1;
+      face[i] = index < 0 ? kNoView : uint32_t(index);
+      if (index >= 0) ++starts[size_t(index) + 1];
+    }
+    for (size_t v = 0; v < views_.size(); ++v) starts[v + 1] += starts[v];
+    std::vector<uint32_t> fill(starts.begin(), starts.end() - 1);
+    for (size_t i = 0; i < count; ++i)
+      if (face[i] != kNoView) order[fill[face[i]]++] = uint32_t(i);
+    in.spot = nullptr;
+    for (uint32_t v = 0; v < views_.size(); ++v) {
+      in.mapping = &mappings_[v];
+      in.indices = order.data() + starts[v];
+      in.count = starts[v + 1] - starts[v];
+      mapCells(in, cells);
+      collect(v, in.indices, in.count);
     }
   }
+  const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);
   if (pending.empty()) return;
   if (k <= 1) {
     walkPoints(pending, out);

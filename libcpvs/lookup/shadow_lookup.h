@@ -43,6 +43,7 @@
 
 #include "libcpvs/dag/shadow_dag.h"
 #include "libcpvs/light_view.h"
+#include "libcpvs/lookup/cell_lanes.h"
 #include "libcpvs/scene.h"
 
 namespace cpvs {
@@ -93,23 +94,9 @@ struct LookupCell {
 LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm::dvec3& normal,
                       const LookupOptions& options);
 
-// What lookupCell derives from a view for the grid normal, computed once per view (LightShadow keeps one
-// per view so a lookup does no division or log beyond toGrid's own).
-struct ViewConstants {
-  glm::dmat3 rotation{1.0};  // of viewFromWorld
-  double su = 1, sv = 1;     // 1 / (d u / d a), 1 / (d v / d b)
-  double invDs = 1;          // linear: (far - near) / N; logarithmic: log(far / near) / N (times d)
-  double logRatio = 0;       // log(far / near), as toGrid computes it
-  bool orthographic = true, linear = true;
-  ViewConstants() = default;
-  explicit ViewConstants(const LightView& view);
-};
-// toGrid(view, world) bit for bit, with log(far / near) taken from the constants instead of computed per
-// call (the lookup's hot path; a test pins the two together). Also returns the view-space point.
-GridPoint toGrid(const LightView& view, const ViewConstants& constants, const glm::dvec3& world,
-                 glm::dvec3& viewPoint);
-LookupCell lookupCell(const LightView& view, const ViewConstants& constants, const glm::dvec3& point,
-                      const glm::dvec3& normal, const LookupOptions& options);
+// The same with the view's constants computed beforehand (LightShadow keeps one ViewMapping per view).
+LookupCell lookupCell(const ViewMapping& mapping, const glm::dvec3& point, const glm::dvec3& normal,
+                      const LookupOptions& options);
 
 // Number of shadowed texels of the K x K footprint centred on texel (x, y) at slice z (texels outside
 // [0, N) are lit), with one traversal. z must be in [0, N). K = 1 gives DagView::shadowed.
@@ -190,8 +177,8 @@ private:
   std::vector<LightView> views_;
   std::vector<DagView> dags_;
   std::vector<TopGrid> grids_;
-  std::vector<ViewConstants> constants_;
-  double cosOuter_ = -1;  // spot: cos(min(outer cone, pi / 2))
+  std::vector<ViewMapping> mappings_;
+  SpotInfluence spot_;  // spot lights: the cone and range, for the batch's AVX2 path
 };
 
 }  // namespace cpvs

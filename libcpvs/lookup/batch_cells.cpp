@@ -1,0 +1,46 @@
+#include "libcpvs/lookup/batch_cells.h"
+
+namespace cpvs {
+
+CellIsa bestCellIsa() {
+#if defined(__x86_64__) && defined(__GNUC__)
+  static const CellIsa best = __builtin_cpu_supports("avx2") ? CellIsa::Avx2 : CellIsa::Scalar;
+  return best;
+#else
+  return CellIsa::Scalar;
+#endif
+}
+
+namespace {
+
+void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
+  // Local copies, as in the AVX2 path (the byte stores to out.state could alias the constants).
+  const ViewMapping mapping = *in.mapping;
+  const CellSettings settings = in.settings;
+  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
+  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
+  for (size_t j = 0; j < in.count; ++j) {
+    const double* p = in.points + 6 * size_t(in.indices ? in.indices[j] : j);
+    const CellVerdict<double, bool> v =
+        cellVerdict<double, bool>(mapping, settings, spotOrNull, p[0], p[1], p[2], p[3], p[4], p[5]);
+    out.x[j] = int32_t(v.x);
+    out.y[j] = int32_t(v.y);
+    out.z[j] = int32_t(v.z);
+    out.state[j] = v.voxel ? kCellVoxel : (v.lit ? kCellLit : kCellZero);
+  }
+}
+
+}  // namespace
+
+void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa) {
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (isa == CellIsa::Avx2 && bestCellIsa() == CellIsa::Avx2) {
+    detail::mapCellsAvx2(in, out);
+    return;
+  }
+#endif
+  (void)isa;
+  mapCellsScalar(in, out);
+}
+
+}  // namespace cpvs

@@ -1,0 +1,52 @@
+#pragma once
+// Steps 1-3 of a lookup (shadow_lookup.h) for a whole batch of points of one view: where each lands, four
+// points at a time with AVX2 where the CPU has it, one at a time otherwise. Both paths run cell_lanes.h, so
+// they give the same cells bit for bit (batch_cells_test pins them together).
+//
+// Same rule as view_mapping.h: standard headers only (included under `#pragma GCC target("avx2")`).
+#include <cstddef>
+#include <cstdint>
+
+#include "libcpvs/lookup/cell_lanes.h"
+
+namespace cpvs {
+
+// What a point's lookup needs next.
+enum CellState : uint8_t {
+  kCellZero = 0,   // 0 without the DAG: non-finite input, outside the spot's influence, a back face (AsGiven)
+  kCellLit = 1,    // 1 without the DAG: empty view, behind a perspective eye, outside the lateral grid
+  kCellVoxel = 2,  // look up voxel (x, y, z)
+};
+
+struct CellBatchInput {
+  const ViewMapping* mapping = nullptr;
+  CellSettings settings;
+  const SpotInfluence* spot = nullptr;  // tested when set (a spot light's only view)
+  // Points as 6 doubles each (position, then normal: SurfacePoint's layout), point i at points + 6 * i;
+  // `indices` (when set) selects which: lane j maps point indices[j].
+  const double* points = nullptr;
+  const uint32_t* indices = nullptr;
+  size_t count = 0;
+};
+
+// One entry per mapped point (count entries each; x, y, z are meaningful where state is kCellVoxel).
+struct CellBatchOutput {
+  int32_t* x = nullptr;
+  int32_t* y = nullptr;
+  int32_t* z = nullptr;
+  uint8_t* state = nullptr;
+};
+
+enum class CellIsa : uint8_t { Scalar, Avx2 };
+
+// The fastest path this CPU runs.
+CellIsa bestCellIsa();
+// Maps the batch with the given path (Avx2 only where bestCellIsa() says so).
+void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
+inline void mapCells(const CellBatchInput& in, const CellBatchOutput& out) { mapCells(in, out, bestCellIsa()); }
+
+namespace detail {
+void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx2.cpp
+}
+
+}  // namespace cpvs

@@ -1,0 +1,195 @@
+// The batch's point-to-voxel mapping (libcpvs/lookup/batch_cells.h): the AVX2 path gives the scalar path's
+// cells bit for bit, and both give lookupCell's (the single-point lookup), on random points and on the hard
+// ones: exactly on voxel boundaries, behind the eye, on the cone's edge, non-finite, huge, zero normals.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "libcpvs/lookup/batch_cells.h"
+#include "libcpvs/lookup/shadow_lookup.h"
+
+namespace cpvs {
+namespace {
+
+WorldGeometry groundAndPyramid() {
+  WorldGeometry world;
+  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
+  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
+  for (const auto& p : world.positions) world.bounds.extend(p);
+  return world;
+}
+
+std::vector<Light> testLights() {
+  Light spot;
+  spot.type = LightType::Spot;
+  spot.name = "spot";
+  spot.position = {1, 6, 2};
+  spot.direction = glm::normalize(glm::dvec3(-0.2, -1, -0.1));
+  spot.outerConeAngle = 0.7;
+  spot.range = 9.0;
+  Light sun;
+  sun.name = "sun";
+  sun.direction = glm::normalize(glm::dvec3(0.3, -1, 0.5));
+  Light point;
+  point.type = LightType::Point;
+  point.name = "point";
+  point.position = {0.5, 3, -1};
+  return {spot, sun, point};
+}
+
+// Random points and normals around the scene, and the hard cases for one view.
+std::vector<SurfacePoint> hardPoints(const LightView& view, const Light& light, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> coord(-9.0, 9.0), unit(-1.0, 1.0);
+  auto randomNormal = [&] { return glm::dvec3(unit(rng), unit(rng), unit(rng)); };
+  std::vector<SurfacePoint> points;
+  for (int i = 0; i < 3000; ++i) points.push_back({{coord(rng), coord(rng), coord(rng)}, randomNormal()});
+  // Exactly on voxel corners across the grid (every slice boundary too), with axis-aligned and zero normals.
+  const double n = view.resolution;
+  for (double u = 0; u <= n; u += n / 16)
+    for (double s = 0; s <= n; s += n / 8) {
+      const glm::dvec3 p = gridToWorld(view, {u, n / 2, s});
+      for (const glm::dvec3& normal : {glm::dvec3(0.0), glm::dvec3(0, 1, 0), glm::dvec3(1, 0, 0), -light.direction})
+        points.push_back({p, normal});
+    }
+  // The light's position itself (behind / at a perspective eye), and points on the spot's cone edge.
+  points.push_back({light.position, {0, 1, 0}});
+  points.push_back({light.position - 0.5 * light.direction, {0, 1, 0}});
+  const glm::dvec3 side = glm::normalize(glm::cross(light.direction, glm::dvec3(1, 0, 0)));
+  for (double t : {1.0, 4.0, 8.999999, 9.0, 9.000001}) {
+    const glm::dvec3 edge = light.direction * std::cos(light.outerConeAngle) + side * std::sin(light.outerConeAngle);
+    points.push_back({light.position + t * edge, {0, 1, 0}});
+  }
+  // Non-finite and absurd inputs, in every coordinate.
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::numeric_limits<double>::quiet_NaN();
+  for (double bad : {inf, -inf, nan, 1e300, -1e300, 1e-310}) {
+    for (int c = 0; c < 3; ++c) {
+      SurfacePoint p{{0.1, 0.2, 0.3}, {0, 1, 0}};
+      p.position[c] = bad;
+      points.push_back(p);
+      p = {{0.1, 0.2, 0.3}, {0, 1, 0}};
+      p.normal[c] = bad;
+      points.push_back(p);
+    }
+  }
+  return points;
+}
+
+struct Cells {
+  std::vector<int32_t> x, y, z;
+  std::vector<uint8_t> state;
+  explicit Cells(size_t n) : x(n, -7), y(n, -7), z(n, -7), state(n, 99) {}
+  CellBatchOutput output() { return {x.data(), y.data(), z.data(), state.data()}; }
+};
+
+CellSettings settingsOf(const LookupOptions& options) {
+  return {0.5 * options.pcfKernel, options.biasMargin, options.orientation == NormalOrientation::AsGiven};
+}
+
+SpotInfluence spotOf(const Light& light) {
+  SpotInfluence spot;
+  for (int i = 0; i < 3; ++i) {
+    spot.position[i] = light.position[i];
+    spot.direction[i] = light.direction[i];
+  }
+  spot.range = light.range;
+  spot.cosOuter = std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
+  return spot;
+}
+
+TEST(BatchCells, Avx2EqualsScalarEqualsLookupCell) {
+  const bool avx2 = bestCellIsa() == CellIsa::Avx2;
+  const WorldGeometry world = groundAndPyramid();
+  size_t voxels = 0, lit = 0, zero = 0;
+  for (const Light& light : testLights()) {
+    const std::vector<LightView> views = makeLightViews(light, world, 1024);
+    const LightShadow shadow(light, views, std::vector<DagView>(views.size()));  // for viewIndex
+    for (const LightView& view : views) {
+      const ViewMapping mapping(view);
+      const std::vector<SurfacePoint> points = hardPoints(view, light, 5);
+      for (const LookupOptions options : {LookupOptions{1, NormalOrientation::AsGiven, 0.25},
+                                          LookupOptions{9, NormalOrientation::AsGiven, 0.0},
+                                          LookupOptions{3, NormalOrientation::TowardLight, 0.5}}) {
+        const SpotInfluence spot = spotOf(light);
+        CellBatchInput in;
+        in.mapping = &mapping;
+        in.settings = settingsOf(options);
+        in.spot = light.type == LightType::Spot ? &spot : nullptr;
+        in.points = reinterpret_cast<const double*>(points.data());
+        in.count = points.size();
+        Cells scalar(points.size()), vector(points.size());
+        mapCells(in, scalar.output(), CellIsa::Scalar);
+        mapCells(in, vector.output(), CellIsa::Avx2);  // the scalar path where the CPU lacks AVX2
+        for (size_t i = 0; i < points.size(); ++i) {
+          const SurfacePoint& p = points[i];
+          SCOPED_TRACE(light.name + " view " + std::to_string(view.face) + " point " + std::to_string(i) + " K " +
+                       std::to_string(options.pcfKernel));
+          ASSERT_EQ(vector.state[i], scalar.state[i]);
+          ASSERT_EQ(vector.x[i], scalar.x[i]);
+          ASSERT_EQ(vector.y[i], scalar.y[i]);
+          ASSERT_EQ(vector.z[i], scalar.z[i]);
+          // The single-point lookup: the same kind and voxel (influence checked the way LightShadow does).
+          const LookupCell cell = lookupCell(mapping, p.position, p.normal, options);
+          // (Point lights: mapCells maps the points LightShadow has sorted into this face, with no test.)
+          const bool inside = light.type != LightType::Spot || shadow.viewIndex(p.position) == 0;
+          uint8_t expected = kCellZero;
+          if (inside && cell.kind == LookupCell::Kind::Lit) expected = kCellLit;
+          if (inside && cell.kind == LookupCell::Kind::Voxel) expected = kCellVoxel;
+          ASSERT_EQ(scalar.state[i], expected);
+          if (expected == kCellVoxel) {
+            ASSERT_EQ(scalar.x[i], cell.x);
+            ASSERT_EQ(scalar.y[i], cell.y);
+            ASSERT_EQ(scalar.z[i], cell.z);
+            // And the voxel convention: toVoxel of the biased point.
+            const Voxel v = toVoxel(view, cell.uvs);
+            ASSERT_EQ((Voxel{cell.x, cell.y, cell.z}), v);
+          }
+          voxels += expected == kCellVoxel;
+          lit += expected == kCellLit;
+          zero += expected == kCellZero;
+        }
+      }
+    }
+  }
+  // The cases are all there (a mapping that answered one kind everywhere would fail the comparisons above
+  // only by luck).
+  EXPECT_GT(voxels, 10000u);
+  EXPECT_GT(lit, 1000u);
+  EXPECT_GT(zero, 1000u);
+  if (!avx2) GTEST_SKIP() << "no AVX2 on this CPU: only the scalar path was compared with lookupCell";
+}
+
+// Index lists and every batch length around the 4-lane groups: lane j maps points[indices[j]], and a short
+// last group writes only its own lanes.
+TEST(BatchCells, IndexListsAndShortGroups) {
+  const WorldGeometry world = groundAndPyramid();
+  const LightView view = makeLightViews(testLights()[1], world, 256).at(0);
+  const ViewMapping mapping(view);
+  const std::vector<SurfacePoint> points = hardPoints(view, testLights()[1], 9);
+  std::vector<uint32_t> indices;
+  for (uint32_t i = 0; i < points.size(); i += 3) indices.push_back(uint32_t(points.size() - 1 - i));
+  CellBatchInput in;
+  in.mapping = &mapping;
+  in.points = reinterpret_cast<const double*>(points.data());
+  Cells all(points.size());
+  in.count = points.size();
+  mapCells(in, all.output(), CellIsa::Scalar);
+  for (CellIsa isa : {CellIsa::Scalar, CellIsa::Avx2})
+    for (size_t count = 0; count <= 9; ++count) {
+      in.indices = indices.data();
+      in.count = count;
+      Cells some(count + 4);
+      mapCells(in, some.output(), isa);
+      for (size_t j = 0; j < count; ++j) {
+        ASSERT_EQ(some.state[j], all.state[indices[j]]) << count << " " << j;
+        ASSERT_EQ(some.x[j], all.x[indices[j]]);
+        ASSERT_EQ(some.z[j], all.z[indices[j]]);
+      }
+      for (size_t j = count; j < count + 4; ++j) ASSERT_EQ(some.state[j], 99) << "wrote past the batch";
+    }
+}
+
+}  // namespace
+}  // namespace cpvs
