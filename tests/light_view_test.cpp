@@ -134,6 +134,30 @@ TEST(LightView, VoxelsClampAndFloor) {
   EXPECT_EQ(toVoxel(view, {15.9999, 0.0, -1e9}), (Voxel{15, 0, 0}));
 }
 
+// The depth mapping's own log (view_mapping.h): within 2 ulp of libm's over the whole positive normal range,
+// exact at 1 and at powers of two up to rounding of e ln 2, and finite for the inputs callers select away.
+TEST(LightView, MappingLogIsWithinTwoUlpOfLibm) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> exponent(-1000.0, 1000.0), near1(0.5, 2.0);
+  auto ulpDistance = [](double a, double b) {
+    const double ulp = std::nextafter(std::abs(b), INFINITY) - std::abs(b);
+    return std::abs(a - b) / ulp;
+  };
+  double worst = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const double x = i % 2 ? std::exp2(exponent(rng)) : near1(rng);
+    worst = std::max(worst, ulpDistance(mappingLog(x), std::log(x)));
+  }
+  EXPECT_LE(worst, 2.0);
+  EXPECT_EQ(mappingLog(1.0), 0.0);
+  for (int e = -1020; e <= 1020; e += 17) EXPECT_LE(ulpDistance(mappingLog(std::ldexp(1.0, e)), e * std::log(2.0)), 2.0) << e;
+  // Around sqrt(2), where the reduction switches from m to m / 2.
+  for (double x = kSqrt2 - 1e-12; x < kSqrt2 + 1e-12; x += 1e-14) EXPECT_LE(ulpDistance(mappingLog(x), std::log(x)), 2.0);
+  EXPECT_TRUE(std::isfinite(mappingLog(0.0)));
+  EXPECT_TRUE(std::isfinite(mappingLog(INFINITY)));
+  EXPECT_LT(mappingLog(4.9e-324), -700);
+}
+
 TEST(LightView, ParsesResolutions) {
   EXPECT_EQ(parseResolution("4k"), 4096u);
   EXPECT_EQ(parseResolution("64K"), 65536u);

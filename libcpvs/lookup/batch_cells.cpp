@@ -13,7 +13,8 @@ CellIsa bestCellIsa() {
 
 namespace {
 
-void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
+template <class Shape>
+void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   // Local copies, as in the AVX2 path (the byte stores to out.state could alias the constants).
   const ViewMapping mapping = *in.mapping;
   const CellSettings settings = in.settings;
@@ -22,12 +23,16 @@ void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
   for (size_t j = 0; j < in.count; ++j) {
     const double* p = in.points + 6 * size_t(in.indices ? in.indices[j] : j);
     const CellVerdict<double, bool> v =
-        cellVerdict<double, bool>(mapping, settings, spotOrNull, p[0], p[1], p[2], p[3], p[4], p[5]);
+        cellVerdict<double, bool, Shape>(mapping, settings, spotOrNull, p[0], p[1], p[2], p[3], p[4], p[5]);
     out.x[j] = int32_t(v.x);
     out.y[j] = int32_t(v.y);
     out.z[j] = int32_t(v.z);
     out.state[j] = v.voxel ? kCellVoxel : (v.lit ? kCellLit : kCellZero);
   }
+}
+
+void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
+  detail::withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<decltype(shape)>(in, out); });
 }
 
 }  // namespace

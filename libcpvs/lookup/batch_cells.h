@@ -46,6 +46,18 @@ void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa)
 inline void mapCells(const CellBatchInput& in, const CellBatchOutput& out) { mapCells(in, out, bestCellIsa()); }
 
 namespace detail {
+// Calls run(FixedShape<orthographic, linear>{}) for the mapping's kind of view.
+template <class Run>
+[[gnu::always_inline]] inline void withFixedShape(const ViewMapping& mapping, Run&& run) {
+  if (mapping.orthographic) {
+    if (mapping.linear) run(FixedShape<true, true>{});
+    else run(FixedShape<true, false>{});
+  } else {
+    if (mapping.linear) run(FixedShape<false, true>{});
+    else run(FixedShape<false, false>{});
+  }
+}
+
 void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx2.cpp
 }
 

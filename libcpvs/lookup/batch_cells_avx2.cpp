@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 #include <immintrin.h>
@@ -53,13 +54,24 @@ inline Mask4 operator!=(Real4 a, Real4 b) { return _mm256_cmp_pd(a.v, b.v, _CMP_
 inline Real4 laneSelect(Mask4 m, Real4 a, Real4 b) { return _mm256_blendv_pd(b.v, a.v, m.bits); }
 inline Real4 laneSqrt(Real4 x) { return _mm256_sqrt_pd(x.v); }
 inline Real4 laneAbs(Real4 x) { return _mm256_andnot_pd(_mm256_set1_pd(-0.0), x.v); }
-// libm's log lane by lane: the very function the scalar path calls (a vector log would round differently).
+// view_mapping.h's mappingLog on four lanes: the same exact decomposition (the exponent converted through
+// the 2^52 trick, exact for 0..2047), then the shared polynomial.
 inline Real4 laneLog(Real4 x) {
-  alignas(32) double lanes[4];
-  _mm256_store_pd(lanes, x.v);
-  for (double& l : lanes) l = std::log(l);
-  return _mm256_load_pd(lanes);
+  const __m256i bits = _mm256_castpd_si256(x.v);
+  const Real4 m1 = _mm256_castsi256_pd(_mm256_or_si256(_mm256_and_si256(bits, _mm256_set1_epi64x(0x000fffffffffffffll)),
+                                                       _mm256_set1_epi64x(0x3ff0000000000000ll)));
+  const __m256i biased = _mm256_and_si256(_mm256_srli_epi64(bits, 52), _mm256_set1_epi64x(0x7ff));
+  const Real4 e1 = Real4(_mm256_sub_pd(_mm256_castsi256_pd(_mm256_or_si256(biased, _mm256_set1_epi64x(0x4330000000000000ll))),
+                                       _mm256_set1_pd(4503599627370496.0))) -
+                   Real4(1023.0);
+  const Mask4 high = m1 > Real4(kSqrt2);
+  return logOfParts(laneSelect(high, m1 * Real4(0.5), m1), laneSelect(high, e1 + Real4(1.0), e1));
 }
+
+// Bit l of a 4-bit lane mask spread to byte l (little-endian: byte l of the stored word is lane l).
+constexpr uint32_t kSpreadBits[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
+                                      0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
+                                      0x01010000, 0x01010001, 0x01010100, 0x01010101};
 
 // Four points (position and normal, 6 doubles each) as six vectors of one coordinate each.
 struct Points4 {
@@ -81,7 +93,10 @@ inline Points4 transpose(const double* p0, const double* p1, const double* p2, c
 
 namespace detail {
 
-void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
+namespace {
+
+template <class Shape>
+void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   // Local copies: the byte stores to out.state could alias *in.mapping, which would make the compiler reload
   // every constant in every iteration.
   const ViewMapping mapping = *in.mapping;
@@ -98,19 +113,34 @@ void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
     for (size_t l = 0; l < 4; ++l) p[l] = pointAt(j + (l < lanes ? l : lanes - 1));
     const Points4 q = transpose(p[0], p[1], p[2], p[3]);
     const CellVerdict<Real4, Mask4> v =
-        cellVerdict<Real4, Mask4>(mapping, settings, spotOrNull, q.px, q.py, q.pz, q.nx, q.ny, q.nz);
-    alignas(16) int32_t x[4], y[4], z[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(x), _mm256_cvttpd_epi32(v.x.v));
-    _mm_store_si128(reinterpret_cast<__m128i*>(y), _mm256_cvttpd_epi32(v.y.v));
-    _mm_store_si128(reinterpret_cast<__m128i*>(z), _mm256_cvttpd_epi32(v.z.v));
-    const unsigned voxel = unsigned(_mm256_movemask_pd(v.voxel.bits)), lit = unsigned(_mm256_movemask_pd(v.lit.bits));
+        cellVerdict<Real4, Mask4, Shape>(mapping, settings, spotOrNull, q.px, q.py, q.pz, q.nx, q.ny, q.nz);
+    const __m128i x = _mm256_cvttpd_epi32(v.x.v), y = _mm256_cvttpd_epi32(v.y.v), z = _mm256_cvttpd_epi32(v.z.v);
+    const uint32_t state = kSpreadBits[_mm256_movemask_pd(v.voxel.bits)] * kCellVoxel +
+                           kSpreadBits[_mm256_movemask_pd(v.lit.bits)] * kCellLit;  // one byte per lane
+    if (lanes == 4) {
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.x + j), x);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.y + j), y);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.z + j), z);
+      std::memcpy(out.state + j, &state, 4);
+      continue;
+    }
+    alignas(16) int32_t xs[4], ys[4], zs[4];
+    _mm_store_si128(reinterpret_cast<__m128i*>(xs), x);
+    _mm_store_si128(reinterpret_cast<__m128i*>(ys), y);
+    _mm_store_si128(reinterpret_cast<__m128i*>(zs), z);
     for (size_t l = 0; l < lanes; ++l) {
-      out.x[j + l] = x[l];
-      out.y[j + l] = y[l];
-      out.z[j + l] = z[l];
-      out.state[j + l] = uint8_t(((voxel >> l) & 1u) * kCellVoxel + ((lit >> l) & 1u) * kCellLit);
+      out.x[j + l] = xs[l];
+      out.y[j + l] = ys[l];
+      out.z[j + l] = zs[l];
+      out.state[j + l] = uint8_t(state >> (8 * l));
     }
   }
+}
+
+}  // namespace
+
+void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
+  withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<decltype(shape)>(in, out); });
 }
 
 }  // namespace detail

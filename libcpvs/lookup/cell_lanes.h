@@ -28,11 +28,11 @@ struct CellLanes {
   Mask inside;      // q.u and q.v in [0, N) (false for NaN)
 };
 
-template <class Real, class Mask>
+template <class Real, class Mask, class Shape = AnyShape>
 [[gnu::always_inline]] inline CellLanes<Real, Mask> cellLanes(const ViewMapping& c, const CellSettings& settings,
                                                               Real px, Real py, Real pz, Real nx, Real ny, Real nz) {
   CellLanes<Real, Mask> cell;
-  cell.grid = mapToGrid<Real, Mask>(c, px, py, pz);
+  cell.grid = mapToGrid<Real, Mask, Shape>(c, px, py, pz);
   const GridLanes<Real, Mask>& g = cell.grid;
   // m = J^-T n up to a positive factor (shadow_lookup.cpp, gridNormalAt): the view rotation applied to n, then
   // the grid Jacobian's inverse transpose in closed form.
@@ -40,9 +40,9 @@ template <class Real, class Mask>
   const Real nvy = (Real(c.row[1][0]) * nx + Real(c.row[1][1]) * ny) + Real(c.row[1][2]) * nz;
   const Real nvz = (Real(c.row[2][0]) * nx + Real(c.row[2][1]) * ny) + Real(c.row[2][2]) * nz;
   const Real d = g.depth;
-  const Real invDs = c.linear ? Real(c.invDs) : Real(c.invDs) * d;
+  const Real invDs = Shape::linear(c) ? Real(c.invDs) : Real(c.invDs) * d;
   Real mx, my, mz;
-  if (c.orthographic) {
+  if (Shape::orthographic(c)) {
     mx = nvx * Real(c.uStep);
     my = nvy * Real(c.vStep);
     mz = -nvz * invDs;
@@ -107,7 +107,7 @@ template <class Real, class Mask>
   return (x - x) == Real(0.0);  // inf - inf and NaN - NaN are NaN
 }
 
-template <class Real, class Mask>
+template <class Real, class Mask, class Shape = AnyShape>
 [[gnu::always_inline]] inline CellVerdict<Real, Mask> cellVerdict(const ViewMapping& c, const CellSettings& settings,
                                                                   const SpotInfluence* spot, Real px, Real py,
                                                                   Real pz, Real nx, Real ny, Real nz) {
@@ -121,7 +121,7 @@ template <class Real, class Mask>
     verdict.x = verdict.y = verdict.z = Real(0.0);
     return verdict;
   }
-  const CellLanes<Real, Mask> cell = cellLanes<Real, Mask>(c, settings, px, py, pz, nx, ny, nz);
+  const CellLanes<Real, Mask> cell = cellLanes<Real, Mask, Shape>(c, settings, px, py, pz, nx, ny, nz);
   const Mask inFront = cell.grid.inFront;
   const Mask zero = settings.backFacingIsShadow ? cell.back : Mask(false);
   verdict.voxel = valid & inFront & (!zero) & cell.inside;

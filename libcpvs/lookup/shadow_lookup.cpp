@@ -446,37 +446,39 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
 // level before any takes the next, in a loop without data-dependent branches (the child's code decides only
 // which values are kept), so the loop runs at the speed of its loads: each child's node is prefetched when
 // its reference is read and read one pass over the batch later, by which time it has arrived from memory.
-CPVS_POPCNT_CLONES void LightShadow::walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const {
+CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOutput& cells,
+                                                const uint32_t* indices, size_t count, std::span<float> out) const {
   struct Walk {
     uint32_t x, y, z;
     uint32_t offset;  // the node's words, then (after the leaf-parent level) the leaf's index
     uint32_t out;
   };
-  std::vector<Walk> walks;
-  walks.reserve(pending.size());
-  for (uint32_t view = 0; view < dags_.size(); ++view) {
+  thread_local std::vector<Walk> walks;
+  if (walks.size() < count) walks.resize(count);
+  {
     const DagView& dag = dags_[view];
     const TopGrid& grid = grids_[view];
     const uint16_t* nodes = dag.nodes.data();
-    // Start: the root, or the top-grid cell (whose code may answer at once).
-    walks.clear();
+    // Start: the root, or the top-grid cell (whose code may answer at once). Every point's answer is written
+    // here (the cell's, or the start code's) and a walk kept for those that need one, without a branch on
+    // either outcome.
     const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
-    for (const PendingPoint& pp : pending) {
-      if (pp.view != view) continue;
-      uint32_t entry = uint32_t(ChildCode::Ref);  // root at offset 0 (rootCode Ref: visibility() checked)
-      if (!grid.empty()) {
-        const uint32_t sh = grid.shift, level = grid.level;
-        entry = grid.cells[(size_t(pp.z >> sh) << (2 * level)) | (size_t(pp.f.y0 >> sh) << level) | size_t(pp.f.x0 >> sh)];
-      }
+    const uint32_t sh = grid.shift, level = grid.level;
+    size_t started = 0;
+    for (size_t j = 0; j < count; ++j) {
+      const uint32_t i = indices ? indices[j] : uint32_t(j);
+      const uint32_t x = uint32_t(cells.x[j]), y = uint32_t(cells.y[j]), z = uint32_t(cells.z[j]);  // 0 unless a voxel
+      const bool voxel = cells.state[j] == kCellVoxel;
+      const uint32_t entry = grid.empty() ? uint32_t(dag.rootCode)  // the root, at offset 0
+                                          : grid.cells[(size_t(z >> sh) << (2 * level)) | (size_t(y >> sh) << level) | (x >> sh)];
       const uint32_t code = entry & 3u;
-      if (code != uint32_t(ChildCode::Ref)) {
-        out[pp.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
-        continue;
-      }
+      const bool lit = voxel ? code != uint32_t(ChildCode::Shadowed) : cells.state[j] == kCellLit;
+      out[i] = lit ? 1.0f : 0.0f;  // final unless a walk follows
       prefetchNode(nodes + (entry >> 2));
-      walks.push_back({pp.f.x0, pp.f.y0, pp.z, entry >> 2, pp.out});
+      walks[started] = {x, y, z, entry >> 2, i};
+      started += voxel && code == uint32_t(ChildCode::Ref) ? 1u : 0u;
     }
-    size_t active = walks.size();
+    size_t active = started;
     Walk* w = walks.data();
     // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
     for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
@@ -569,7 +571,8 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
     in.spot = light_.type == LightType::Spot ? &spot_ : nullptr;
     in.count = count;
     mapCells(in, cells);
-    collect(0, nullptr, count);
+    if (k <= 1) walkVoxels(0, cells, nullptr, count, out);
+    else collect(0, nullptr, count);
   } else {  // point lights: the cube face of each point first, then each face's points together
     std::vector<uint32_t>& order = scratch.indices;
     std::vector<uint32_t>& face = scratch.face;
@@ -591,15 +594,12 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
       in.indices = order.data() + starts[v];
       in.count = starts[v + 1] - starts[v];
       mapCells(in, cells);
-      collect(v, in.indices, in.count);
+      if (k <= 1) walkVoxels(v, cells, in.indices, in.count, out);
+      else collect(v, in.indices, in.count);
     }
   }
   const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);
   if (pending.empty()) return;
-  if (k <= 1) {
-    walkPoints(pending, out);
-    return;
-  }
 
   // Phase 2: the walks, interleaved through a FIFO.
   std::vector<uint32_t> counts(pending.size(), 0);

@@ -43,7 +43,7 @@
 
 #include "libcpvs/dag/shadow_dag.h"
 #include "libcpvs/light_view.h"
-#include "libcpvs/lookup/cell_lanes.h"
+#include "libcpvs/lookup/batch_cells.h"
 #include "libcpvs/scene.h"
 
 namespace cpvs {
@@ -171,7 +171,9 @@ public:
   struct PendingPoint;  // a point of a batch whose answer needs the DAG (shadow_lookup.cpp)
 
 private:
-  void walkPoints(std::span<const PendingPoint> pending, std::span<float> out) const;
+  // K = 1: the walks of one view's mapped points (lane j: point indices[j], or j), answers into out.
+  void walkVoxels(uint32_t view, const CellBatchOutput& cells, const uint32_t* indices, size_t count,
+                  std::span<float> out) const;
 
   Light light_;
   std::vector<LightView> views_;
