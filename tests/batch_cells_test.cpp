@@ -1,4 +1,4 @@
-// The batch's point-to-voxel mapping (libcpvs/lookup/batch_cells.h): the AVX2 path gives the scalar path's
+// The batch's point-to-voxel mapping (libcpvs/lookup/batch_cells.h): the AVX2 and AVX-512 paths give the scalar path's
 // cells bit for bit, and both give lookupCell's (the single-point lookup), on random points and on the hard
 // ones: exactly on voxel boundaries, behind the eye, on the cone's edge, non-finite, huge, zero normals.
 #include <gtest/gtest.h>
@@ -99,8 +99,8 @@ SpotInfluence spotOf(const Light& light) {
   return spot;
 }
 
-TEST(BatchCells, Avx2EqualsScalarEqualsLookupCell) {
-  const bool avx2 = bestCellIsa() == CellIsa::Avx2;
+TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
+  const CellIsa best = bestCellIsa();
   const WorldGeometry world = groundAndPyramid();
   size_t voxels = 0, lit = 0, zero = 0;
   for (const Light& light : testLights()) {
@@ -119,17 +119,20 @@ TEST(BatchCells, Avx2EqualsScalarEqualsLookupCell) {
         in.spot = light.type == LightType::Spot ? &spot : nullptr;
         in.points = reinterpret_cast<const double*>(points.data());
         in.count = points.size();
-        Cells scalar(points.size()), vector(points.size());
+        Cells scalar(points.size()), avx2(points.size()), avx512(points.size());
         mapCells(in, scalar.output(), CellIsa::Scalar);
-        mapCells(in, vector.output(), CellIsa::Avx2);  // the scalar path where the CPU lacks AVX2
+        mapCells(in, avx2.output(), CellIsa::Avx2);  // a lesser path where the CPU lacks it
+        mapCells(in, avx512.output(), CellIsa::Avx512);
         for (size_t i = 0; i < points.size(); ++i) {
           const SurfacePoint& p = points[i];
           SCOPED_TRACE(light.name + " view " + std::to_string(view.face) + " point " + std::to_string(i) + " K " +
                        std::to_string(options.pcfKernel));
-          ASSERT_EQ(vector.state[i], scalar.state[i]);
-          ASSERT_EQ(vector.x[i], scalar.x[i]);
-          ASSERT_EQ(vector.y[i], scalar.y[i]);
-          ASSERT_EQ(vector.z[i], scalar.z[i]);
+          for (const Cells* vector : {&avx2, &avx512}) {
+            ASSERT_EQ(vector->state[i], scalar.state[i]);
+            ASSERT_EQ(vector->x[i], scalar.x[i]);
+            ASSERT_EQ(vector->y[i], scalar.y[i]);
+            ASSERT_EQ(vector->z[i], scalar.z[i]);
+          }
           // The single-point lookup: the same kind and voxel (influence checked the way LightShadow does).
           const LookupCell cell = lookupCell(mapping, p.position, p.normal, options);
           // (Point lights: mapCells maps the points LightShadow has sorted into this face, with no test.)
@@ -158,7 +161,9 @@ TEST(BatchCells, Avx2EqualsScalarEqualsLookupCell) {
   EXPECT_GT(voxels, 10000u);
   EXPECT_GT(lit, 1000u);
   EXPECT_GT(zero, 1000u);
-  if (!avx2) GTEST_SKIP() << "no AVX2 on this CPU: only the scalar path was compared with lookupCell";
+  if (best != CellIsa::Avx512)
+    GTEST_SKIP() << "this CPU lacks AVX-512" << (best == CellIsa::Avx2 ? "" : " and AVX2")
+                 << ": those paths fell back to a lesser one";
 }
 
 // Index lists and every batch length around the 4-lane groups: lane j maps points[indices[j]], and a short
@@ -176,18 +181,18 @@ TEST(BatchCells, IndexListsAndShortGroups) {
   Cells all(points.size());
   in.count = points.size();
   mapCells(in, all.output(), CellIsa::Scalar);
-  for (CellIsa isa : {CellIsa::Scalar, CellIsa::Avx2})
-    for (size_t count = 0; count <= 9; ++count) {
+  for (CellIsa isa : {CellIsa::Scalar, CellIsa::Avx2, CellIsa::Avx512})
+    for (size_t count = 0; count <= 17; ++count) {
       in.indices = indices.data();
       in.count = count;
-      Cells some(count + 4);
+      Cells some(count + 8);
       mapCells(in, some.output(), isa);
       for (size_t j = 0; j < count; ++j) {
         ASSERT_EQ(some.state[j], all.state[indices[j]]) << count << " " << j;
         ASSERT_EQ(some.x[j], all.x[indices[j]]);
         ASSERT_EQ(some.z[j], all.z[indices[j]]);
       }
-      for (size_t j = count; j < count + 4; ++j) ASSERT_EQ(some.state[j], 99) << "wrote past the batch";
+      for (size_t j = count; j < count + 8; ++j) ASSERT_EQ(some.state[j], 99) << "wrote past the batch";
     }
 }
 

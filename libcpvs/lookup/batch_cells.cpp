@@ -4,7 +4,9 @@ namespace cpvs {
 
 CellIsa bestCellIsa() {
 #if defined(__x86_64__) && defined(__GNUC__)
-  static const CellIsa best = __builtin_cpu_supports("avx2") ? CellIsa::Avx2 : CellIsa::Scalar;
+  static const CellIsa best = __builtin_cpu_supports("avx512f") ? CellIsa::Avx512
+                              : __builtin_cpu_supports("avx2")  ? CellIsa::Avx2
+                                                                : CellIsa::Scalar;
   return best;
 #else
   return CellIsa::Scalar;
@@ -39,10 +41,9 @@ void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
 
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa) {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (isa == CellIsa::Avx2 && bestCellIsa() == CellIsa::Avx2) {
-    detail::mapCellsAvx2(in, out);
-    return;
-  }
+  const CellIsa best = bestCellIsa();
+  if (isa == CellIsa::Avx512 && best == CellIsa::Avx512) return detail::mapCellsAvx512(in, out);
+  if (isa >= CellIsa::Avx2 && best >= CellIsa::Avx2) return detail::mapCellsAvx2(in, out);
 #endif
   (void)isa;
   mapCellsScalar(in, out);

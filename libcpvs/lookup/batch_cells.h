@@ -1,7 +1,7 @@
 #pragma once
-// Steps 1-3 of a lookup (shadow_lookup.h) for a whole batch of points of one view: where each lands, four
-// points at a time with AVX2 where the CPU has it, one at a time otherwise. Both paths run cell_lanes.h, so
-// they give the same cells bit for bit (batch_cells_test pins them together).
+// Steps 1-3 of a lookup (shadow_lookup.h) for a whole batch of points of one view: where each lands, eight
+// points at a time with AVX-512 or four with AVX2 where the CPU has them, one at a time otherwise. Every path
+// runs cell_lanes.h, so they give the same cells bit for bit (batch_cells_test pins them together).
 //
 // Same rule as view_mapping.h: standard headers only (included under `#pragma GCC target("avx2")`).
 #include <cstddef>
@@ -37,11 +37,11 @@ struct CellBatchOutput {
   uint8_t* state = nullptr;
 };
 
-enum class CellIsa : uint8_t { Scalar, Avx2 };
+enum class CellIsa : uint8_t { Scalar, Avx2, Avx512 };
 
 // The fastest path this CPU runs.
 CellIsa bestCellIsa();
-// Maps the batch with the given path (Avx2 only where bestCellIsa() says so).
+// Maps the batch with the given path, or the best one below it that this CPU runs.
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
 inline void mapCells(const CellBatchInput& in, const CellBatchOutput& out) { mapCells(in, out, bestCellIsa()); }
 
@@ -58,7 +58,8 @@ template <class Run>
   }
 }
 
-void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx2.cpp
+void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);    // batch_cells_avx2.cpp
+void mapCellsAvx512(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx512.cpp
 }
 
 }  // namespace cpvs

@@ -68,52 +68,23 @@ inline Real4 laneLog(Real4 x) {
   return logOfParts(laneSelect(high, m1 * Real4(0.5), m1), laneSelect(high, e1 + Real4(1.0), e1));
 }
 
-// Bit l of a 4-bit lane mask spread to byte l (little-endian: byte l of the stored word is lane l).
-constexpr uint32_t kSpreadBits[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
-                                      0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
-                                      0x01010000, 0x01010001, 0x01010100, 0x01010101};
-
-// Four points (position and normal, 6 doubles each) as six vectors of one coordinate each.
-struct Points4 {
-  Real4 px, py, pz, nx, ny, nz;
-};
-inline Points4 transpose(const double* p0, const double* p1, const double* p2, const double* p3) {
-  const __m256d r0 = _mm256_loadu_pd(p0), r1 = _mm256_loadu_pd(p1);  // x y z nx
-  const __m256d r2 = _mm256_loadu_pd(p2), r3 = _mm256_loadu_pd(p3);
-  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);  // x0 x1 z0 z1, y0 y1 nx0 nx1
-  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
-  const __m256d n02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p0 + 4)), _mm_loadu_pd(p2 + 4), 1);
-  const __m256d n13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p1 + 4)), _mm_loadu_pd(p3 + 4), 1);
-  return {_mm256_permute2f128_pd(t0, t2, 0x20), _mm256_permute2f128_pd(t1, t3, 0x20),
-          _mm256_permute2f128_pd(t0, t2, 0x31), _mm256_permute2f128_pd(t1, t3, 0x31),
-          _mm256_unpacklo_pd(n02, n13), _mm256_unpackhi_pd(n02, n13)};
-}
-
 }  // namespace
+}  // namespace cpvs
 
-namespace detail {
+#include "libcpvs/lookup/lanes_x86.h"
 
+namespace cpvs {
 namespace {
 
-template <class Shape>
-void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
-  // Local copies: the byte stores to out.state could alias *in.mapping, which would make the compiler reload
-  // every constant in every iteration.
-  const ViewMapping mapping = *in.mapping;
-  const CellSettings settings = in.settings;
-  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
-  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
-  const double* const points = in.points;
-  const uint32_t* const indices = in.indices;
-  auto pointAt = [&](size_t j) { return points + 6 * size_t(indices ? indices[j] : j); };
-  for (size_t j = 0; j < in.count; j += 4) {
-    const size_t lanes = in.count - j < 4 ? in.count - j : 4;
-    // A short last group repeats its last point in the unused lanes (read, never stored).
-    const double* p[4];
-    for (size_t l = 0; l < 4; ++l) p[l] = pointAt(j + (l < lanes ? l : lanes - 1));
-    const Points4 q = transpose(p[0], p[1], p[2], p[3]);
-    const CellVerdict<Real4, Mask4> v =
-        cellVerdict<Real4, Mask4, Shape>(mapping, settings, spotOrNull, q.px, q.py, q.pz, q.nx, q.ny, q.nz);
+struct Avx2Lanes {
+  using Real = Real4;
+  using Mask = Mask4;
+  static constexpr size_t kWidth = 4;
+  static void load(const double* const (&p)[4], Real4 (&c)[6]) {
+    const Coords4 t = transpose4(p[0], p[1], p[2], p[3]);
+    for (int i = 0; i < 6; ++i) c[i] = t.c[i];
+  }
+  static void store(const CellVerdict<Real4, Mask4>& v, const CellBatchOutput& out, size_t j, size_t lanes) {
     const __m128i x = _mm256_cvttpd_epi32(v.x.v), y = _mm256_cvttpd_epi32(v.y.v), z = _mm256_cvttpd_epi32(v.z.v);
     const uint32_t state = kSpreadBits[_mm256_movemask_pd(v.voxel.bits)] * kCellVoxel +
                            kSpreadBits[_mm256_movemask_pd(v.lit.bits)] * kCellLit;  // one byte per lane
@@ -122,7 +93,7 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
       _mm_storeu_si128(reinterpret_cast<__m128i*>(out.y + j), y);
       _mm_storeu_si128(reinterpret_cast<__m128i*>(out.z + j), z);
       std::memcpy(out.state + j, &state, 4);
-      continue;
+      return;
     }
     alignas(16) int32_t xs[4], ys[4], zs[4];
     _mm_store_si128(reinterpret_cast<__m128i*>(xs), x);
@@ -135,12 +106,14 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
       out.state[j + l] = uint8_t(state >> (8 * l));
     }
   }
-}
+};
 
 }  // namespace
 
+namespace detail {
+
 void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
-  withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<decltype(shape)>(in, out); });
+  withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<Avx2Lanes, decltype(shape)>(in, out); });
 }
 
 }  // namespace detail

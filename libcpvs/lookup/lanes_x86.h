@@ -1,0 +1,67 @@
+#pragma once
+// What the x86 batch kernels (batch_cells_avx2.cpp, batch_cells_avx512.cpp) share: the loop over a batch in
+// groups of the lane width, and loading four points as coordinate vectors. Included only by those files,
+// after their `#pragma GCC target`, and all in an unnamed namespace: each file compiles its own copy for its
+// own instruction set, and no copy can stand in for another at link time.
+#include <immintrin.h>
+
+#include <cstring>
+
+#include "libcpvs/lookup/batch_cells.h"
+
+namespace cpvs {
+namespace {
+
+// Four points (position and normal, 6 doubles each) as six vectors of one coordinate each: px py pz nx ny nz.
+struct Coords4 {
+  __m256d c[6];
+};
+inline Coords4 transpose4(const double* p0, const double* p1, const double* p2, const double* p3) {
+  const __m256d r0 = _mm256_loadu_pd(p0), r1 = _mm256_loadu_pd(p1);  // x y z nx
+  const __m256d r2 = _mm256_loadu_pd(p2), r3 = _mm256_loadu_pd(p3);
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);  // x0 x1 z0 z1, y0 y1 nx0 nx1
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  const __m256d n02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p0 + 4)), _mm_loadu_pd(p2 + 4), 1);
+  const __m256d n13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p1 + 4)), _mm_loadu_pd(p3 + 4), 1);
+  return {{_mm256_permute2f128_pd(t0, t2, 0x20), _mm256_permute2f128_pd(t1, t3, 0x20),
+           _mm256_permute2f128_pd(t0, t2, 0x31), _mm256_permute2f128_pd(t1, t3, 0x31),
+           _mm256_unpacklo_pd(n02, n13), _mm256_unpackhi_pd(n02, n13)}};
+}
+
+// Bit l of a 4-bit lane mask spread to byte l (little-endian: byte l of the stored word is lane l).
+constexpr uint32_t kSpreadBits[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
+                                      0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
+                                      0x01010000, 0x01010001, 0x01010100, 0x01010101};
+
+// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them, L::store
+// writes a group's cells; a short last group repeats its last point in the unused lanes, read, never stored).
+template <class L, class Shape>
+void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
+  using Real = typename L::Real;
+  using Mask = typename L::Mask;
+  constexpr size_t kWidth = L::kWidth;
+  // Local copies: the byte stores to out.state could alias *in.mapping, which would make the compiler reload
+  // every constant in every group.
+  const ViewMapping mapping = *in.mapping;
+  const CellSettings settings = in.settings;
+  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
+  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
+  const double* const points = in.points;
+  const uint32_t* const indices = in.indices;
+  for (size_t j = 0; j < in.count; j += kWidth) {
+    const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
+    const double* p[kWidth];
+    for (size_t l = 0; l < kWidth; ++l) {
+      const size_t k = j + (l < lanes ? l : lanes - 1);
+      p[l] = points + 6 * size_t(indices ? indices[k] : k);
+    }
+    Real c[6];
+    L::load(p, c);
+    const CellVerdict<Real, Mask> v =
+        cellVerdict<Real, Mask, Shape>(mapping, settings, spotOrNull, c[0], c[1], c[2], c[3], c[4], c[5]);
+    L::store(v, out, j, lanes);
+  }
+}
+
+}  // namespace
+}  // namespace cpvs
