@@ -464,22 +464,30 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
     // either outcome.
     const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
     const uint32_t sh = grid.shift, level = grid.level;
+    // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
+    const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
+    const uint32_t rootEntry = uint32_t(dag.rootCode);  // the root, at offset 0
+    const int32_t *xs = cells.x, *ys = cells.y, *zs = cells.z;
+    const uint8_t* states = cells.state;
+    float* answers = out.data();
+    Walk* w = walks.data();
     size_t started = 0;
     for (size_t j = 0; j < count; ++j) {
       const uint32_t i = indices ? indices[j] : uint32_t(j);
-      const uint32_t x = uint32_t(cells.x[j]), y = uint32_t(cells.y[j]), z = uint32_t(cells.z[j]);  // 0 unless a voxel
-      const bool voxel = cells.state[j] == kCellVoxel;
-      const uint32_t entry = grid.empty() ? uint32_t(dag.rootCode)  // the root, at offset 0
-                                          : grid.cells[(size_t(z >> sh) << (2 * level)) | (size_t(y >> sh) << level) | (x >> sh)];
+      const uint32_t x = uint32_t(xs[j]), y = uint32_t(ys[j]), z = uint32_t(zs[j]);  // 0 unless a voxel
+      const uint32_t state = states[j];
+      const uint32_t entry =
+          gridCells ? gridCells[(size_t(z >> sh) << (2 * level)) | (size_t(y >> sh) << level) | (x >> sh)] : rootEntry;
       const uint32_t code = entry & 3u;
-      const bool lit = voxel ? code != uint32_t(ChildCode::Shadowed) : cells.state[j] == kCellLit;
-      out[i] = lit ? 1.0f : 0.0f;  // final unless a walk follows
+      // Integer flags, not conditionals: the outcomes are unpredictable, and a branch on them mispredicts.
+      const uint32_t voxel = state == kCellVoxel;
+      const uint32_t lit = (voxel & uint32_t(code != uint32_t(ChildCode::Shadowed))) | uint32_t(state == kCellLit);
+      answers[i] = float(lit);  // final unless a walk follows
       prefetchNode(nodes + (entry >> 2));
-      walks[started] = {x, y, z, entry >> 2, i};
-      started += voxel && code == uint32_t(ChildCode::Ref) ? 1u : 0u;
+      w[started] = {x, y, z, entry >> 2, i};
+      started += voxel & uint32_t(code == uint32_t(ChildCode::Ref));
     }
     size_t active = started;
-    Walk* w = walks.data();
     // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
     for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
       const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
@@ -491,7 +499,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
         const unsigned c = (((walk.z >> bit) & 1u) << 2) | (((walk.y >> bit) & 1u) << 1) | ((walk.x >> bit) & 1u);
         const uint32_t code = childCodeOf(header, c);
         const bool ref = code == uint32_t(ChildCode::Ref);
-        out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;  // final unless a reference
+        answers[walk.out] = float(code != uint32_t(ChildCode::Shadowed));  // final unless a reference
         // Without a reference this reads the header again: in bounds, and no branch.
         walk.offset = base + readRef(nodes, walk.offset, header, c);
         prefetchNode(nodes + walk.offset);
@@ -508,7 +516,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
       const unsigned c = walk.z & 7u;
       const uint32_t code = childCodeOf(header, c);
       const bool ref = code == uint32_t(ChildCode::Ref);
-      out[walk.out] = code == uint32_t(ChildCode::Shadowed) ? 0.0f : 1.0f;
+      answers[walk.out] = float(code != uint32_t(ChildCode::Shadowed));
       walk.offset = ref ? readRef(nodes, walk.offset, header, c) : 0u;
       prefetch(dag.leaves.data() + walk.offset);
       w[kept] = walk;
@@ -518,8 +526,8 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
     const uint64_t* leaves = dag.leaves.data();
     for (size_t i = 0; i < kept; ++i) {
       const Walk& walk = w[i];
-      const bool shadowed = (leaves[walk.offset] >> ((walk.y & 7u) * 8u + (walk.x & 7u))) & 1u;
-      out[walk.out] = shadowed ? 0.0f : 1.0f;
+      const uint32_t shadowed = uint32_t(leaves[walk.offset] >> ((walk.y & 7u) * 8u + (walk.x & 7u))) & 1u;
+      answers[walk.out] = float(shadowed ^ 1u);
     }
   }
 }
