@@ -380,6 +380,7 @@ struct BatchScratch {
   std::vector<uint8_t> state;
   std::vector<uint32_t> indices, face;
   std::vector<LightShadow::PendingPoint> pending;
+  std::vector<uint32_t> counts;
   void resize(size_t count) {
     if (x.size() >= count) return;
     x.resize(count);
@@ -389,44 +390,12 @@ struct BatchScratch {
     indices.resize(count);
     face.resize(count);
     pending.resize(count);
+    counts.resize(count);
   }
 };
 constexpr uint32_t kNoView = ~0u;
-
-// One step of a walk: a node to read (size >= 8: the node at unit `offset`) or a leaf mask (size == 0: leaves[offset]).
-struct Task {
-  uint32_t point;  // index into the pending points
-  uint32_t offset;
-  uint32_t ox, oy;  // origin of the node's (or leaf's) texels
-  uint32_t size;
-};
-
-// A FIFO of tasks that grows when full (a wide PCF footprint can spawn many).
-class TaskQueue {
-public:
-  TaskQueue() : tasks_(256) {}
-  bool empty() const { return head_ == tail_; }
-  size_t size() const { return tail_ - head_; }
-  void push(const Task& t) {
-    if (size() == tasks_.size()) grow();
-    tasks_[tail_++ & (tasks_.size() - 1)] = t;
-  }
-  Task pop() { return tasks_[head_++ & (tasks_.size() - 1)]; }
-
-private:
-  void grow() {
-    std::vector<Task> bigger(tasks_.size() * 2);
-    for (size_t i = 0; i < size(); ++i) bigger[i] = tasks_[(head_ + i) & (tasks_.size() - 1)];
-    tail_ = size();
-    head_ = 0;
-    tasks_.swap(bigger);
-  }
-  std::vector<Task> tasks_;
-  size_t head_ = 0, tail_ = 0;
-};
-
-// Walks in flight: enough to overlap the cache misses of one step of each, few enough to stay in L1.
-constexpr size_t kWalksInFlight = 24;
+// Kernels up to this size cover at most 2 x 2 tiles: LightShadow::countCornerTiles.
+constexpr int kCornerTileKernel = 9;
 
 inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
 // A node is at most 17 units (34 bytes: a header and 8 wide references) and may straddle two cache lines:
@@ -442,92 +411,264 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
 
 }  // namespace
 
-// K = 1: one path per point. The walks go level by level: every point of the view takes its step at one
-// level before any takes the next, in a loop without data-dependent branches (the child's code decides only
-// which values are kept), so the loop runs at the speed of its loads: each child's node is prefetched when
-// its reference is read and read one pass over the batch later, by which time it has arrived from memory.
-CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOutput& cells,
-                                                const uint32_t* indices, size_t count, std::span<float> out) const {
-  struct Walk {
-    uint32_t x, y, z;
-    uint32_t offset;  // the node's words, then (after the leaf-parent level) the leaf's index
-    uint32_t out;
-  };
-  thread_local std::vector<Walk> walks;
-  if (walks.size() < count) walks.resize(count);
-  {
-    const DagView& dag = dags_[view];
-    const TopGrid& grid = grids_[view];
-    const uint16_t* nodes = dag.nodes.data();
-    // Start: the root, or the top-grid cell (whose code may answer at once). Every point's answer is written
-    // here (the cell's, or the start code's) and a walk kept for those that need one, without a branch on
-    // either outcome.
-    const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
-    const uint32_t sh = grid.shift, level = grid.level;
-    // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
-    const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
-    const uint32_t rootEntry = uint32_t(dag.rootCode);  // the root, at offset 0
-    const int32_t *xs = cells.x, *ys = cells.y, *zs = cells.z;
-    const uint8_t* states = cells.state;
-    float* answers = out.data();
-    Walk* w = walks.data();
-    size_t started = 0;
-    for (size_t j = 0; j < count; ++j) {
-      const uint32_t i = indices ? indices[j] : uint32_t(j);
-      const uint32_t x = uint32_t(xs[j]), y = uint32_t(ys[j]), z = uint32_t(zs[j]);  // 0 unless a voxel
-      const uint32_t state = states[j];
-      const uint32_t entry =
-          gridCells ? gridCells[(size_t(z >> sh) << (2 * level)) | (size_t(y >> sh) << level) | (x >> sh)] : rootEntry;
-      const uint32_t code = entry & 3u;
-      // Integer flags, not conditionals: the outcomes are unpredictable, and a branch on them mispredicts.
-      const uint32_t voxel = state == kCellVoxel;
-      const uint32_t lit = (voxel & uint32_t(code != uint32_t(ChildCode::Shadowed))) | uint32_t(state == kCellLit);
-      answers[i] = float(lit);  // final unless a walk follows
-      prefetchNode(nodes + (entry >> 2));
-      w[started] = {x, y, z, entry >> 2, i};
-      started += voxel & uint32_t(code == uint32_t(ChildCode::Ref));
-    }
-    size_t active = started;
-    // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-    for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
-      const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
-      const uint32_t base = dag.childBase[bit + 1];
-      size_t kept = 0;
-      for (size_t i = 0; i < active; ++i) {
-        Walk walk = w[i];
-        const uint32_t header = nodes[walk.offset];
-        const unsigned c = (((walk.z >> bit) & 1u) << 2) | (((walk.y >> bit) & 1u) << 1) | ((walk.x >> bit) & 1u);
-        const uint32_t code = childCodeOf(header, c);
-        const bool ref = code == uint32_t(ChildCode::Ref);
-        answers[walk.out] = float(code != uint32_t(ChildCode::Shadowed));  // final unless a reference
-        // Without a reference this reads the header again: in bounds, and no branch.
-        walk.offset = base + readRef(nodes, walk.offset, header, c);
-        prefetchNode(nodes + walk.offset);
-        w[kept] = walk;
-        kept += ref ? 1u : 0u;
-      }
-      active = kept;
-    }
-    // Leaf-parent level: z-only split into 8x8x1 leaves.
+namespace {
+
+// One path from a node down to a voxel (PCF: to the voxel's 8 x 8 tile).
+struct Walk {
+  uint32_t x, y, z;
+  uint32_t offset;  // the node's units, then (after the leaf-parent level) the leaf's index
+  uint32_t out;     // where the result goes
+};
+
+// Where a walk's result goes: a visibility (1 lit, 0 shadowed) or the 8 x 8 mask of its tile at its slice.
+struct VoxelAnswers {
+  float* answers;
+  void homogeneous(uint32_t out, uint32_t code) const { answers[out] = float(code != uint32_t(ChildCode::Shadowed)); }
+  void leaf(const Walk& walk, uint64_t mask) const {
+    answers[walk.out] = float(uint32_t(mask >> ((walk.y & 7u) * 8u + (walk.x & 7u)) & 1u) ^ 1u);
+  }
+};
+struct TileMasks {
+  uint64_t* masks;
+  void homogeneous(uint32_t out, uint32_t code) const {
+    masks[out] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+  }
+  void leaf(const Walk& walk, uint64_t mask) const { masks[walk.out] = mask; }
+};
+
+// The walks w[0, active), each at a node of edge startSize, go down level by level: every walk takes its step
+// at one level before any takes the next, in a loop without data-dependent branches (the child's code decides
+// only which values are kept), so the loop runs at the speed of its loads: each child's node is prefetched
+// when its reference is read and read one pass over the walks later, by which time it has arrived. A walk's
+// result is written at every step (final unless a reference follows).
+template <class Results>
+[[gnu::always_inline]] inline void descend(const DagView& dag, Walk* w, size_t active, uint32_t startSize,
+                                           const Results& results) {
+  const uint16_t* nodes = dag.nodes.data();
+  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+    const uint32_t base = dag.childBase[bit + 1];
     size_t kept = 0;
     for (size_t i = 0; i < active; ++i) {
       Walk walk = w[i];
       const uint32_t header = nodes[walk.offset];
-      const unsigned c = walk.z & 7u;
+      const unsigned c = (((walk.z >> bit) & 1u) << 2) | (((walk.y >> bit) & 1u) << 1) | ((walk.x >> bit) & 1u);
       const uint32_t code = childCodeOf(header, c);
-      const bool ref = code == uint32_t(ChildCode::Ref);
-      answers[walk.out] = float(code != uint32_t(ChildCode::Shadowed));
-      walk.offset = ref ? readRef(nodes, walk.offset, header, c) : 0u;
-      prefetch(dag.leaves.data() + walk.offset);
+      results.homogeneous(walk.out, code);
+      // Without a reference this reads the header again: in bounds, and no branch.
+      walk.offset = base + readRef(nodes, walk.offset, header, c);
+      prefetchNode(nodes + walk.offset);
       w[kept] = walk;
-      kept += ref ? 1u : 0u;
+      kept += code == uint32_t(ChildCode::Ref);
     }
-    // Leaves: the voxel's bit.
-    const uint64_t* leaves = dag.leaves.data();
+    active = kept;
+  }
+  // Leaf-parent level: z-only split into 8x8x1 leaves.
+  size_t kept = 0;
+  for (size_t i = 0; i < active; ++i) {
+    Walk walk = w[i];
+    const uint32_t header = nodes[walk.offset];
+    const unsigned c = walk.z & 7u;
+    const uint32_t code = childCodeOf(header, c);
+    const uint32_t ref = code == uint32_t(ChildCode::Ref);
+    results.homogeneous(walk.out, code);
+    walk.offset = readRef(nodes, walk.offset, header, c) & (0u - ref);  // leaf 0 when not a reference
+    prefetch(dag.leaves.data() + walk.offset);
+    w[kept] = walk;
+    kept += ref;
+  }
+  // Leaves.
+  const uint64_t* leaves = dag.leaves.data();
+  for (size_t i = 0; i < kept; ++i) results.leaf(w[i], leaves[w[i].offset]);
+}
+
+// The top-grid entry of voxel (x, y, z), or the root's (code, offset 0) without a grid.
+[[gnu::always_inline]] inline uint32_t startEntry(const uint32_t* gridCells, uint32_t shift, uint32_t level,
+                                                  uint32_t rootEntry, uint32_t x, uint32_t y, uint32_t z) {
+  return gridCells ? gridCells[(size_t(z >> shift) << (2 * level)) | (size_t(y >> shift) << level) | (x >> shift)]
+                   : rootEntry;
+}
+
+thread_local std::vector<Walk> tWalks;
+
+Walk* walkStorage(size_t count) {
+  if (tWalks.size() < count) tWalks.resize(count);
+  return tWalks.data();
+}
+
+}  // namespace
+
+// K = 1: one path per point (descend), started from the top-grid cell, whose code may answer at once.
+CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOutput& cells,
+                                                const uint32_t* indices, size_t count, std::span<float> out) const {
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  const uint16_t* nodes = dag.nodes.data();
+  // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
+  const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
+  const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
+  const int32_t *xs = cells.x, *ys = cells.y, *zs = cells.z;
+  const uint8_t* states = cells.state;
+  float* answers = out.data();
+  Walk* w = walkStorage(count);
+  size_t started = 0;
+  for (size_t j = 0; j < count; ++j) {
+    const uint32_t i = indices ? indices[j] : uint32_t(j);
+    const uint32_t x = uint32_t(xs[j]), y = uint32_t(ys[j]), z = uint32_t(zs[j]);  // 0 unless a voxel
+    const uint32_t state = states[j];
+    const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, z);
+    const uint32_t code = entry & 3u;
+    // Integer flags, not conditionals: the outcomes are unpredictable, and a branch on them mispredicts.
+    const uint32_t voxel = state == kCellVoxel;
+    const uint32_t lit = (voxel & uint32_t(code != uint32_t(ChildCode::Shadowed))) | uint32_t(state == kCellLit);
+    answers[i] = float(lit);  // final unless a walk follows
+    prefetchNode(nodes + (entry >> 2));
+    w[started] = {x, y, z, entry >> 2, i};
+    started += voxel & uint32_t(code == uint32_t(ChildCode::Ref));
+  }
+  descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, VoxelAnswers{answers});
+}
+
+// K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: one walk
+// per distinct corner tile (descend to the tile's mask at the slice), the mask AND-ed with the kernel's part
+// of the tile and counted. The corners' paths share their upper nodes, which stay in cache.
+CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
+                                                      std::vector<uint32_t>& counts) const {
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  const uint16_t* nodes = dag.nodes.data();
+  const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
+  const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
+  thread_local std::vector<uint64_t> masks;
+  if (masks.size() < 4 * pending.size()) masks.resize(4 * pending.size());
+  Walk* w = walkStorage(4 * pending.size());
+  size_t started = 0;
+  for (size_t p = 0; p < pending.size(); ++p) {
+    const Footprint& f = pending[p].f;
+    const uint32_t z = pending[p].z;
+    const uint32_t twoX = uint32_t((f.x0 >> 3) != (f.x1 >> 3)), twoY = uint32_t((f.y0 >> 3) != (f.y1 >> 3));
+    for (uint32_t q = 0; q < 4; ++q) {
+      const uint32_t x = q & 1u ? f.x1 : f.x0, y = q & 2u ? f.y1 : f.y0;
+      // A corner in the same tile as another counts nothing (mask 0, no walk).
+      const uint32_t distinct = (q & 1u ? twoX : 1u) & (q & 2u ? twoY : 1u);
+      const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, z);
+      const uint32_t code = entry & 3u;
+      const uint32_t out = uint32_t(4 * p + q);
+      masks[out] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(distinct));
+      prefetchNode(nodes + (entry >> 2));
+      w[started] = {x, y, z, entry >> 2, out};
+      started += distinct & uint32_t(code == uint32_t(ChildCode::Ref));
+    }
+  }
+  descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, TileMasks{masks.data()});
+  counts.resize(pending.size());
+  for (size_t p = 0; p < pending.size(); ++p) {
+    const Footprint& f = pending[p].f;
+    uint32_t count = 0;
+    for (uint32_t q = 0; q < 4; ++q) {
+      const uint32_t ox = (q & 1u ? f.x1 : f.x0) & ~7u, oy = (q & 2u ? f.y1 : f.y0) & ~7u;
+      count += popcount64(masks[4 * p + q] & tileMask(f, ox, oy));
+    }
+    counts[p] = count;
+  }
+}
+
+// K > 1: the shadowed texels of each pending footprint (all in one view), counted level by level like
+// walkVoxels: every node the footprint overlaps is one entry; each level's pass reads its entries' nodes and
+// writes the next level's entries, up to four per node (the children the footprint overlaps), with the
+// homogeneous children's overlap counted at once, so no step branches on what it finds. Leaf masks are
+// AND-ed with the kernel's mask of their tile and counted.
+CPVS_POPCNT_CLONES void LightShadow::countFootprints(uint32_t view, std::span<const PendingPoint> pending, int pcfKernel,
+                                                     std::vector<uint32_t>& counts) const {
+  struct Entry {
+    uint32_t offset;  // the node's units, then (below the leaf parents) the leaf's index
+    uint32_t point;   // index into pending
+    uint32_t ox, oy;  // the node's (or leaf's) first texel
+  };
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  const uint16_t* nodes = dag.nodes.data();
+  const uint64_t* leaves = dag.leaves.data();
+  counts.assign(pending.size(), 0);
+  // A footprint of K texels spans at most `span` nodes per axis at any level (nodes are at least 8 texels
+  // wide), so a chunk of points has at most span^2 entries each per level.
+  const size_t span = size_t(pcfKernel + 6) / 8 + 1;
+  const size_t chunk = std::max<size_t>(1, kLookupBatch / (span * span));
+  thread_local std::vector<Entry> current, next;
+  const size_t capacity = std::min(chunk, pending.size()) * span * span + 4;  // + 4: a rejected last write
+  if (current.size() < capacity) current.resize(capacity), next.resize(capacity);
+  const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
+  for (size_t begin = 0; begin < pending.size(); begin += chunk) {
+    const size_t end = std::min(pending.size(), begin + chunk);
+    size_t active = 0;
+    // Start: the root, or the top-grid cells the footprint overlaps (whose codes may answer at once).
+    for (size_t p = begin; p < end; ++p) {
+      const PendingPoint& pp = pending[p];
+      if (grid.empty()) {
+        current[active++] = {0, uint32_t(p), 0, 0};
+        continue;
+      }
+      const uint32_t sh = grid.shift, level = grid.level;
+      const size_t zRow = size_t(pp.z >> sh) << (2 * level);
+      for (uint32_t gy = pp.f.y0 >> sh; gy <= (pp.f.y1 >> sh); ++gy)
+        for (uint32_t gx = pp.f.x0 >> sh; gx <= (pp.f.x1 >> sh); ++gx) {
+          const uint32_t entry = grid.cells[zRow | (size_t(gy) << level) | gx];
+          const uint32_t code = entry & 3u;
+          counts[p] += area(pp.f, gx << sh, gy << sh, startSize) * uint32_t(code == uint32_t(ChildCode::Shadowed));
+          prefetchNode(nodes + (entry >> 2));
+          current[active] = {entry >> 2, uint32_t(p), gx << sh, gy << sh};
+          active += code == uint32_t(ChildCode::Ref);
+        }
+    }
+    // Octree levels: the children c = (z bit, y half, x half) the footprint overlaps.
+    for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+      const uint32_t half = size >> 1;
+      const uint32_t base = dag.childBase[std::countr_zero(size)];  // as DagView::child
+      size_t kept = 0;
+      for (size_t i = 0; i < active; ++i) {
+        const Entry e = current[i];
+        const PendingPoint& pp = pending[e.point];
+        const uint32_t header = nodes[e.offset];
+        const unsigned zbit = (pp.z & half) ? 4u : 0u;
+        uint32_t shadowed = 0;
+        for (unsigned q = 0; q < 4; ++q) {
+          const unsigned xb = q & 1u, yb = q >> 1;
+          const uint32_t cx = e.ox + xb * half, cy = e.oy + yb * half;
+          const uint32_t covered = area(pp.f, cx, cy, half);
+          const unsigned c = zbit | q;
+          const uint32_t code = childCodeOf(header, c);
+          shadowed += covered * uint32_t(code == uint32_t(ChildCode::Shadowed));
+          const uint32_t child = base + readRef(nodes, e.offset, header, c);
+          const uint32_t keep = uint32_t(covered != 0) & uint32_t(code == uint32_t(ChildCode::Ref));
+          prefetchNode(nodes + (keep ? child : e.offset));
+          next[kept] = {child, e.point, cx, cy};
+          kept += keep;
+        }
+        counts[e.point] += shadowed;
+      }
+      std::swap(current, next);
+      active = kept;
+    }
+    // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
+    size_t kept = 0;
+    for (size_t i = 0; i < active; ++i) {
+      const Entry e = current[i];
+      const PendingPoint& pp = pending[e.point];
+      const uint32_t header = nodes[e.offset];
+      const unsigned c = pp.z & 7u;
+      const uint32_t code = childCodeOf(header, c);
+      counts[e.point] += area(pp.f, e.ox, e.oy, 8) * uint32_t(code == uint32_t(ChildCode::Shadowed));
+      const uint32_t keep = code == uint32_t(ChildCode::Ref);
+      const uint32_t leaf = readRef(nodes, e.offset, header, c);
+      prefetch(leaves + (keep ? leaf : 0u));
+      next[kept] = {leaf, e.point, e.ox, e.oy};
+      kept += keep;
+    }
+    // Leaves: the kernel's texels of the tile.
     for (size_t i = 0; i < kept; ++i) {
-      const Walk& walk = w[i];
-      const uint32_t shadowed = uint32_t(leaves[walk.offset] >> ((walk.y & 7u) * 8u + (walk.x & 7u))) & 1u;
-      answers[walk.out] = float(shadowed ^ 1u);
+      const Entry e = next[i];
+      counts[e.point] += popcount64(leaves[e.offset] & tileMask(pending[e.point].f, e.ox, e.oy));
     }
   }
 }
@@ -550,29 +691,35 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
   thread_local BatchScratch scratch;
   scratch.resize(count);
   std::vector<PendingPoint>& pendingStore = scratch.pending;
-  size_t pendingCount = 0;
   CellBatchInput in;
   in.settings = cellSettings(options);
   in.points = reinterpret_cast<const double*>(points.data());
   const CellBatchOutput cells{scratch.x.data(), scratch.y.data(), scratch.z.data(), scratch.state.data()};
-  // Lane j of a mapped run (point indices[j], or j) into out[] and the pending walks.
-  auto collect = [&](uint32_t view, const uint32_t* indices, size_t lanes) {
+  // K > 1, lane j of a mapped run (point indices[j], or j): the answers that need no DAG into out[], the
+  // footprints that do counted level by level (countFootprints), then their answers.
+  auto filter = [&](uint32_t view, const uint32_t* indices, size_t lanes) {
     const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
+    const bool walks = dag.rootCode == ChildCode::Ref;
+    size_t pendingCount = 0;
     for (size_t j = 0; j < lanes; ++j) {
       const uint32_t i = indices ? indices[j] : uint32_t(j);
-      const uint8_t state = cells.state[j];
+      const uint32_t state = cells.state[j];
       const int64_t x = cells.x[j], y = cells.y[j];
       const Footprint f{uint32_t(std::max<int64_t>(0, x - h)), uint32_t(std::min<int64_t>(n - 1, x + h)),
                         uint32_t(std::max<int64_t>(0, y - h)), uint32_t(std::min<int64_t>(n - 1, y + h))};
-      float answer = state == kCellLit ? 1.0f : 0.0f;
-      if (state == kCellVoxel && dag.rootCode != ChildCode::Ref)  // a DAG of one colour: no walk
-        answer = dag.rootCode == ChildCode::Lit ? 1.0f : value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
-      out[i] = answer;
+      out[i] = float(uint32_t(state == kCellLit));  // final unless a walk follows
+      if (!walks && state == kCellVoxel)  // a DAG of one colour (rare): no walk
+        out[i] = dag.rootCode == ChildCode::Lit ? 1.0f : value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
       // Written every time, kept only for a walk: no branch on the point's (unpredictable) outcome.
       pendingStore[pendingCount] = {f, uint32_t(cells.z[j]), view, i};
-      pendingCount += state == kCellVoxel && dag.rootCode == ChildCode::Ref ? 1u : 0u;
+      pendingCount += uint32_t(state == kCellVoxel) & uint32_t(walks);
     }
+    const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);
+    std::vector<uint32_t>& counts = scratch.counts;
+    if (k <= kCornerTileKernel) countCornerTiles(view, pending, counts);
+    else countFootprints(view, pending, k, counts);
+    for (size_t p = 0; p < pending.size(); ++p) out[pending[p].out] = value(counts[p]);
   };
   if (views_.size() == 1) {  // directional and spot lights: the influence test runs in mapCells
     in.mapping = &mappings_[0];
@@ -580,7 +727,7 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
     in.count = count;
     mapCells(in, cells);
     if (k <= 1) walkVoxels(0, cells, nullptr, count, out);
-    else collect(0, nullptr, count);
+    else filter(0, nullptr, count);
   } else {  // point lights: the cube face of each point first, then each face's points together
     std::vector<uint32_t>& order = scratch.indices;
     std::vector<uint32_t>& face = scratch.face;
@@ -603,85 +750,9 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
       in.count = starts[v + 1] - starts[v];
       mapCells(in, cells);
       if (k <= 1) walkVoxels(v, cells, in.indices, in.count, out);
-      else collect(v, in.indices, in.count);
+      else filter(v, in.indices, in.count);
     }
   }
-  const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);
-  if (pending.empty()) return;
-
-  // Phase 2: the walks, interleaved through a FIFO.
-  std::vector<uint32_t> counts(pending.size(), 0);
-  TaskQueue queue;
-  size_t next = 0;
-  auto launch = [&](uint32_t pi) {
-    const PendingPoint& pp = pending[pi];
-    const DagView& dag = dags_[pp.view];
-    const TopGrid& grid = grids_[pp.view];
-    if (grid.empty()) {
-      prefetchNode(dag.nodes.data());
-      queue.push({pi, 0, 0, 0, dag.resolution});
-      return;
-    }
-    const uint32_t shift = grid.shift, level = grid.level, size = 1u << shift;
-    const size_t zRow = size_t(pp.z >> shift) << (2 * level);
-    for (uint32_t gy = pp.f.y0 >> shift; gy <= (pp.f.y1 >> shift); ++gy)
-      for (uint32_t gx = pp.f.x0 >> shift; gx <= (pp.f.x1 >> shift); ++gx) {
-        const uint32_t entry = grid.cells[zRow | (size_t(gy) << level) | gx];
-        const uint32_t code = entry & 3u;
-        if (code == uint32_t(ChildCode::Lit)) continue;
-        if (code == uint32_t(ChildCode::Shadowed)) {
-          counts[pi] += area(pp.f, gx << shift, gy << shift, size);
-          continue;
-        }
-        prefetchNode(dag.nodes.data() + (entry >> 2));
-        queue.push({pi, entry >> 2, gx << shift, gy << shift, size});
-      }
-  };
-  for (;;) {
-    while (next < pending.size() && queue.size() < kWalksInFlight) launch(uint32_t(next++));
-    if (queue.empty()) break;
-    const Task t = queue.pop();
-    const PendingPoint& pp = pending[t.point];
-    const DagView& dag = dags_[pp.view];
-    const uint16_t* nodes = dag.nodes.data();
-    if (t.size == 0) {  // a leaf mask
-      counts[t.point] += popcount64(dag.leaves[t.offset] & tileMask(pp.f, t.ox, t.oy));
-      continue;
-    }
-    const uint32_t header = nodes[t.offset];
-    if (t.size == 8) {  // leaf parent: z-only split
-      const unsigned c = pp.z & 7u;
-      const uint32_t code = childCodeOf(header, c);
-      if (code == uint32_t(ChildCode::Shadowed)) {
-        counts[t.point] += area(pp.f, t.ox, t.oy, 8);
-      } else if (code == uint32_t(ChildCode::Ref)) {
-        const uint32_t leaf = readRef(nodes, t.offset, header, c);
-        prefetch(dag.leaves.data() + leaf);
-        queue.push({t.point, leaf, t.ox, t.oy, 0});
-      }
-      continue;
-    }
-    const uint32_t half = t.size >> 1;
-    const unsigned zbit = (pp.z & half) ? 4u : 0u;
-    // Children the footprint overlaps: one or two in x and in y.
-    const unsigned xbFirst = pp.f.x0 >= t.ox + half ? 1u : 0u, xbLast = pp.f.x1 >= t.ox + half ? 1u : 0u;
-    const unsigned ybFirst = pp.f.y0 >= t.oy + half ? 1u : 0u, ybLast = pp.f.y1 >= t.oy + half ? 1u : 0u;
-    for (unsigned yb = ybFirst; yb <= ybLast; ++yb)
-      for (unsigned xb = xbFirst; xb <= xbLast; ++xb) {
-        const unsigned c = zbit | (yb << 1) | xb;
-        const uint32_t code = childCodeOf(header, c);
-        if (code == uint32_t(ChildCode::Lit)) continue;
-        const uint32_t cx = t.ox + xb * half, cy = t.oy + yb * half;
-        if (code == uint32_t(ChildCode::Shadowed)) {
-          counts[t.point] += area(pp.f, cx, cy, half);
-          continue;
-        }
-        const uint32_t child = dag.child(t.offset, header, c, t.size);
-        prefetchNode(nodes + child);
-        queue.push({t.point, child, cx, cy, half});
-      }
-  }
-  for (size_t pi = 0; pi < pending.size(); ++pi) out[pending[pi].out] = value(counts[pi]);
 }
 
 }  // namespace cpvs

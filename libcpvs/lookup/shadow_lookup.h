@@ -171,6 +171,11 @@ public:
   struct PendingPoint;  // a point of a batch whose answer needs the DAG (shadow_lookup.cpp)
 
 private:
+  // K <= 9: the same, one walk per corner tile of each footprint.
+  void countCornerTiles(uint32_t view, std::span<const PendingPoint> pending, std::vector<uint32_t>& counts) const;
+  // K > 1: shadowed texels of each pending footprint of one view (counts[i] for pending[i]).
+  void countFootprints(uint32_t view, std::span<const PendingPoint> pending, int pcfKernel,
+                       std::vector<uint32_t>& counts) const;
   // K = 1: the walks of one view's mapped points (lane j: point indices[j], or j), answers into out.
   void walkVoxels(uint32_t view, const CellBatchOutput& cells, const uint32_t* indices, size_t count,
                   std::span<float> out) const;
