@@ -144,13 +144,17 @@ TEST(TopGrid, StartingFromTheGridGivesTheSameAnswers) {
       }
     }
   }
-  // The automatic level keeps the grid within an eighth of the DAG's bytes, at most 5 levels.
+  // The automatic level keeps the grid within the DAG's own bytes, at most kMaxAutomaticTopGridLevels, and
+  // takes the deepest level that does.
   for (uint32_t n : {64u, 256u}) {
     const ShadowDag dag = dagFrom(randomDepth(n, 3));
     const uint32_t level = TopGrid::automaticLevel(dag.view());
     EXPECT_LE(level, kMaxAutomaticTopGridLevels);
     if (level > 0) {
-      EXPECT_LE((uint64_t(4) << (3 * level)) * 8, dag.bytes());
+      EXPECT_LE(uint64_t(4) << (3 * level), dag.bytes());
+    }
+    if (level < kMaxAutomaticTopGridLevels) {
+      EXPECT_GT(uint64_t(4) << (3 * (level + 1)), dag.bytes());
     }
   }
   // Homogeneous roots fill the grid with their code.

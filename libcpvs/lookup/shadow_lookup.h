@@ -123,8 +123,8 @@ struct TopGrid {
   bool empty() const { return level == 0; }
   // Builds the grid for `level` levels (clamped to the DAG's node levels); level 0 gives an empty grid.
   static TopGrid build(const DagView& dag, uint32_t level);
-  // The level LightShadow picks by default: kMaxAutomaticTopGridLevels, lowered until the grid takes at most
-  // an eighth of the DAG's own bytes (a small DAG gains little from skipping levels that stay in cache anyway).
+  // The level LightShadow picks by default: kMaxAutomaticTopGridLevels, lowered until the grid takes no more
+  // bytes than the DAG itself (a small DAG gains little from skipping levels that stay in cache anyway).
   static uint32_t automaticLevel(const DagView& dag);
 };
 
@@ -132,8 +132,8 @@ struct TopGrid {
 // lookups/s are the query's.
 inline constexpr size_t kLookupBatch = 4096;
 // Most top-grid levels a LightShadow builds unless told otherwise (docs/query.md has the measurement behind
-// it: 5 levels, 128 KiB per view, were the fastest at 4k and 16k).
-inline constexpr uint32_t kMaxAutomaticTopGridLevels = 5;
+// it: 6 levels, 1 MiB per view, were the fastest at 4k and 16k once the walks were branch-free).
+inline constexpr uint32_t kMaxAutomaticTopGridLevels = 6;
 inline constexpr int kAutomaticTopGrid = -1;
 
 // Whether voxel (x, y, z), all in [0, N), is shadowed: DagView::shadowed, starting from `grid` when it has one.
@@ -155,11 +155,12 @@ public:
   float visibility(const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) const;
   // The view a point falls in, or -1 outside the light's influence.
   int viewIndex(const glm::dvec3& point) const;
-  // The same answers for many points at once (out[i] for points[i]; out.size() == points.size()): the DAG
-  // walks of the batch advance level by level without data-dependent branches, each node's cache line
-  // prefetched when its parent is read and read one pass later, so cache misses overlap instead of adding up.
-  // PCF footprints are walked as one traversal that splits where the footprint spans several children
-  // (homogeneous children counted at once, leaf masks AND-ed with the kernel's tile mask and counted).
+  // The same answers for many points at once (out[i] for points[i]; out.size() == points.size()): the points
+  // are mapped to voxels eight or four at a time (batch_cells.h), then the DAG walks advance level by level in
+  // groups without data-dependent branches, each node's cache line prefetched when its parent is read and
+  // read one pass later, so cache misses overlap instead of adding up. PCF with K <= 9 walks the footprint's
+  // (at most four) corner tiles the same way and counts their masks AND-ed with the kernel's; larger K go
+  // level by level over every node the footprint overlaps (homogeneous children counted at once).
   void visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
 
   const Light& light() const { return light_; }
