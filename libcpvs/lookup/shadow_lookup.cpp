@@ -442,11 +442,11 @@ struct TileMasks {
 // node is prefetched when its reference is read and read one pass over the group later, by which time it has
 // arrived. A walk's result is written at every step (final unless a reference follows).
 template <class Results>
-[[gnu::always_inline]] inline void descendGroup(const DagView& dag, Walk* w, size_t active, uint32_t startSize,
-                                                const Results& results) {
+[[gnu::always_inline]] inline size_t descendGroup(const DagView& dag, Walk* w, size_t active, uint32_t startSize,
+                                                  const Results& results, uint32_t stopSize = 8) {
   const uint16_t* nodes = dag.nodes.data();
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+  for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
     const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
     const uint32_t base = dag.childBase[bit + 1];
     size_t kept = 0;
@@ -464,6 +464,8 @@ template <class Results>
     }
     active = kept;
   }
+  // Stopped above the leaves: the walks still going are w[0, active), at nodes of edge stopSize.
+  if (stopSize > 8) return active;
   // Leaf-parent level: z-only split into 8x8x1 leaves.
   size_t kept = 0;
   for (size_t i = 0; i < active; ++i) {
@@ -481,6 +483,7 @@ template <class Results>
   // Leaves.
   const uint64_t* leaves = dag.leaves.data();
   for (size_t i = 0; i < kept; ++i) results.leaf(w[i], leaves[w[i].offset]);
+  return 0;
 }
 
 // Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
@@ -542,9 +545,11 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
   descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, VoxelAnswers{answers});
 }
 
-// K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: one walk
-// per distinct corner tile (descend to the tile's mask at the slice), the mask AND-ed with the kernel's part
-// of the tile and counted. The corners' paths share their upper nodes, which stay in cache.
+// K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: each
+// distinct corner tile's mask at the slice (the same descent as K = 1, ending in the tile), AND-ed with the
+// kernel's part of the tile and counted. The corners share their path down to the smallest node that holds
+// them all, so one walk per footprint goes down to that node and the corner walks start there; points whose
+// corners lie in different top-grid cells walk each corner from its own cell.
 CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
                                                       std::vector<uint32_t>& counts) const {
   const DagView& dag = dags_[view];
@@ -552,35 +557,98 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
   const uint16_t* nodes = dag.nodes.data();
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
-  thread_local std::vector<uint64_t> masks;
-  if (masks.size() < 4 * pending.size()) masks.resize(4 * pending.size());
-  Walk* w = walkStorage(4 * pending.size());
-  size_t started = 0;
-  for (size_t p = 0; p < pending.size(); ++p) {
-    const Footprint& f = pending[p].f;
-    const uint32_t z = pending[p].z;
-    const uint32_t twoX = uint32_t((f.x0 >> 3) != (f.x1 >> 3)), twoY = uint32_t((f.y0 >> 3) != (f.y1 >> 3));
-    for (uint32_t q = 0; q < 4; ++q) {
-      const uint32_t x = q & 1u ? f.x1 : f.x0, y = q & 2u ? f.y1 : f.y0;
-      // A corner in the same tile as another counts nothing (mask 0, no walk).
-      const uint32_t distinct = (q & 1u ? twoX : 1u) & (q & 2u ? twoY : 1u);
-      const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, z);
-      const uint32_t code = entry & 3u;
-      const uint32_t out = uint32_t(4 * p + q);
-      masks[out] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(distinct));
-      prefetchNode(nodes + (entry >> 2));
-      w[started] = {x, y, z, entry >> 2, out};
-      started += distinct & uint32_t(code == uint32_t(ChildCode::Ref));
+  const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
+  const size_t n = pending.size();
+  thread_local std::vector<uint64_t> masks, shared;
+  thread_local std::vector<Walk> corners;
+  thread_local std::vector<uint32_t> order;
+  if (masks.size() < 4 * n) masks.resize(4 * n), corners.resize(4 * n);
+  if (shared.size() < n) shared.resize(n), order.resize(n);
+  Walk* w = walkStorage(n);
+  auto cornerAt = [](const Footprint& f, uint32_t q) {
+    return std::pair<uint32_t, uint32_t>{q & 1u ? f.x1 : f.x0, q & 2u ? f.y1 : f.y0};
+  };
+  auto distinct = [](const Footprint& f, uint32_t q) {  // a corner in the same tile as another counts nothing
+    return uint32_t(!(q & 1u) || (f.x0 >> 3) != (f.x1 >> 3)) & uint32_t(!(q & 2u) || (f.y0 >> 3) != (f.y1 >> 3));
+  };
+  // Edge of the smallest node holding all of a footprint's corner tiles (8: a single tile), grouped by it
+  // (counting sort over log2 of the edge); beyond the grid cell: kept apart.
+  uint32_t groupStart[35] = {};  // group g: order[groupStart[g], groupStart[g + 1])
+  auto groupOf = [&](const Footprint& f) {
+    const uint32_t diff = ((f.x0 >> 3) ^ (f.x1 >> 3)) | ((f.y0 >> 3) ^ (f.y1 >> 3));
+    const uint32_t edge = 8u << std::bit_width(diff);
+    return edge > startSize ? 33u : uint32_t(std::countr_zero(edge));
+  };
+  for (size_t p = 0; p < n; ++p) ++groupStart[groupOf(pending[p].f) + 1];
+  for (int g = 0; g < 34; ++g) groupStart[g + 1] += groupStart[g];
+  uint32_t fill[35];
+  std::copy(groupStart, groupStart + 35, fill);
+  for (size_t p = 0; p < n; ++p) order[fill[groupOf(pending[p].f)]++] = uint32_t(p);
+
+  size_t cornerCount = 0;
+  for (uint32_t g = 3; g <= 33; ++g) {
+    const uint32_t begin = groupStart[g], end = groupStart[g + 1];
+    if (begin == end) continue;
+    if (g == 33) {  // corners in different grid cells: each from its own cell
+      size_t started = 0;
+      for (uint32_t o = begin; o < end; ++o) {
+        const uint32_t p = order[o];
+        const Footprint& f = pending[p].f;
+        for (uint32_t q = 0; q < 4; ++q) {
+          const auto [x, y] = cornerAt(f, q);
+          const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, pending[p].z);
+          const uint32_t code = entry & 3u, keep = distinct(f, q);
+          masks[4 * p + q] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(keep));
+          prefetchNode(nodes + (entry >> 2));
+          corners[cornerCount + started] = {x, y, pending[p].z, entry >> 2, 4 * p + q};
+          started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
+        }
+      }
+      descend(dag, corners.data() + cornerCount, started, startSize, TileMasks{masks.data()});
+      continue;
     }
+    // One walk per footprint from corner 0's cell down to the shared node (or, for a single tile, its mask).
+    const uint32_t edge = 1u << g;
+    size_t started = 0;
+    for (uint32_t o = begin; o < end; ++o) {
+      const uint32_t p = order[o];
+      const auto [x, y] = cornerAt(pending[p].f, 0);
+      const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, pending[p].z);
+      const uint32_t code = entry & 3u;
+      shared[p] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+      prefetchNode(nodes + (entry >> 2));
+      w[started] = {x, y, pending[p].z, entry >> 2, p};
+      started += code == uint32_t(ChildCode::Ref);
+    }
+    // Walks that ended above the shared node (a homogeneous region holding every corner) leave its mask in
+    // shared[p], which every distinct corner takes; the corner walks below overwrite it.
+    const size_t firstCorner = cornerCount;
+    for (size_t b = 0; b < started; b += kWalksInFlight) {
+      const size_t count = std::min(kWalksInFlight, started - b);
+      const size_t at = descendGroup(dag, w + b, count, startSize, TileMasks{shared.data()}, edge);
+      for (size_t i = 0; i < at; ++i) {
+        const Walk& walk = w[b + i];
+        const Footprint& f = pending[walk.out].f;
+        for (uint32_t q = 0; q < 4; ++q) {
+          const auto [x, y] = cornerAt(f, q);
+          corners[cornerCount] = {x, y, walk.z, walk.offset, 4 * walk.out + q};
+          cornerCount += distinct(f, q);
+        }
+      }
+    }
+    for (uint32_t o = begin; o < end; ++o) {
+      const uint32_t p = order[o];
+      for (uint32_t q = 0; q < 4; ++q) masks[4 * p + q] = shared[p] & (0 - uint64_t(distinct(pending[p].f, q)));
+    }
+    if (edge > 8) descend(dag, corners.data() + firstCorner, cornerCount - firstCorner, edge, TileMasks{masks.data()});
   }
-  descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, TileMasks{masks.data()});
-  counts.resize(pending.size());
-  for (size_t p = 0; p < pending.size(); ++p) {
+  counts.resize(n);
+  for (size_t p = 0; p < n; ++p) {
     const Footprint& f = pending[p].f;
     uint32_t count = 0;
     for (uint32_t q = 0; q < 4; ++q) {
-      const uint32_t ox = (q & 1u ? f.x1 : f.x0) & ~7u, oy = (q & 2u ? f.y1 : f.y0) & ~7u;
-      count += popcount64(masks[4 * p + q] & tileMask(f, ox, oy));
+      const auto [x, y] = cornerAt(f, q);
+      count += popcount64(masks[4 * p + q] & tileMask(f, x & ~7u, y & ~7u));
     }
     counts[p] = count;
   }
