@@ -84,27 +84,12 @@ struct Avx2Lanes {
     const Coords4 t = transpose4(p[0], p[1], p[2], p[3]);
     for (int i = 0; i < 6; ++i) c[i] = t.c[i];
   }
-  static void store(const CellVerdict<Real4, Mask4>& v, const CellBatchOutput& out, size_t j, size_t lanes) {
-    const __m128i x = _mm256_cvttpd_epi32(v.x.v), y = _mm256_cvttpd_epi32(v.y.v), z = _mm256_cvttpd_epi32(v.z.v);
-    const uint32_t state = kSpreadBits[_mm256_movemask_pd(v.voxel.bits)] * kCellVoxel +
-                           kSpreadBits[_mm256_movemask_pd(v.lit.bits)] * kCellLit;  // one byte per lane
-    if (lanes == 4) {
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.x + j), x);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.y + j), y);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(out.z + j), z);
-      std::memcpy(out.state + j, &state, 4);
-      return;
-    }
-    alignas(16) int32_t xs[4], ys[4], zs[4];
-    _mm_store_si128(reinterpret_cast<__m128i*>(xs), x);
-    _mm_store_si128(reinterpret_cast<__m128i*>(ys), y);
-    _mm_store_si128(reinterpret_cast<__m128i*>(zs), z);
-    for (size_t l = 0; l < lanes; ++l) {
-      out.x[j + l] = xs[l];
-      out.y[j + l] = ys[l];
-      out.z[j + l] = zs[l];
-      out.state[j + l] = uint8_t(state >> (8 * l));
-    }
+  static uint64_t cells(const CellVerdict<Real4, Mask4>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
+    _mm_store_si128(reinterpret_cast<__m128i*>(xs), _mm256_cvttpd_epi32(v.x.v));
+    _mm_store_si128(reinterpret_cast<__m128i*>(ys), _mm256_cvttpd_epi32(v.y.v));
+    _mm_store_si128(reinterpret_cast<__m128i*>(zs), _mm256_cvttpd_epi32(v.z.v));
+    return kSpreadBits[_mm256_movemask_pd(v.voxel.bits)] * kCellVoxel +
+           kSpreadBits[_mm256_movemask_pd(v.lit.bits)] * kCellLit;
   }
 };
 

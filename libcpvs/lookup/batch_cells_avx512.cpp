@@ -91,28 +91,13 @@ struct Avx512Lanes {
     const Coords4 lo = transpose4(p[0], p[1], p[2], p[3]), hi = transpose4(p[4], p[5], p[6], p[7]);
     for (int i = 0; i < 6; ++i) c[i] = _mm512_insertf64x4(_mm512_castpd256_pd512(lo.c[i]), hi.c[i], 1);
   }
-  static void store(const CellVerdict<Real8, Mask8>& v, const CellBatchOutput& out, size_t j, size_t lanes) {
-    const __m256i x = _mm512_cvttpd_epi32(v.x.v), y = _mm512_cvttpd_epi32(v.y.v), z = _mm512_cvttpd_epi32(v.z.v);
+  static uint64_t cells(const CellVerdict<Real8, Mask8>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
+    _mm256_store_si256(reinterpret_cast<__m256i*>(xs), _mm512_cvttpd_epi32(v.x.v));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(ys), _mm512_cvttpd_epi32(v.y.v));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(zs), _mm512_cvttpd_epi32(v.z.v));
     const unsigned voxel = v.voxel.bits, lit = v.lit.bits;
-    const uint64_t state = (uint64_t(kSpreadBits[voxel >> 4]) << 32 | kSpreadBits[voxel & 15u]) * kCellVoxel +
-                           (uint64_t(kSpreadBits[lit >> 4]) << 32 | kSpreadBits[lit & 15u]) * kCellLit;
-    if (lanes == 8) {
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.x + j), x);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.y + j), y);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(out.z + j), z);
-      std::memcpy(out.state + j, &state, 8);
-      return;
-    }
-    alignas(32) int32_t xs[8], ys[8], zs[8];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(xs), x);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(ys), y);
-    _mm256_store_si256(reinterpret_cast<__m256i*>(zs), z);
-    for (size_t l = 0; l < lanes; ++l) {
-      out.x[j + l] = xs[l];
-      out.y[j + l] = ys[l];
-      out.z[j + l] = zs[l];
-      out.state[j + l] = uint8_t(state >> (8 * l));
-    }
+    return (uint64_t(kSpreadBits[voxel >> 4]) << 32 | kSpreadBits[voxel & 15u]) * kCellVoxel +
+           (uint64_t(kSpreadBits[lit >> 4]) << 32 | kSpreadBits[lit & 15u]) * kCellLit;
   }
 };
 

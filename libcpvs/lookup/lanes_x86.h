@@ -33,8 +33,9 @@ constexpr uint32_t kSpreadBits[16] = {0x00000000, 0x00000001, 0x00000100, 0x0000
                                       0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
                                       0x01010000, 0x01010001, 0x01010100, 0x01010101};
 
-// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them, L::store
-// writes a group's cells; a short last group repeats its last point in the unused lanes, read, never stored).
+// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them, L::cells
+// gives their voxels and states, one byte per lane; a short last group repeats its last point in the unused
+// lanes, read, never stored).
 template <class L, class Shape>
 void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   using Real = typename L::Real;
@@ -59,7 +60,21 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
     L::load(p, c);
     const CellVerdict<Real, Mask> v =
         cellVerdict<Real, Mask, Shape>(mapping, settings, spotOrNull, c[0], c[1], c[2], c[3], c[4], c[5]);
-    L::store(v, out, j, lanes);
+    alignas(64) int32_t xs[kWidth], ys[kWidth], zs[kWidth];
+    const uint64_t state = L::cells(v, xs, ys, zs);
+    if (lanes == kWidth) {
+      std::memcpy(out.x + j, xs, sizeof xs);
+      std::memcpy(out.y + j, ys, sizeof ys);
+      std::memcpy(out.z + j, zs, sizeof zs);
+      std::memcpy(out.state + j, &state, kWidth);  // little-endian: byte l is lane l
+      continue;
+    }
+    for (size_t l = 0; l < lanes; ++l) {
+      out.x[j + l] = xs[l];
+      out.y[j + l] = ys[l];
+      out.z[j + l] = zs[l];
+      out.state[j + l] = uint8_t(state >> (8 * l));
+    }
   }
 }
 
