@@ -409,10 +409,6 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
   return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
 }
 
-}  // namespace
-
-namespace {
-
 // One path from a node down to a voxel (PCF: to the voxel's 8 x 8 tile).
 struct Walk {
   uint32_t x, y, z;
@@ -764,8 +760,8 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
     return k <= 1 ? (shadowed ? 0.0f : 1.0f) : float(1.0 - double(shadowed) / kernelArea);
   };
 
-  // Phase 1: where each point lands (batch_cells.h: four points at a time where the CPU has AVX2); answers
-  // that need no DAG are written at once, the others become pending walks.
+  // Where each point lands (batch_cells.h: eight or four points at a time where the CPU has AVX-512 or AVX2),
+  // view by view; then that view's walks (K = 1: walkVoxels) or footprints (K > 1: filter below).
   const size_t count = points.size();
   static_assert(sizeof(SurfacePoint) == 6 * sizeof(double), "mapCells reads points as 6 doubles");
   thread_local BatchScratch scratch;
@@ -776,7 +772,7 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
   in.points = reinterpret_cast<const double*>(points.data());
   const CellBatchOutput cells{scratch.x.data(), scratch.y.data(), scratch.z.data(), scratch.state.data()};
   // K > 1, lane j of a mapped run (point indices[j], or j): the answers that need no DAG into out[], the
-  // footprints that do counted level by level (countFootprints), then their answers.
+  // footprints that do counted (countCornerTiles for K <= 9, countFootprints above), then their answers.
   auto filter = [&](uint32_t view, const uint32_t* indices, size_t lanes) {
     const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
