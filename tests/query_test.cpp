@@ -611,6 +611,26 @@ TEST(QueryIo, PcfValuesAreFractionsOfTheKernelInZeroOne) {
   EXPECT_GT(fractional, 50u) << "shadow edges give PCF fractions";
 }
 
+// The whole query through each of the batch mapping's paths (CPVS_LOOKUP_ISA lowers the one picked at run time;
+// on a CPU without a path it falls back, and the comparison holds trivially): the same CSV, byte for byte.
+TEST(QueryIo, EveryLookupPathGivesTheSameCsv) {
+  const Dir dir;
+  writeCsv(dir / "p.csv", tinyPoints());
+  for (int k : {1, 9}) {
+    std::string expected;
+    for (const char* isa : {"", "scalar", "avx2", "avx512"}) {
+      const auto r = runTool(std::string(*isa ? "CPVS_LOOKUP_ISA=" : "") + isa + " " + toolPath("cpvs-query") + " " +
+                             quote(tinyCpvs()) + " --points " + quote(dir / "p.csv") + " -o " + quote(dir / "o.csv") +
+                             " --pcf " + std::to_string(k) + " -q");
+      ASSERT_EQ(r.exitCode, 0) << r.output;
+      const std::string csv = slurp(dir / "o.csv");
+      ASSERT_GT(csv.size(), 100u);
+      if (expected.empty()) expected = csv;
+      EXPECT_EQ(csv, expected) << "CPVS_LOOKUP_ISA=" << isa << " K=" << k;
+    }
+  }
+}
+
 TEST(QueryIo, PointFilesAreStreamed) {
   const Dir dir;
   // 1.2 million points (about 29 MB as decoded points) against 20 thousand: the peak memory may not grow by more

@@ -1,16 +1,37 @@
 #include "libcpvs/lookup/batch_cells.h"
 
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+
 namespace cpvs {
 
-CellIsa bestCellIsa() {
+namespace {
+
+CellIsa detectCellIsa() {
 #if defined(__x86_64__) && defined(__GNUC__)
-  static const CellIsa best = __builtin_cpu_supports("avx512f") ? CellIsa::Avx512
-                              : __builtin_cpu_supports("avx2")  ? CellIsa::Avx2
-                                                                : CellIsa::Scalar;
-  return best;
-#else
-  return CellIsa::Scalar;
+  if (__builtin_cpu_supports("avx512f")) return CellIsa::Avx512;
+  if (__builtin_cpu_supports("avx2")) return CellIsa::Avx2;
 #endif
+  return CellIsa::Scalar;
+}
+
+}  // namespace
+
+CellIsa bestCellIsa() {
+  static const CellIsa best = [] {
+    const CellIsa detected = detectCellIsa();
+    // CPVS_LOOKUP_ISA=scalar|avx2|avx512 lowers it (to compare the paths, or to rule one out); a path the CPU
+    // lacks, or any other value, is ignored.
+    const char* wanted = std::getenv("CPVS_LOOKUP_ISA");
+    if (!wanted) return detected;
+    const std::string name(wanted);
+    const CellIsa limit = name == "scalar" ? CellIsa::Scalar
+                          : name == "avx2" ? CellIsa::Avx2
+                                           : CellIsa::Avx512;
+    return std::min(limit, detected);
+  }();
+  return best;
 }
 
 namespace {

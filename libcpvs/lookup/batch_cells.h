@@ -39,7 +39,8 @@ struct CellBatchOutput {
 
 enum class CellIsa : uint8_t { Scalar, Avx2, Avx512 };
 
-// The fastest path this CPU runs.
+// The fastest path this CPU runs (or the one the environment variable CPVS_LOOKUP_ISA = scalar, avx2 or
+// avx512 asks for, when the CPU has it; read once).
 CellIsa bestCellIsa();
 // Maps the batch with the given path, or the best one below it that this CPU runs.
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
