@@ -84,21 +84,6 @@ struct Cells {
   CellBatchOutput output() { return {x.data(), y.data(), z.data(), state.data()}; }
 };
 
-CellSettings settingsOf(const LookupOptions& options) {
-  return {0.5 * options.pcfKernel, options.biasMargin, options.orientation == NormalOrientation::AsGiven};
-}
-
-SpotInfluence spotOf(const Light& light) {
-  SpotInfluence spot;
-  for (int i = 0; i < 3; ++i) {
-    spot.position[i] = light.position[i];
-    spot.direction[i] = light.direction[i];
-  }
-  spot.range = light.range;
-  spot.cosOuter = std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
-  return spot;
-}
-
 TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
   const CellIsa best = bestCellIsa();
   const WorldGeometry world = groundAndPyramid();
@@ -112,10 +97,10 @@ TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
       for (const LookupOptions options : {LookupOptions{1, NormalOrientation::AsGiven, 0.25},
                                           LookupOptions{9, NormalOrientation::AsGiven, 0.0},
                                           LookupOptions{3, NormalOrientation::TowardLight, 0.5}}) {
-        const SpotInfluence spot = spotOf(light);
+        const SpotInfluence spot = spotInfluence(light);
         CellBatchInput in;
         in.mapping = &mapping;
-        in.settings = settingsOf(options);
+        in.settings = cellSettings(options);
         in.spot = light.type == LightType::Spot ? &spot : nullptr;
         in.points = reinterpret_cast<const double*>(points.data());
         in.count = points.size();

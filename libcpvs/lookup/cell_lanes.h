@@ -28,20 +28,17 @@ struct CellLanes {
   Mask inside;      // q.u and q.v in [0, N) (false for NaN)
 };
 
+// The surface normal n in grid space, m = J^-T n up to a positive factor (J = d(u, v, s) / d(world) at the
+// mapped point g): the view rotation applied to n, then the grid Jacobian's inverse transpose in closed form
+// (shadow_lookup.cpp, gridNormal, has the derivation).
 template <class Real, class Mask, class Shape = AnyShape>
-[[gnu::always_inline]] inline CellLanes<Real, Mask> cellLanes(const ViewMapping& c, const CellSettings& settings,
-                                                              Real px, Real py, Real pz, Real nx, Real ny, Real nz) {
-  CellLanes<Real, Mask> cell;
-  cell.grid = mapToGrid<Real, Mask, Shape>(c, px, py, pz);
-  const GridLanes<Real, Mask>& g = cell.grid;
-  // m = J^-T n up to a positive factor (shadow_lookup.cpp, gridNormalAt): the view rotation applied to n, then
-  // the grid Jacobian's inverse transpose in closed form.
+[[gnu::always_inline]] inline void gridNormalLanes(const ViewMapping& c, const GridLanes<Real, Mask>& g, Real nx,
+                                                   Real ny, Real nz, Real& mx, Real& my, Real& mz) {
   const Real nvx = (Real(c.row[0][0]) * nx + Real(c.row[0][1]) * ny) + Real(c.row[0][2]) * nz;
   const Real nvy = (Real(c.row[1][0]) * nx + Real(c.row[1][1]) * ny) + Real(c.row[1][2]) * nz;
   const Real nvz = (Real(c.row[2][0]) * nx + Real(c.row[2][1]) * ny) + Real(c.row[2][2]) * nz;
   const Real d = g.depth;
-  const Real invDs = Shape::linear(c) ? Real(c.invDs) : Real(c.invDs) * d;
-  Real mx, my, mz;
+  const Real invDs = Shape::linear(c) ? Real(c.invDs) : Real(c.invDs) * d;  // 1 / (ds / dd)
   if (Shape::orthographic(c)) {
     mx = nvx * Real(c.uStep);
     my = nvy * Real(c.vStep);
@@ -51,6 +48,16 @@ template <class Real, class Mask, class Shape = AnyShape>
     my = (nvy * d) * Real(c.vStep);
     mz = ((nvx * g.viewX + nvy * g.viewY) * g.invDepth - nvz) * invDs;
   }
+}
+
+template <class Real, class Mask, class Shape = AnyShape>
+[[gnu::always_inline]] inline CellLanes<Real, Mask> cellLanes(const ViewMapping& c, const CellSettings& settings,
+                                                              Real px, Real py, Real pz, Real nx, Real ny, Real nz) {
+  CellLanes<Real, Mask> cell;
+  cell.grid = mapToGrid<Real, Mask, Shape>(c, px, py, pz);
+  const GridLanes<Real, Mask>& g = cell.grid;
+  Real mx, my, mz;
+  gridNormalLanes<Real, Mask, Shape>(c, g, nx, ny, nz, mx, my, mz);
   cell.back = mz > Real(0.0);
   const Real flip = laneSelect(cell.back, Real(-1.0), Real(1.0));  // TowardLight: face the light
   mx = mx * flip;

@@ -141,13 +141,11 @@ glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world) {
 // view-space point and d its depth. cell_lanes.h's cellLanes computes the same per lane for the bias.
 glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal) {
   if (normal == glm::dvec3(0.0)) return glm::dvec3(0.0);
-  const ViewMapping c(view);
-  const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
-  const double d = -v.z;
-  const glm::dvec3 nv = glm::dmat3(view.viewFromWorld) * normal;
-  const double invDs = c.linear ? c.invDs : c.invDs * d;  // 1 / (ds/dd)
-  if (c.orthographic) return {nv.x * c.uStep, nv.y * c.vStep, -nv.z * invDs};
-  return {nv.x * d * c.uStep, nv.y * d * c.vStep, (nv.x * (v.x / d) + nv.y * (v.y / d) - nv.z) * invDs};
+  const ViewMapping mapping(view);
+  const GridLanes<double, bool> g = mapToGrid<double, bool>(mapping, world.x, world.y, world.z);
+  glm::dvec3 m;
+  gridNormalLanes(mapping, g, normal.x, normal.y, normal.z, m.x, m.y, m.z);
+  return m;
 }
 
 double biasDistance(const glm::dvec3& m, int pcfKernel, double margin) {
@@ -159,8 +157,6 @@ LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm:
   return lookupCell(ViewMapping(view), point, normal, options);
 }
 
-namespace {
-
 CellSettings cellSettings(const LookupOptions& options) {
   CellSettings settings;
   settings.kernelHalf = 0.5 * double(options.pcfKernel);
@@ -168,8 +164,6 @@ CellSettings cellSettings(const LookupOptions& options) {
   settings.backFacingIsShadow = options.orientation == NormalOrientation::AsGiven;
   return settings;
 }
-
-}  // namespace
 
 LookupCell lookupCell(const ViewMapping& mapping, const glm::dvec3& point, const glm::dvec3& normal,
                       const LookupOptions& options) {
@@ -283,17 +277,24 @@ uint32_t TopGrid::automaticLevel(const DagView& dag) {
   return level;
 }
 
-bool withinInfluence(const Light& light, const glm::dvec3& point) {
-  if (light.type == LightType::Directional) return true;
-  const glm::dvec3 toPoint = point - light.position;
-  const double distance = glm::length(toPoint);
-  if (!(distance <= light.range)) return false;
-  if (light.type == LightType::Spot) {
-    if (distance == 0) return false;
-    const double cosAngle = glm::dot(toPoint, light.direction) / distance;
-    if (cosAngle < std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2))) return false;
+SpotInfluence spotInfluence(const Light& light) {
+  SpotInfluence spot;
+  for (int i = 0; i < 3; ++i) {
+    spot.position[i] = light.position[i];
+    spot.direction[i] = light.direction[i];
   }
-  return true;
+  spot.range = light.range;
+  spot.cosOuter = std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
+  return spot;
+}
+
+bool withinInfluence(const Light& light, const glm::dvec3& point) {
+  switch (light.type) {
+    case LightType::Directional: return true;
+    case LightType::Spot: return insideSpot<double, bool>(spotInfluence(light), point.x, point.y, point.z);
+    case LightType::Point: break;
+  }
+  return glm::length(point - light.position) <= light.range;
 }
 
 namespace {
@@ -326,14 +327,7 @@ LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::
   for (const DagView& dag : dags_)
     grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
   for (const LightView& view : views_) mappings_.emplace_back(view);
-  if (light_.type == LightType::Spot) {
-    for (int i = 0; i < 3; ++i) {
-      spot_.position[i] = light_.position[i];
-      spot_.direction[i] = light_.direction[i];
-    }
-    spot_.range = light_.range;
-    spot_.cosOuter = std::cos(std::min(light_.outerConeAngle, 3.14159265358979323846 / 2));
-  }
+  if (light_.type == LightType::Spot) spot_ = spotInfluence(light_);
 }
 
 size_t LightShadow::topGridBytes() const {
@@ -346,7 +340,7 @@ int LightShadow::viewIndex(const glm::dvec3& point) const {
   if (views_.empty()) return -1;
   switch (light_.type) {
     case LightType::Directional: return 0;
-    case LightType::Spot:  // selectView's rule with the cone's cosine computed once, as the batch has it
+    case LightType::Spot:  // withinInfluence's rule with the cone's cosine computed once, as the batch has it
       return insideSpot<double, bool>(spot_, point.x, point.y, point.z) ? 0 : -1;
     case LightType::Point: break;
   }
@@ -368,7 +362,6 @@ float LightShadow::visibility(const glm::dvec3& point, const glm::dvec3& normal,
 struct LightShadow::PendingPoint {
   Footprint f;    // clipped K x K footprint (inclusive texel bounds); K = 1: (x0, y0) is the texel
   uint32_t z;
-  uint32_t view;
   uint32_t out;   // index into the batch
 };
 
@@ -380,7 +373,7 @@ struct BatchScratch {
   std::vector<uint8_t> state;
   std::vector<uint32_t> indices, face;
   std::vector<LightShadow::PendingPoint> pending;
-  std::vector<uint32_t> counts;
+  std::vector<uint32_t> counts;  // sized by the counting functions
   void resize(size_t count) {
     if (x.size() >= count) return;
     x.resize(count);
@@ -390,7 +383,6 @@ struct BatchScratch {
     indices.resize(count);
     face.resize(count);
     pending.resize(count);
-    counts.resize(count);
   }
 };
 constexpr uint32_t kNoView = ~0u;
@@ -756,9 +748,7 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
   const int k = options.pcfKernel;
   const int64_t h = k / 2;
   const double kernelArea = double(k) * double(k);
-  auto value = [&](uint32_t shadowed) {
-    return k <= 1 ? (shadowed ? 0.0f : 1.0f) : float(1.0 - double(shadowed) / kernelArea);
-  };
+  auto value = [&](uint32_t shadowed) { return float(1.0 - double(shadowed) / kernelArea); };  // K > 1
 
   // Where each point lands (batch_cells.h: eight or four points at a time where the CPU has AVX-512 or AVX2),
   // view by view; then that view's walks (K = 1: walkVoxels) or footprints (K > 1: filter below).
@@ -788,7 +778,7 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
       if (!walks && state == kCellVoxel)  // a DAG of one colour (rare): no walk
         out[i] = dag.rootCode == ChildCode::Lit ? 1.0f : value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
       // Written every time, kept only for a walk: no branch on the point's (unpredictable) outcome.
-      pendingStore[pendingCount] = {f, uint32_t(cells.z[j]), view, i};
+      pendingStore[pendingCount] = {f, uint32_t(cells.z[j]), i};
       pendingCount += uint32_t(state == kCellVoxel) & uint32_t(walks);
     }
     const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);

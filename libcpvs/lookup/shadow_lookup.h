@@ -109,8 +109,12 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
                  NormalOrientation orientation = NormalOrientation::AsGiven);
 
 // Whether a point lies in the light's influence (directional: always; spot/point: within range; spot: inside
-// the outer cone). Same rule as selectView.
+// the outer cone, insideSpot of spotInfluence). Same rule as selectView.
 bool withinInfluence(const Light& light, const glm::dvec3& point);
+// A spot light's cone and range as cell_lanes.h's insideSpot tests them.
+SpotInfluence spotInfluence(const Light& light);
+// What the bias rule (step 2 above) takes from the options, as cell_lanes.h's cellLanes reads it.
+CellSettings cellSettings(const LookupOptions& options);
 
 // A dense grid of the DAG's nodes at one level (seed 004 §5.3 "top-level pointer grid"): entry
 // (gx, gy, gz) holds the child code of the node at level `level` covering that cell and, for a reference, its
