@@ -475,8 +475,8 @@ template <class Results>
 }
 
 // Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
-// lines they prefetched are still in L1 when read. On the lookups benchmark (docs/lookups.md) groups of 64 to
-// 256 ran alike and the whole batch at once (4096) 5-20 % slower, most on the largest DAGs.
+// lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
+// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs.
 constexpr size_t kWalksInFlight = 128;
 
 template <class Results>
