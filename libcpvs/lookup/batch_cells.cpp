@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <string>
 
+#include "libcpvs/lookup/lane_loop.h"
+
 namespace cpvs {
 
 namespace {
@@ -36,26 +38,24 @@ CellIsa bestCellIsa() {
 
 namespace {
 
-template <class Shape>
-void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
-  // Local copies, as in the AVX2 path (the byte stores to out.state could alias the constants).
-  const ViewMapping mapping = *in.mapping;
-  const CellSettings settings = in.settings;
-  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
-  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
-  for (size_t j = 0; j < in.count; ++j) {
-    const double* p = in.points + 6 * size_t(in.indices ? in.indices[j] : j);
-    const CellVerdict<double, bool> v =
-        cellVerdict<double, bool, Shape>(mapping, settings, spotOrNull, p[0], p[1], p[2], p[3], p[4], p[5]);
-    out.x[j] = int32_t(v.x);
-    out.y[j] = int32_t(v.y);
-    out.z[j] = int32_t(v.z);
-    out.state[j] = v.voxel ? kCellVoxel : (v.lit ? kCellLit : kCellZero);
+// One point at a time: a double and a bool per lane.
+struct ScalarLanes {
+  using Real = double;
+  using Mask = bool;
+  static constexpr size_t kWidth = 1;
+  static void load(const double* const (&p)[1], double (&c)[6]) {
+    for (int i = 0; i < 6; ++i) c[i] = p[0][i];
   }
-}
+  static uint64_t cells(const CellVerdict<double, bool>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
+    xs[0] = int32_t(v.x);
+    ys[0] = int32_t(v.y);
+    zs[0] = int32_t(v.z);
+    return v.voxel ? kCellVoxel : (v.lit ? kCellLit : kCellZero);
+  }
+};
 
 void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
-  detail::withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<decltype(shape)>(in, out); });
+  detail::withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<ScalarLanes, decltype(shape)>(in, out); });
 }
 
 }  // namespace

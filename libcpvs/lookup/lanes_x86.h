@@ -1,13 +1,11 @@
 #pragma once
-// What the x86 batch kernels (batch_cells_avx2.cpp, batch_cells_avx512.cpp) share: the loop over a batch in
-// groups of the lane width, and loading four points as coordinate vectors. Included only by those files,
+// What the x86 batch kernels (batch_cells_avx2.cpp, batch_cells_avx512.cpp) share besides lane_loop.h: loading
+// four points as coordinate vectors, and spreading lane masks to bytes. Included only by those files,
 // after their `#pragma GCC target`, and all in an unnamed namespace: each file compiles its own copy for its
 // own instruction set, and no copy can stand in for another at link time.
 #include <immintrin.h>
 
-#include <cstring>
-
-#include "libcpvs/lookup/batch_cells.h"
+#include "libcpvs/lookup/lane_loop.h"
 
 namespace cpvs {
 namespace {
@@ -32,51 +30,6 @@ inline Coords4 transpose4(const double* p0, const double* p1, const double* p2, 
 constexpr uint32_t kSpreadBits[16] = {0x00000000, 0x00000001, 0x00000100, 0x00000101, 0x00010000, 0x00010001,
                                       0x00010100, 0x00010101, 0x01000000, 0x01000001, 0x01000100, 0x01000101,
                                       0x01010000, 0x01010001, 0x01010100, 0x01010101};
-
-// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them, L::cells
-// gives their voxels and states, one byte per lane; a short last group repeats its last point in the unused
-// lanes, read, never stored).
-template <class L, class Shape>
-void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
-  using Real = typename L::Real;
-  using Mask = typename L::Mask;
-  constexpr size_t kWidth = L::kWidth;
-  // Local copies: the byte stores to out.state could alias *in.mapping, which would make the compiler reload
-  // every constant in every group.
-  const ViewMapping mapping = *in.mapping;
-  const CellSettings settings = in.settings;
-  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
-  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
-  const double* const points = in.points;
-  const uint32_t* const indices = in.indices;
-  for (size_t j = 0; j < in.count; j += kWidth) {
-    const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
-    const double* p[kWidth];
-    for (size_t l = 0; l < kWidth; ++l) {
-      const size_t k = j + (l < lanes ? l : lanes - 1);
-      p[l] = points + 6 * size_t(indices ? indices[k] : k);
-    }
-    Real c[6];
-    L::load(p, c);
-    const CellVerdict<Real, Mask> v =
-        cellVerdict<Real, Mask, Shape>(mapping, settings, spotOrNull, c[0], c[1], c[2], c[3], c[4], c[5]);
-    alignas(64) int32_t xs[kWidth], ys[kWidth], zs[kWidth];
-    const uint64_t state = L::cells(v, xs, ys, zs);
-    if (lanes == kWidth) {
-      std::memcpy(out.x + j, xs, sizeof xs);
-      std::memcpy(out.y + j, ys, sizeof ys);
-      std::memcpy(out.z + j, zs, sizeof zs);
-      std::memcpy(out.state + j, &state, kWidth);  // little-endian: byte l is lane l
-      continue;
-    }
-    for (size_t l = 0; l < lanes; ++l) {
-      out.x[j + l] = xs[l];
-      out.y[j + l] = ys[l];
-      out.z[j + l] = zs[l];
-      out.state[j + l] = uint8_t(state >> (8 * l));
-    }
-  }
-}
 
 }  // namespace
 }  // namespace cpvs
