@@ -39,6 +39,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash) {
                       {"node_reuse", settings.nodeReuse},
                       {"max_peels", settings.peel.maxPeels},
                       {"region", std::min(settings.regionSize, settings.resolution)},
+                      {"ground", settings.ground == GroundSheets::Auto ? "auto" : "off"},
                       {"input_hash", hash}};
   return j.dump();
 }
@@ -61,7 +62,8 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   }
   // The region size orders the nodes within each level, so it is part of what the bytes depend on.
   const uint64_t s[] = {settings.resolution, uint64_t(settings.undefinedMode), settings.nodeReuse,
-                        settings.peel.maxPeels, std::min(settings.regionSize, settings.resolution)};
+                        settings.peel.maxPeels, std::min(settings.regionSize, settings.resolution),
+                        uint64_t(settings.ground)};
   XXH3_64bits_update(state, s, sizeof s);
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
@@ -70,7 +72,7 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
 
 CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report,
                       const BakeCallbacks& callbacks) {
-  const WorldGeometry world = flatten(scene);
+  const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash);
@@ -79,6 +81,7 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeRepo
   BakeReport localReport;
   BakeReport& rep = report ? *report : localReport;
   rep.inputHash = inputHash;
+  rep.groundSheets = world.groundSheets;
 
   // Progress counts views, weighted equally.
   std::vector<std::vector<LightView>> allViews;

@@ -22,6 +22,7 @@ struct BakeSettings {
   // CPU's cache (docs/depth-maps.md "Regions" has the measurement).
   uint32_t regionSize = 1024;
   PeelSettings peel;
+  GroundSheets ground = GroundSheets::Auto;  // close ground sheets into solids (libcpvs/ground_sheet.h)
 };
 
 struct ViewReport {
@@ -51,6 +52,7 @@ struct BakeReport {
   std::string renderer;  // GL_RENDERER of the backend
   std::vector<LightReport> lights;
   uint64_t inputHash = 0;
+  std::vector<GroundSheet> groundSheets;  // the height fields spanning the scene, used or not (and why)
 };
 
 struct BakeCallbacks {

@@ -53,6 +53,7 @@ Extent measureExtent(const WorldGeometry& world, const LightView& view, const st
   std::vector<glm::dvec3> viewPositions(world.positions.size());
   for (size_t i = 0; i < world.positions.size(); ++i) viewPositions[i] = transformPoint(view.viewFromWorld, world.positions[i]);
   for (size_t t = 0; t < world.triangleCount(); ++t) {
+    if (world.isClosing(t)) continue;  // a ground's skirt lies under the scene: the view covers the scene
     const glm::dvec3 v[3] = {viewPositions[world.indices[3 * t]], viewPositions[world.indices[3 * t + 1]],
                              viewPositions[world.indices[3 * t + 2]]};
     if (!clipTriangle(v, planes, poly, scratch)) continue;

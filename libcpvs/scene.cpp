@@ -4,6 +4,7 @@
 #include <cctype>
 
 #include "libcpvs/error.h"
+#include "libcpvs/ground_sheet.h"
 
 namespace cpvs {
 
@@ -79,7 +80,7 @@ bool nameMatches(const std::string& meshName, const std::string& wanted) {
 
 }  // namespace
 
-WorldGeometry flatten(const Scene& scene) {
+WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   std::vector<UsedVertices> used;
   used.reserve(scene.meshes.size());
   size_t closedTriangles = 0, totalTriangles = 0, totalVertices = 0;
@@ -97,14 +98,20 @@ WorldGeometry flatten(const Scene& scene) {
   WorldGeometry world;
   world.positions.reserve(totalVertices);
   world.indices.reserve(3 * totalTriangles);
+  std::vector<InstanceTriangles> ranges;
+  ranges.reserve(scene.instances.size());
   for (bool closedPass : {true, false}) {
-    for (const Instance& instance : scene.instances) {
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      const Instance& instance = scene.instances[i];
       const Mesh& mesh = scene.meshes[instance.mesh];
       if (mesh.closed != closedPass) continue;
+      const size_t begin = world.triangleCount();
       appendInstance(mesh, used[instance.mesh], instance, mesh.closed && mesh.insideOut, world);
+      ranges.push_back({i, begin, world.triangleCount()});
     }
   }
   world.closedTriangleCount = closedTriangles;
+  if (ground == GroundSheets::Auto) closeGroundSheets(scene, ranges, world);
   return world;
 }
 

@@ -28,7 +28,7 @@ std::vector<SurfaceSample> sampleSurfaces(const WorldGeometry& world, size_t cou
     const glm::dvec3& a = world.positions[world.indices[3 * t]];
     const glm::dvec3& b = world.positions[world.indices[3 * t + 1]];
     const glm::dvec3& c = world.positions[world.indices[3 * t + 2]];
-    const double area = 0.5 * glm::length(glm::cross(b - a, c - a));
+    const double area = world.isClosing(t) ? 0.0 : 0.5 * glm::length(glm::cross(b - a, c - a));
     total += std::isfinite(area) ? area : 0.0;
     cumulative[t] = total;
   }

@@ -37,7 +37,7 @@ using test::toolPath;
 
 // Every setting that the bytes depend on is spelled out, so that a change of a default does not move them.
 constexpr const char* kBakeArguments =
-    " --resolution 64 --undefined kampe --max-peels 16 --backend osmesa --quiet"
+    " --resolution 64 --undefined kampe --max-peels 16 --ground auto --backend osmesa --quiet"
     " --sun 0.3,-1,0.2 --spot 0,5,0,0,-1,0,0.6,20";
 
 const std::string& goldenPath() {

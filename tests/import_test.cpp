@@ -367,7 +367,11 @@ TEST(ImportScenes, TerrainIsOpen) {
   EXPECT_EQ(scene.meshes[0].triangleCount(), 5202u);
   EXPECT_FALSE(scene.meshes[0].closed);
   EXPECT_EQ(scene.meshes[0].boundaryEdges, 204u);
-  EXPECT_EQ(flatten(scene).closedTriangleCount, 0u);
+  EXPECT_EQ(flatten(scene, GroundSheets::Off).closedTriangleCount, 0u);
+  // A height field over the whole scene: closed into solid ground by default (ground_sheet_test.cpp).
+  const WorldGeometry world = flatten(scene);
+  ASSERT_EQ(world.groundSheets.size(), 1u);
+  EXPECT_TRUE(world.groundSheets[0].used);
 }
 
 TEST(ImportScenes, SubpassSceneOpaqueIsMixedAndUpsideDown) {
@@ -446,7 +450,7 @@ TEST(ImportTiny, InstancingAndMirroredBoxFaceOutward) {
   EXPECT_EQ(scene.instances[0].mesh, scene.instances[1].mesh);
   EXPECT_LT(glm::determinant(scene.instances[1].worldFromLocal), 0.0);
 
-  const WorldGeometry world = flatten(scene);
+  const WorldGeometry world = flatten(scene, GroundSheets::Off);
   ASSERT_EQ(world.triangleCount(), 26u);
   EXPECT_EQ(world.closedTriangleCount, 24u);
   EXPECT_NEAR(signedVolume(world, 0, 12), 1.0, 1e-9);   // BoxA, unit cube

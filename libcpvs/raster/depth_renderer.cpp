@@ -132,7 +132,7 @@ void main() {
 // Count values of finished texels: > -500 normal (exit found or never active), kCapped, kStuck.
 const char* kStateConstants = R"(#version 330 core
 const float kCapped = -1000.0;   // still inside at the peel cap: exit = last consumed event
-const float kStuck = -2000.0;    // inside but no closed surface left (beyond far, or cracks)
+const float kStuck = -2000.0;    // inside, no closed back face left before the far plane: exit = N
 )";
 
 const char* kInitFS = R"(
@@ -177,7 +177,7 @@ void main() {
     float b = texelFetch(backDepth, p, 0).r;
     bool hasF = f < 1.0, hasB = b < 1.0;
     if (!hasB) {
-      n = kStuck;   // inside, but no closed back face left (beyond far, or a crack): exit at the last event
+      n = kStuck;   // inside, and no closed back face before the far plane: the exit lies beyond it
     } else if (!hasF || b <= f || texelFetch(backCount, p, 0).r > 1.5) {
       c.y = b;      // exit (ties: back first, an earlier exit is the safe side)
       n = 0.0;
@@ -219,7 +219,8 @@ void main() {
       vec2 c = texelFetch(cursors, p, 0).rg;
       float n = texelFetch(counts, p, 0).r;
       x = min(N, max(e + 1.0, floor(2.0 * max(c.x, c.y) * N)));
-      if (n < kCapped + 0.5 && n > kStuck + 0.5) x = -x - 1.0;
+      if (n < kStuck + 0.5) x = N;   // every voxel up to the far plane lies inside the solid
+      else if (n < kCapped + 0.5) x = -x - 1.0;
     }
   }
   slices = vec2(e, x);

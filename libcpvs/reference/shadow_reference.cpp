@@ -6,7 +6,10 @@ namespace cpvs {
 
 ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation)
     : orientation_(orientation) {
+  // The closing triangles of ground sheets stay in: a ray from above the ground cannot reach them, and they
+  // make the inside-a-solid test see the ground as the solid the bake took it for.
   scene_ = std::make_unique<EmbreeScene>(world);
+  sceneTriangles_ = world.sceneTriangleCount();
   const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
   // Scale-relative: ~100x the float precision Embree stores the scene with, far below a voxel of any
   // practical resolution (1e-5 of the diagonal is a voxel only at N ~ 100k).
@@ -14,8 +17,6 @@ ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation o
 }
 
 ShadowReference::~ShadowReference() = default;
-
-size_t ShadowReference::triangles() const { return scene_->triangleCount(); }
 
 bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax,
                                 uint8_t& known) const {

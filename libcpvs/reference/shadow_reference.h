@@ -41,7 +41,7 @@ public:
 
   // The offset along the normal: 1e-5 of the scene's diagonal.
   double epsilon() const { return epsilon_; }
-  size_t triangles() const;
+  size_t triangles() const { return sceneTriangles_; }  // the scene's own, without ground closings
   const EmbreeScene& scene() const { return *scene_; }
 
 private:
@@ -49,6 +49,7 @@ private:
   bool shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax, uint8_t& known) const;
 
   std::unique_ptr<EmbreeScene> scene_;
+  size_t sceneTriangles_ = 0;
   double epsilon_ = 0;
   NormalOrientation orientation_;
 };

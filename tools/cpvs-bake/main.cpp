@@ -32,6 +32,7 @@ struct Options {
   std::string backend = "osmesa";
   std::string regionSize = "1k";
   uint32_t maxPeels = 2;
+  std::string ground = "auto";
   std::string report;
   std::string dumpDepth;
   bool quiet = false;
@@ -58,6 +59,22 @@ void dumpDepthRegion(const std::string& dir, size_t light, size_t view, const De
   char name[128];
   std::snprintf(name, sizeof name, "light%zu_view%zu_region%u_%u.exr", light, view, depth.rect.x0, depth.rect.y0);
   writeExr((std::filesystem::path(dir) / name).string(), image);
+}
+
+const char* axisName(int axis, int sign) {
+  static const char* names[] = {"-x", "-y", "-z", "+x", "+y", "+z"};
+  return names[(sign > 0 ? 3 : 0) + axis];
+}
+
+nlohmann::json groundSheetsJson(const std::vector<GroundSheet>& sheets) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const GroundSheet& g : sheets) {
+    nlohmann::json j = {{"mesh", g.mesh}, {"node", g.node}, {"faces", axisName(g.axis, g.sign)}, {"used", g.used}};
+    if (g.used) j["closing_triangles"] = g.closingTriangles;
+    else j["reason"] = g.reason;
+    out.push_back(j);
+  }
+  return out;
 }
 
 nlohmann::json reportJson(const Options& options, const Scene& scene, const BakeSettings& settings,
@@ -102,9 +119,11 @@ nlohmann::json reportJson(const Options& options, const Scene& scene, const Bake
             {"threads", settings.threads},
             {"backend", rasterBackendName(settings.backend)},
             {"region_size", settings.regionSize},
-            {"max_peels", settings.peel.maxPeels}}},
+            {"max_peels", settings.peel.maxPeels},
+            {"ground", settings.ground == GroundSheets::Auto ? "auto" : "off"}}},
           {"renderer", report.renderer},
-          {"triangles", flatten(scene).triangleCount()},
+          {"triangles", flatten(scene, GroundSheets::Off).triangleCount()},
+          {"ground_sheets", groundSheetsJson(report.groundSheets)},
           {"total_ms", totalMs},
           {"peak_rss_bytes", peakRssBytes()},
           {"file_bytes", fileBytes},
@@ -133,6 +152,12 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--max-peels", o.maxPeels, "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits are set early (never wrong, less compression)")
       ->capture_default_str();
+  app.add_option("--ground", o.ground,
+                 "auto: an open mesh that is a height field spanning the scene (a terrain, a ground plane) is the "
+                 "top of solid ground, so the voxels under it are free (docs/depth-maps.md); off: every open mesh "
+                 "is a sheet with air on both sides")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "off"}));
   app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
   app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
   app.add_flag("-q,--quiet", o.quiet, "No progress bar");
@@ -154,6 +179,7 @@ int run(int argc, char** argv) {
   settings.backend = parseRasterBackend(o.backend);
   settings.regionSize = parseResolution(o.regionSize);
   settings.peel.maxPeels = o.maxPeels;
+  settings.ground = o.ground == "off" ? GroundSheets::Off : GroundSheets::Auto;
 
   const auto start = std::chrono::steady_clock::now();
   Scene scene = importGltf(o.scene);
@@ -178,6 +204,11 @@ int run(int argc, char** argv) {
   BakeReport report;
   const CpvsContent content = bakeScene(scene, settings, &report, callbacks);
   progress.finish();
+  if (!o.quiet)
+    for (const GroundSheet& g : report.groundSheets)
+      std::fprintf(stderr, "cpvs-bake: ground: mesh '%s' (node '%s') %s\n", g.mesh.c_str(), g.node.c_str(),
+                   g.used ? "is the top of solid ground (voxels under it are free)"
+                          : ("spans the scene but is not used as ground: " + g.reason).c_str());
 
   double writeMs = 0;
   uint64_t fileBytes = 0;

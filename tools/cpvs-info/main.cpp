@@ -57,6 +57,19 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
             << scene.instances.size() << " instances, " << totals.worldTriangles << " triangles in the world ("
             << totals.closedWorldTriangles << " closed, " << totals.worldTriangles - totals.closedWorldTriangles
             << " open), " << scene.lights.size() << " lights\n";
+  for (const cpvs::GroundSheet& g : world.groundSheets)
+    std::cout << "ground: " << g.mesh << " (node " << g.node << ") "
+              << (g.used ? "is the top of solid ground: the voxels under it are free when baked"
+                         : "spans the scene but is not taken as ground: " + g.reason)
+              << "\n";
+}
+
+nlohmann::ordered_json groundJson(const WorldGeometry& world) {
+  nlohmann::ordered_json sheets = nlohmann::ordered_json::array();
+  for (const cpvs::GroundSheet& g : world.groundSheets)
+    sheets.push_back({{"mesh", g.mesh}, {"node", g.node}, {"axis", g.axis}, {"sign", g.sign}, {"used", g.used},
+                      {"reason", g.reason}, {"closingTriangles", g.closingTriangles}});
+  return sheets;
 }
 
 void printJson(const Scene& scene, const WorldGeometry& world, const Totals& totals) {
@@ -92,6 +105,7 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
         {"closedTriangles", totals.closedWorldTriangles},
         {"openTriangles", totals.worldTriangles - totals.closedWorldTriangles},
         {"lights", scene.lights.size()}}},
+      {"groundSheets", groundJson(world)},
       {"warnings", scene.warnings}};
   std::cout << report.dump(2) << "\n";
 }
@@ -103,8 +117,9 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
   const WorldGeometry world = cpvs::flatten(scene);
   Totals totals;
   for (const Mesh& mesh : scene.meshes) totals.closedMeshes += mesh.closed ? 1 : 0;
-  totals.worldTriangles = world.triangleCount();
-  totals.closedWorldTriangles = world.closedTriangleCount;
+  // The scene's own triangles: a ground sheet's counts as open (as its mesh is), its closing ones not at all.
+  totals.worldTriangles = world.sceneTriangleCount();
+  totals.closedWorldTriangles = world.closedMeshTriangleCount();
   if (json)
     printJson(scene, world, totals);
   else

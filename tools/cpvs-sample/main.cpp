@@ -46,7 +46,7 @@ int run(int argc, char** argv) {
     text.append(line, size_t(n));
   }
   tools::writeFileAtomically(output, text);
-  std::fprintf(stderr, "cpvs-sample: %zu points on %zu triangles -> %s\n", samples.size(), world.triangleCount(),
+  std::fprintf(stderr, "cpvs-sample: %zu points on %zu triangles -> %s\n", samples.size(), world.sceneTriangleCount(),
                output.c_str());
   return 0;
 }

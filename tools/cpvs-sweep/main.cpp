@@ -304,7 +304,7 @@ int run(int argc, char** argv) {
   if (scene.lights.empty())
     throw Error(ExitCode::Usage, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
   const std::string name = o.name.empty() ? std::filesystem::path(o.scene).stem().string() : o.name;
-  const size_t triangles = flatten(scene).triangleCount();
+  const size_t triangles = flatten(scene).sceneTriangleCount();
 
   SweepCallbacks callbacks;
   if (!o.quiet) callbacks.log = [](const std::string& line) { std::fprintf(stderr, "cpvs-sweep: %s\n", line.c_str()); };
