@@ -951,6 +951,15 @@ TEST(QueryReference, ExcludedMeshesLeaveTheReferenceAndChangeTheError) {
   for (size_t i = 1; i < rows.size(); ++i) EXPECT_LT(rows[i - 1], rows[i]);
   EXPECT_LT(rows.back(), tinyPoints().size());
   EXPECT_TRUE(full.at("first_misclassified_uniform_points").empty());
+  // Over all points: as many rows as there are misclassified points (up to 20), each a misclassified one.
+  const auto all = noBox.at("first_misclassified_points").get<std::vector<uint64_t>>();
+  EXPECT_EQ(all.size(), std::min<uint64_t>(20, noBox.at("misclassified_count").get<uint64_t>()));
+  for (uint64_t row : rows) {
+    if (row > all.back()) break;
+    EXPECT_TRUE(std::find(all.begin(), all.end(), row) != all.end()) << row;
+  }
+  EXPECT_EQ(full.at("first_misclassified_points").size(),
+            std::min<uint64_t>(20, full.at("misclassified_count").get<uint64_t>()));
 }
 
 }  // namespace

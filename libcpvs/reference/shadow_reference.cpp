@@ -6,9 +6,18 @@ namespace cpvs {
 
 ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation)
     : orientation_(orientation) {
-  // The closing triangles of ground sheets stay in: a ray from above the ground cannot reach them, and they
-  // make the inside-a-solid test see the ground as the solid the bake took it for.
-  scene_ = std::make_unique<EmbreeScene>(world);
+  // Rays see the scene as authored; the inside-a-solid test also sees the ground sheets' closing triangles,
+  // so it finds the ground solid the bake took (libcpvs/ground_sheet.h).
+  if (world.closingBegin < world.closingEnd) {
+    solids_ = std::make_unique<EmbreeScene>(world);
+    WorldGeometry own = world;
+    own.indices.erase(own.indices.begin() + long(3 * world.closingBegin), own.indices.begin() + long(3 * world.closingEnd));
+    own.closedTriangleCount = world.closingBegin;
+    own.closingBegin = own.closingEnd = 0;
+    scene_ = std::make_unique<EmbreeScene>(own);
+  } else {
+    scene_ = std::make_unique<EmbreeScene>(world);
+  }
   sceneTriangles_ = world.sceneTriangleCount();
   const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
   // Scale-relative: ~100x the float precision Embree stores the scene with, far below a voxel of any
@@ -65,7 +74,7 @@ bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, R
 bool ShadowReference::insideClosedSolid(const SurfacePoint& point) const {
   const double length = glm::length(point.normal);
   const glm::dvec3 offset = length > 0 ? (epsilon_ / length) * point.normal : glm::dvec3(0.0);
-  return scene_->isInsideClosedSolid(point.position + offset);
+  return (solids_ ? *solids_ : *scene_).isInsideClosedSolid(point.position + offset);
 }
 
 uint8_t ShadowReference::visibility(const Light& light, const SurfacePoint& point) const {

@@ -36,19 +36,21 @@ public:
   bool uniformAround(const LightShadow& shadow, const SurfacePoint& point, uint8_t centre) const;
 
   // Whether the point lies inside a closed solid of the scene (Embree parity count from just off the surface,
-  // along the normal when there is one). Such a point is in free voxels: the bake may answer either way.
+  // along the normal when there is one), the ground under a closed ground sheet included. Such a point is in
+  // free voxels: the bake may answer either way.
   bool insideClosedSolid(const SurfacePoint& point) const;
 
   // The offset along the normal: 1e-5 of the scene's diagonal.
   double epsilon() const { return epsilon_; }
   size_t triangles() const { return sceneTriangles_; }  // the scene's own, without ground closings
-  const EmbreeScene& scene() const { return *scene_; }
+  const EmbreeScene& scene() const { return *scene_; }  // the scene's own triangles
 
 private:
   // The shadow ray of a point: false when the answer needs no ray (`known` holds it).
   bool shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax, uint8_t& known) const;
 
-  std::unique_ptr<EmbreeScene> scene_;
+  std::unique_ptr<EmbreeScene> scene_;   // the scene's own triangles: every ray
+  std::unique_ptr<EmbreeScene> solids_;  // with the ground sheets' closing triangles, when there are any
   size_t sceneTriangles_ = 0;
   double epsilon_ = 0;
   NormalOrientation orientation_;

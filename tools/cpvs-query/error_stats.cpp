@@ -14,11 +14,13 @@ void ErrorStats::add(const ErrorStats& o) {
   referenceLit += o.referenceLit;
   cpvsLit += o.cpvsLit;
   // Pooled over lights: the first rows misclassified for any light, each once.
-  std::vector<uint64_t>& rows = firstMisclassifiedUniform;
-  rows.insert(rows.end(), o.firstMisclassifiedUniform.begin(), o.firstMisclassifiedUniform.end());
-  std::sort(rows.begin(), rows.end());
-  rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
-  if (rows.size() > kExamples) rows.resize(kExamples);
+  for (auto [rows, more] : {std::pair{&firstMisclassifiedUniform, &o.firstMisclassifiedUniform},
+                            std::pair{&firstMisclassified, &o.firstMisclassified}}) {
+    rows->insert(rows->end(), more->begin(), more->end());
+    std::sort(rows->begin(), rows->end());
+    rows->erase(std::unique(rows->begin(), rows->end()), rows->end());
+    if (rows->size() > kExamples) rows->resize(kExamples);
+  }
 }
 
 }  // namespace cpvs::query

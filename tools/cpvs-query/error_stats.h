@@ -18,6 +18,7 @@ struct ErrorStats {
   // Input indices (0-based rows) of the first misclassified uniform points: where to look first when that
   // rate is not ~0 (a uniform point is far from any shadow boundary, so its error is not resolution).
   std::vector<uint64_t> firstMisclassifiedUniform;
+  std::vector<uint64_t> firstMisclassified;  // the same over all points (shadow edges included)
   static constexpr size_t kExamples = 20;
 
   void add(const ErrorStats& o);

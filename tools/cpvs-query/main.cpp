@@ -265,6 +265,8 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       const bool wrong = cpvsLit != (ref != 0);
       ++e.samples;
       e.misclassified += wrong;
+      if (wrong && e.firstMisclassified.size() < query::ErrorStats::kExamples)
+        e.firstMisclassified.push_back(totals.points + i);
       e.absDiffSum += std::abs(double(v) - double(ref));
       e.referenceLit += ref;
       e.cpvsLit += cpvsLit;
@@ -481,6 +483,7 @@ nlohmann::json errorJson(const query::ErrorStats& e) {
           {"misclassified_uniform", e.rate(e.misclassifiedUniform, e.uniform)},
           {"misclassified_uniform_count", e.misclassifiedUniform},
           {"first_misclassified_uniform_points", e.firstMisclassifiedUniform},
+          {"first_misclassified_points", e.firstMisclassified},
           {"mean_abs_diff", e.samples ? e.absDiffSum / double(e.samples) : 0.0},
           {"mean_abs_diff_uniform", e.uniform ? e.absDiffSumUniform / double(e.uniform) : 0.0},
           {"reference_lit_fraction", e.rate(e.referenceLit, e.samples)},
@@ -756,7 +759,7 @@ int main(int argc, char** argv) {
       ->type_name("N");
   app.add_option("--top-grid", options.topGrid,
                  "Start lookups from a dense pointer grid of the DAG's first L levels (8^L entries of 4 bytes per "
-                 "view; 0 = off; -1 = automatic: up to 5 levels, at most 1/8 of the DAG's bytes)")
+                 "view; 0 = off; -1 = automatic: up to 6 levels while the grid takes no more bytes than the DAG)")
       ->type_name("L")
       ->capture_default_str();
   app.add_option("--timing-rounds", options.timingRounds,
