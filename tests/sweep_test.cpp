@@ -247,6 +247,41 @@ TEST(Sweep, RowsOnATinyScene) {
   for (size_t l = 0; l < 2; ++l) EXPECT_LE(rows[4 + l].misclassified, rows[4 + l].smMisclassified);
 }
 
+// A narrow spot over the scene keeps few of the samples; --min-light-points tops it up from further rounds,
+// and leaves the other light's points as they were.
+TEST(Sweep, ANarrowSpotIsToppedUpToTheMinimum) {
+  Scene scene = floatingBox();
+  Light spot;
+  spot.name = "narrow";
+  spot.type = LightType::Spot;
+  spot.position = {3, 9, 2};
+  spot.direction = glm::normalize(glm::dvec3(-0.3, -1, -0.2));
+  spot.outerConeAngle = 0.12;
+  spot.range = 30;
+  scene.lights.push_back(spot);
+  SweepSettings settings;
+  settings.resolutions = {64};
+  settings.samples = 3000;
+  settings.timingSeconds = 0.01;
+  settings.minLightPoints = 2500;
+  const WorldGeometry world = flatten(scene);
+  const auto base = sampleSurfaces(world, settings.samples, settings.seed);
+  const size_t narrowBase = sweepPoints(spot, base, false).size();
+  ASSERT_LT(narrowBase, 500u) << "the spot should keep few points";
+  ASSERT_GT(sweepPoints(scene.lights[0], base, false).size(), settings.minLightPoints);
+  std::vector<SweepRow> rows;
+  try {
+    rows = runSweep(scene, settings);
+  } catch (const Error& e) {
+    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what();
+    throw;
+  }
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].points, sweepPoints(scene.lights[0], base, false).size());  // untouched
+  EXPECT_EQ(rows[1].points, settings.minLightPoints);
+  EXPECT_GT(rows[1].referenceLit, 0u);
+}
+
 TEST(SweepTool, QuietWithAnOutputFolderWritesOnlyTheFiles) {
   // Pipelines run the sweep with -q --out-dir: the table goes to the files, nothing to the terminal.
   const std::string dir = test::tempDir();

@@ -126,6 +126,21 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
   for (size_t l = 0; l < lightCount; ++l) {
     const Light& light = scene.lights[l];
     points[l] = sweepPoints(light, samples, settings.allPoints);
+    // Top up a light with few points from further rounds; bounded so a light that reaches almost nothing
+    // cannot loop for long.
+    constexpr uint64_t kMaxRounds = 200;
+    uint64_t round = 1;
+    for (; points[l].size() < settings.minLightPoints && round <= kMaxRounds; ++round) {
+      std::vector<SurfaceSample> more = sweepPoints(light, sampleSurfaces(world, settings.samples, settings.seed + round),
+                                                   settings.allPoints);
+      if (!settings.interiorPoints) more = exteriorSamples(referenceRays, more);
+      const size_t wanted = settings.minLightPoints - points[l].size();
+      if (more.size() > wanted) more.resize(wanted);
+      points[l].insert(points[l].end(), more.begin(), more.end());
+    }
+    if (round > 1)
+      log("light '" + light.name + "': topped up to " + std::to_string(points[l].size()) + " points from " +
+          std::to_string(round - 1) + " more rounds of samples");
     reference[l].resize(points[l].size());
     parallelFor(points[l].size(), [&](size_t i) {
       reference[l][i] = referenceRays.visibility(light, {points[l][i].position, points[l][i].normal});

@@ -44,6 +44,10 @@ struct SweepSettings {
   uint64_t seed = 1;
   bool allPoints = false;   // keep points facing away from the light
   bool interiorPoints = false;  // keep samples inside closed solids
+  // A light left with fewer points than this (a narrow spot over a large scene) draws further rounds of
+  // `samples` (seeds seed + 1, seed + 2, ...; same filters) until it has this many: enough errors to count.
+  // The first round is the same for every light, so lights above it keep the same points. 0: off.
+  size_t minLightPoints = 0;
   int pcfKernel = 1;        // K for both the CPVS and the shadow map
   BaselineDepth baselineDepth = BaselineDepth::Embree;
   BakeSettings bake;        // resolution is set per sweep step

@@ -27,6 +27,7 @@ struct Options {
   std::string scene;
   std::string resolutions = "1k,2k,4k,8k,16k";
   size_t samples = 100000;
+  size_t minLightPoints = 0;
   uint64_t seed = 1;
   bool allPoints = false;
   bool interiorPoints = false;
@@ -137,7 +138,12 @@ std::string markdown(const Options& o, const std::string& name, const Scene& sce
   md += "* " + std::to_string(o.samples) + " area-weighted surface samples (seed " + std::to_string(o.seed) + "), " +
         (o.interiorPoints ? std::string("including those inside closed solids")
                           : std::to_string(interior) + " of them inside closed solids dropped") +
-        "; per light " + (o.allPoints ? "all kept" : "kept where they face the light") + " and inside its influence; PCF " +
+        "; per light " + (o.allPoints ? "all kept" : "kept where they face the light") + " and inside its influence" +
+        (o.minLightPoints ? "; a light left with fewer than " + std::to_string(o.minLightPoints) +
+                                " points drew further rounds (seeds " + std::to_string(o.seed + 1) + ", " +
+                                std::to_string(o.seed + 2) + ", ...) until it had that many"
+                          : std::string()) +
+        "; PCF " +
         std::to_string(o.pcf) + "×" + std::to_string(o.pcf) + "; `--undefined " + o.undefinedMode +
         "`; shadow-map depth from " + (o.baselineDepth == "embree" ? "Embree rays" : "the GL enter-depth renderer") +
         "\n";
@@ -262,6 +268,10 @@ int run(int argc, char** argv) {
   app.add_option("--resolutions", o.resolutions, "Comma-separated resolutions to bake (powers of two)")
       ->capture_default_str();
   app.add_option("--points", o.samples, "Surface samples drawn (then filtered per light)")->capture_default_str();
+  app.add_option("--min-light-points", o.minLightPoints,
+                 "A light with fewer points draws further rounds of samples (next seeds) until it has this many "
+                 "(0 = off): a narrow spot over a large scene gets enough errors to count")
+      ->capture_default_str();
   app.add_option("--seed", o.seed, "Sampling seed")->capture_default_str();
   app.add_flag("--all-points", o.allPoints, "Keep the points that face away from the light");
   app.add_flag("--interior-points", o.interiorPoints, "Keep the samples inside closed solids (hidden surfaces)");
@@ -282,12 +292,14 @@ int run(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
   }
   if (o.samples < 1 || o.samples > 100000000) throw Error(ExitCode::Usage, "--points must be in 1..1e8");
+  if (o.minLightPoints > 100000000) throw Error(ExitCode::Usage, "--min-light-points must be in 0..1e8");
   if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
   if (!(o.timing > 0 && o.timing <= 60)) throw Error(ExitCode::Usage, "--timing must be in (0, 60] seconds");
 
   SweepSettings settings;
   settings.resolutions = parseResolutions(o.resolutions);
   settings.samples = o.samples;
+  settings.minLightPoints = o.minLightPoints;
   settings.seed = o.seed;
   settings.allPoints = o.allPoints;
   settings.interiorPoints = o.interiorPoints;
@@ -331,6 +343,7 @@ int run(int argc, char** argv) {
                               {"triangles", triangles},
                               {"renderer", renderer},
                               {"samples", o.samples},
+                              {"min_light_points", o.minLightPoints},
                               {"seed", o.seed},
                               {"all_points", o.allPoints},
                               {"interior_points", o.interiorPoints},

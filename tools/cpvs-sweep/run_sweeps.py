@@ -38,10 +38,10 @@ SCENES = [
     ("japanesetemple", "data/scenes/JapaneseTemple/scene.gltf", "open geometry: columns, railings, roofs",
      ["--sun", "0.4,-1,0.3", "--spot", "25,45,20,-0.5132,-0.7184,-0.4105,0.6,120"]),
     ("city", "out/bench/scenes/city-t100000-s1.glb", "generated closed city (cpvs-scenegen city, 100k triangles)",
-     ["--sun", "0.4,-1,0.3", "--spot", "100,200,50,-0.4364,-0.8729,-0.2182,0.5,600"]),
+     ["--sun", "0.4,-1,0.3", "--spot", "100,200,50,-0.4364,-0.8729,-0.2182,0.5,600", "--min-light-points", "50000"]),
     ("open-city", "out/bench/scenes/open-city-t100000-s1.glb",
      "generated open city (cpvs-scenegen open-city, single-sided walls)",
-     ["--sun", "0.4,-1,0.3", "--spot", "100,200,50,-0.4364,-0.8729,-0.2182,0.5,600"]),
+     ["--sun", "0.4,-1,0.3", "--spot", "100,200,50,-0.4364,-0.8729,-0.2182,0.5,600", "--min-light-points", "50000"]),
 ]
 GENERATED = {"city-t100000-s1.glb": ["city", "--triangles", "100000", "--seed", "1"],
              "open-city-t100000-s1.glb": ["open-city", "--triangles", "100000", "--seed", "1"]}
