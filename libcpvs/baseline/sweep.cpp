@@ -110,7 +110,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
   };
   checkPcfKernel(settings.pcfKernel);
   const WorldGeometry world = flatten(scene);
-  const ShadowReference referenceRays(world);
+  const ShadowReference referenceRays(world, NormalOrientation::AsGiven, settings.referenceEpsilon);
   const EmbreeScene& embree = referenceRays.scene();
   const LookupOptions lookup{settings.pcfKernel, NormalOrientation::AsGiven};
 

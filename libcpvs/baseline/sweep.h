@@ -48,6 +48,7 @@ struct SweepSettings {
   // `samples` (seeds seed + 1, seed + 2, ...; same filters) until it has this many: enough errors to count.
   // The first round is the same for every light, so lights above it keep the same points. 0: off.
   size_t minLightPoints = 0;
+  double referenceEpsilon = 1e-5;  // ShadowReference's ray offset, a fraction of the scene's diagonal
   int pcfKernel = 1;        // K for both the CPVS and the shadow map
   BaselineDepth baselineDepth = BaselineDepth::Embree;
   BakeSettings bake;        // resolution is set per sweep step

@@ -4,7 +4,7 @@
 
 namespace cpvs {
 
-ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation)
+ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation, double relativeEpsilon)
     : orientation_(orientation) {
   // Rays see the scene as authored; the inside-a-solid test also sees the ground sheets' closing triangles,
   // so it finds the ground solid the bake took (libcpvs/ground_sheet.h).
@@ -20,9 +20,9 @@ ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation o
   }
   sceneTriangles_ = world.sceneTriangleCount();
   const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
-  // Scale-relative: ~100x the float precision Embree stores the scene with, far below a voxel of any
-  // practical resolution (1e-5 of the diagonal is a voxel only at N ~ 100k).
-  epsilon_ = 1e-5 * (diagonal > 0 ? diagonal : 1.0);
+  // Scale-relative: by default ~100x the float precision Embree stores the scene with; 1e-5 of the diagonal
+  // is a voxel of a view spanning the whole scene only at N ~ 100k, but a narrow spot's voxels are smaller.
+  epsilon_ = relativeEpsilon * (diagonal > 0 ? diagonal : 1.0);
 }
 
 ShadowReference::~ShadowReference() = default;

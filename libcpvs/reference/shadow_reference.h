@@ -15,7 +15,10 @@ namespace cpvs {
 class ShadowReference {
 public:
   // Builds the Embree BVH of the geometry. `orientation`: how the lookups being scored orient normals.
-  explicit ShadowReference(const WorldGeometry& world, NormalOrientation orientation = NormalOrientation::AsGiven);
+  // `relativeEpsilon`: the rays' offset off the surface as a fraction of the scene's diagonal (see epsilon()).
+  static constexpr double kDefaultRelativeEpsilon = 1e-5;
+  explicit ShadowReference(const WorldGeometry& world, NormalOrientation orientation = NormalOrientation::AsGiven,
+                           double relativeEpsilon = kDefaultRelativeEpsilon);
   ~ShadowReference();
 
   // Ray-traced visibility (1 lit, 0 shadowed; 0 outside the light's influence) of a point: a shadow ray from
@@ -40,7 +43,8 @@ public:
   // free voxels: the bake may answer either way.
   bool insideClosedSolid(const SurfacePoint& point) const;
 
-  // The offset along the normal: 1e-5 of the scene's diagonal.
+  // The offset along the normal: by default 1e-5 of the scene's diagonal. Keep it well under a voxel of the
+  // views being scored: a narrow spot over a large scene at 32k has voxels of about that size.
   double epsilon() const { return epsilon_; }
   size_t triangles() const { return sceneTriangles_; }  // the scene's own, without ground closings
   const EmbreeScene& scene() const { return *scene_; }  // the scene's own triangles

@@ -58,6 +58,7 @@ struct Options {
   int timingRounds = 7;
   double biasMargin = kDefaultBiasMargin;
   bool scoreInside = false;
+  double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;
 };
 
 uint64_t peakRssBytes() {
@@ -496,6 +497,8 @@ int run(const Options& options) {
   if (!options.excludedMeshes.empty() && options.reference.empty())
     throw Error(ExitCode::Usage, "--exclude-mesh only applies to the --reference scene");
   if (options.threads == 0) throw Error(ExitCode::Usage, "--threads must be at least 1");
+  if (!(options.referenceEpsilon >= 1e-9 && options.referenceEpsilon <= 1e-2))
+    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
   if (options.topGrid < -1 || options.topGrid > 8) throw Error(ExitCode::Usage, "--top-grid must be -1 to 8");
   if (options.timingRounds < 0) throw Error(ExitCode::Usage, "--timing-rounds must be 0 or more");
   if (!(options.biasMargin >= 0 && options.biasMargin <= 64))
@@ -521,7 +524,7 @@ int run(const Options& options) {
     const auto t = Clock::now();
     Scene scene = importGltf(options.reference);
     if (!options.excludedMeshes.empty()) excludeMeshes(scene, options.excludedMeshes);
-    reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation);
+    reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation, options.referenceEpsilon);
     referenceLoadMs = msSince(t);
     if (!options.quiet)
       for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
@@ -751,6 +754,10 @@ int main(int argc, char** argv) {
   app.add_flag("--score-inside-closed", options.scoreInside,
                "Also score points that lie inside a closed solid of the reference scene (left out by default: "
                "no surface there can be seen, and the bake may answer either way)");
+  app.add_option("--reference-epsilon", options.referenceEpsilon,
+                 "Offset of the reference's shadow rays off the surface, as a fraction of the scene's diagonal; keep "
+                 "it under a voxel of the views (a narrow spot over a large scene at 32k needs 1e-6)")
+      ->capture_default_str();
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh from the reference scene (repeatable)")
       ->type_name("NAME");
   app.add_option("--report", options.report, "Write a JSON report: counts, throughput, error figures")

@@ -28,6 +28,7 @@ struct Options {
   std::string resolutions = "1k,2k,4k,8k,16k";
   size_t samples = 100000;
   size_t minLightPoints = 0;
+  double referenceEpsilon = 1e-5;
   uint64_t seed = 1;
   bool allPoints = false;
   bool interiorPoints = false;
@@ -268,6 +269,10 @@ int run(int argc, char** argv) {
   app.add_option("--resolutions", o.resolutions, "Comma-separated resolutions to bake (powers of two)")
       ->capture_default_str();
   app.add_option("--points", o.samples, "Surface samples drawn (then filtered per light)")->capture_default_str();
+  app.add_option("--reference-epsilon", o.referenceEpsilon,
+                 "Offset of the reference's shadow rays off the surface, as a fraction of the scene's diagonal (as "
+                 "cpvs-query --reference-epsilon)")
+      ->capture_default_str();
   app.add_option("--min-light-points", o.minLightPoints,
                  "A light with fewer points draws further rounds of samples (next seeds) until it has this many "
                  "(0 = off): a narrow spot over a large scene gets enough errors to count")
@@ -292,6 +297,8 @@ int run(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
   }
   if (o.samples < 1 || o.samples > 100000000) throw Error(ExitCode::Usage, "--points must be in 1..1e8");
+  if (!(o.referenceEpsilon >= 1e-9 && o.referenceEpsilon <= 1e-2))
+    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
   if (o.minLightPoints > 100000000) throw Error(ExitCode::Usage, "--min-light-points must be in 0..1e8");
   if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
   if (!(o.timing > 0 && o.timing <= 60)) throw Error(ExitCode::Usage, "--timing must be in (0, 60] seconds");
@@ -300,6 +307,7 @@ int run(int argc, char** argv) {
   settings.resolutions = parseResolutions(o.resolutions);
   settings.samples = o.samples;
   settings.minLightPoints = o.minLightPoints;
+  settings.referenceEpsilon = o.referenceEpsilon;
   settings.seed = o.seed;
   settings.allPoints = o.allPoints;
   settings.interiorPoints = o.interiorPoints;
@@ -344,6 +352,7 @@ int run(int argc, char** argv) {
                               {"renderer", renderer},
                               {"samples", o.samples},
                               {"min_light_points", o.minLightPoints},
+                              {"reference_epsilon", o.referenceEpsilon},
                               {"seed", o.seed},
                               {"all_points", o.allPoints},
                               {"interior_points", o.interiorPoints},
