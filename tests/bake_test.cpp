@@ -46,46 +46,21 @@ Scene mixedScene() {
   test::addQuad(scene, "roof", {1, 4, 0}, {6, 4, 0}, {6, 4, 5}, {1, 4, 5});
   test::addQuad(scene, "wall", {-6, 0, 4}, {-2, 0, 4}, {-2, 3, 4}, {-6, 3, 4});
   test::classifyMeshes(scene);
-  Light sun;
-  sun.name = "sun";
-  sun.type = LightType::Directional;
-  sun.direction = glm::normalize(glm::dvec3(0.35, -1.0, 0.25));
-  Light spot;
-  spot.name = "spot";
-  spot.type = LightType::Spot;
-  spot.position = {0, 12, 0};
-  spot.direction = {0, -1, 0};
-  spot.outerConeAngle = 0.7;
-  spot.range = 40;
-  scene.lights = {sun, spot};
+  scene.lights = {test::sunLight("sun", {0.35, -1.0, 0.25}), test::spotLight("spot", {0, 12, 0}, {0, -1, 0}, 0.7, 40)};
   return scene;
 }
 
 Scene torusKnotScene() {
   Scene scene = importGltf(sourcePath("data/scenes/TorusKnot/torusknot.gltf"));
-  Light sun;
-  sun.name = "sun";
-  sun.type = LightType::Directional;
-  sun.direction = glm::normalize(glm::dvec3(0.3, -1.0, 0.2));
-  scene.lights = {sun};
+  scene.lights = {test::sunLight("sun", {0.3, -1.0, 0.2})};
   return scene;
 }
 
 // The open terrain with a low sun and a spot: its sheet is closed into solid ground (libcpvs/ground_sheet.h).
 Scene terrainScene() {
   Scene scene = importGltf(sourcePath("data/scenes/Terrain/terrain.gltf"));
-  Light sun;
-  sun.name = "sun";
-  sun.type = LightType::Directional;
-  sun.direction = glm::normalize(glm::dvec3(0.6, -0.5, 0.3));
-  Light spot;
-  spot.name = "spot";
-  spot.type = LightType::Spot;
-  spot.position = {1.5, 1.5, 1};
-  spot.direction = glm::normalize(glm::dvec3(-0.6396, -0.6396, -0.4264));
-  spot.outerConeAngle = 0.7;
-  spot.range = 10;
-  scene.lights = {sun, spot};
+  scene.lights = {test::sunLight("sun", {0.6, -0.5, 0.3}),
+                  test::spotLight("spot", {1.5, 1.5, 1}, {-0.6396, -0.6396, -0.4264}, 0.7, 10)};
   return scene;
 }
 
@@ -152,14 +127,6 @@ uint64_t freeVoxels(const std::vector<DepthRegion>& regions) {
       if (d.exit[i] > d.enter[i] + 1) count += d.exit[i] - d.enter[i] - 1;
   return count;
 }
-
-#define SKIP_WITHOUT_OSMESA(expr)                                                        \
-  try {                                                                                  \
-    expr;                                                                                \
-  } catch (const Error& e) {                                                             \
-    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what(); \
-    throw;                                                                               \
-  }
 
 struct ExactCase {
   const char* scene;

@@ -19,21 +19,9 @@ WorldGeometry boxesScene(glm::dvec3 offset = glm::dvec3(0), double scale = 1) {
   return flatten(scene);
 }
 
-Light sun(glm::dvec3 direction) {
-  Light l;
-  l.type = LightType::Directional;
-  l.direction = glm::normalize(direction);
-  return l;
-}
-
+Light sun(glm::dvec3 direction) { return test::sunLight("", direction); }
 Light spot(glm::dvec3 position, glm::dvec3 direction, double outer, double range) {
-  Light l;
-  l.type = LightType::Spot;
-  l.position = position;
-  l.direction = glm::normalize(direction);
-  l.outerConeAngle = outer;
-  l.range = range;
-  return l;
+  return test::spotLight("", position, direction, outer, range);
 }
 
 TEST(LightView, GridRoundTripsThroughWorld) {

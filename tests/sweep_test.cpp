@@ -137,12 +137,7 @@ TEST(ShadowMapBaseline, RasterDepthMatchesEmbreeDepth) {
   const WorldGeometry world = flatten(scene);
   const EmbreeScene embree(world);
   std::unique_ptr<DepthRenderer> renderer;
-  try {
-    renderer = DepthRenderer::create(RasterBackend::OSMesa);
-  } catch (const Error& e) {
-    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what();
-    throw;
-  }
+  SKIP_WITHOUT_OSMESA(renderer = DepthRenderer::create(RasterBackend::OSMesa));
   for (const Light& light : {scene.lights[0]}) {
     const std::vector<LightView> views = makeLightViews(light, world, 512);
     const ShadowMap16 a = buildShadowMapEmbree(embree, views[0], 300);
@@ -195,26 +190,14 @@ TEST(Sweep, SamplesInsideClosedSolidsAreDropped) {
 
 TEST(Sweep, RowsOnATinyScene) {
   Scene scene = floatingBox();
-  Light spot;
-  spot.name = "spot";
-  spot.type = LightType::Spot;
-  spot.position = {3, 9, 2};
-  spot.direction = glm::normalize(glm::dvec3(-0.3, -1, -0.2));
-  spot.outerConeAngle = 0.7;
-  spot.range = 30;
-  scene.lights.push_back(spot);
+  scene.lights.push_back(test::spotLight("spot", {3, 9, 2}, {-0.3, -1, -0.2}, 0.7, 30));
   SweepSettings settings;
   settings.resolutions = {64, 128, 256};
   settings.samples = 6000;
   settings.timingSeconds = 0.01;
   settings.bake.threads = 2;
   std::vector<SweepRow> rows;
-  try {
-    rows = runSweep(scene, settings);
-  } catch (const Error& e) {
-    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what();
-    throw;
-  }
+  SKIP_WITHOUT_OSMESA(rows = runSweep(scene, settings));
   ASSERT_EQ(rows.size(), 6u);
   const WorldGeometry world = flatten(scene);
   const ShadowReference reference(world);
@@ -251,13 +234,7 @@ TEST(Sweep, RowsOnATinyScene) {
 // and leaves the other light's points as they were.
 TEST(Sweep, ANarrowSpotIsToppedUpToTheMinimum) {
   Scene scene = floatingBox();
-  Light spot;
-  spot.name = "narrow";
-  spot.type = LightType::Spot;
-  spot.position = {3, 9, 2};
-  spot.direction = glm::normalize(glm::dvec3(-0.3, -1, -0.2));
-  spot.outerConeAngle = 0.12;
-  spot.range = 30;
+  const Light spot = test::spotLight("narrow", {3, 9, 2}, {-0.3, -1, -0.2}, 0.12, 30);
   scene.lights.push_back(spot);
   SweepSettings settings;
   settings.resolutions = {64};
@@ -270,12 +247,7 @@ TEST(Sweep, ANarrowSpotIsToppedUpToTheMinimum) {
   ASSERT_LT(narrowBase, 500u) << "the spot should keep few points";
   ASSERT_GT(sweepPoints(scene.lights[0], base, false).size(), settings.minLightPoints);
   std::vector<SweepRow> rows;
-  try {
-    rows = runSweep(scene, settings);
-  } catch (const Error& e) {
-    if (e.code() == ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what();
-    throw;
-  }
+  SKIP_WITHOUT_OSMESA(rows = runSweep(scene, settings));
   ASSERT_EQ(rows.size(), 2u);
   EXPECT_EQ(rows[0].points, sweepPoints(scene.lights[0], base, false).size());  // untouched
   EXPECT_EQ(rows[1].points, settings.minLightPoints);

@@ -84,6 +84,26 @@ void addQuad(Scene& scene, const std::string& name, const glm::dvec3& a, const g
   scene.instances.push_back({uint32_t(scene.meshes.size() - 1), glm::dmat4(1.0), name});
 }
 
+Light sunLight(const std::string& name, const glm::dvec3& direction) {
+  Light sun;
+  sun.name = name;
+  sun.type = LightType::Directional;
+  sun.direction = glm::normalize(direction);
+  return sun;
+}
+
+Light spotLight(const std::string& name, const glm::dvec3& position, const glm::dvec3& direction, double outerCone,
+                double range) {
+  Light spot;
+  spot.name = name;
+  spot.type = LightType::Spot;
+  spot.position = position;
+  spot.direction = glm::normalize(direction);
+  spot.outerConeAngle = outerCone;
+  spot.range = range;
+  return spot;
+}
+
 void classifyMeshes(Scene& scene) {
   for (Mesh& mesh : scene.meshes) classifyMesh(mesh);
 }

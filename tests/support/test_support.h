@@ -3,8 +3,19 @@
 #include <string>
 
 #include <glm/glm.hpp>
+#include <gtest/gtest.h>
 
+#include "libcpvs/error.h"
 #include "libcpvs/scene.h"
+
+// Runs `expr` (a bake, a sweep, a renderer): where OSMesa is missing the test is skipped, not failed.
+#define SKIP_WITHOUT_OSMESA(expr)                                                                      \
+  try {                                                                                                \
+    expr;                                                                                              \
+  } catch (const ::cpvs::Error& e) {                                                                   \
+    if (e.code() == ::cpvs::ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what(); \
+    throw;                                                                                             \
+  }
 
 namespace cpvs::test {
 
@@ -21,6 +32,11 @@ void addQuad(Scene& scene, const std::string& name, const glm::dvec3& a, const g
              const glm::dvec3& c, const glm::dvec3& d);
 // Decides closedness of every mesh the way the importer does.
 void classifyMeshes(Scene& scene);
+
+// Lights for test scenes; directions are normalised.
+Light sunLight(const std::string& name, const glm::dvec3& direction);
+Light spotLight(const std::string& name, const glm::dvec3& position, const glm::dvec3& direction, double outerCone,
+                double range);
 
 struct ToolResult {
   int exitCode = -1;
