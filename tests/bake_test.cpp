@@ -319,6 +319,18 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   ASSERT_EQ(file->lights().size(), 2u);
   EXPECT_EQ(file->lights()[1].views.size(), 6u);
   EXPECT_EQ(j["file_bytes"].get<uint64_t>(), file->fileSize());
+  EXPECT_EQ(j["settings"]["ground"], "auto");
+  EXPECT_TRUE(j["ground_sheets"].is_array() && j["ground_sheets"].empty()) << "the torus knot has no ground";
+  // Tiny's ground quad spans the scene: reported as used, with what closed it.
+  const auto tiny = runTool(toolPath("cpvs-bake") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " -o " + dir +
+                            "/t.cpvs --resolution 64 --sun 0.3,-1,0.2 --quiet --report " + dir + "/t.json");
+  ASSERT_EQ(tiny.exitCode, 0) << tiny.output;
+  const nlohmann::json t = nlohmann::json::parse(readFile(dir + "/t.json"));
+  ASSERT_EQ(t["ground_sheets"].size(), 1u);
+  EXPECT_EQ(t["ground_sheets"][0]["mesh"], "Ground");
+  EXPECT_EQ(t["ground_sheets"][0]["faces"], "+y");
+  EXPECT_EQ(t["ground_sheets"][0]["used"], true);
+  EXPECT_EQ(t["ground_sheets"][0]["closing_triangles"], 12u);  // 4 boundary edges: 4 x 2 wall + 4 bottom
 }
 
 TEST(BakeTool, DumpDepthWritesEnterAndExitSlices) {
