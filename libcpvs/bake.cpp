@@ -82,6 +82,7 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeRepo
   BakeReport& rep = report ? *report : localReport;
   rep.inputHash = inputHash;
   rep.groundSheets = world.groundSheets;
+  rep.sceneTriangles = world.sceneTriangleCount();
 
   // Progress counts views, weighted equally.
   std::vector<std::vector<LightView>> allViews;

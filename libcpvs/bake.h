@@ -53,6 +53,7 @@ struct BakeReport {
   std::vector<LightReport> lights;
   uint64_t inputHash = 0;
   std::vector<GroundSheet> groundSheets;  // the height fields spanning the scene, used or not (and why)
+  size_t sceneTriangles = 0;              // the scene's own triangles, as flattened for the bake
 };
 
 struct BakeCallbacks {

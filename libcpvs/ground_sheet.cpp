@@ -1,10 +1,12 @@
 #include "libcpvs/ground_sheet.h"
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <span>
 #include <unordered_map>
+
+#include "libcpvs/mesh_topology.h"
 
 namespace cpvs {
 namespace {
@@ -28,20 +30,13 @@ struct SheetFrame {
 };
 
 // Oriented boundary edges (as their triangle runs them) after welding the instance's vertices by position.
+// flatten() gives each instance its own contiguous run of world vertices.
 std::vector<std::pair<uint32_t, uint32_t>> boundaryEdges(const WorldGeometry& world, const InstanceTriangles& r) {
-  struct Key {
-    uint64_t x, y, z;
-    bool operator==(const Key&) const = default;
-  };
-  struct KeyHash {
-    size_t operator()(const Key& k) const { return std::hash<uint64_t>()(k.x * 0x9E3779B97F4A7C15ull ^ k.y * 31 ^ k.z); }
-  };
-  auto bits = [](double d) { return std::bit_cast<uint64_t>(d == 0.0 ? 0.0 : d); };
-  std::unordered_map<Key, uint32_t, KeyHash> weld;
-  auto welded = [&](uint32_t vertex) {
-    const glm::dvec3& p = world.positions[vertex];
-    return weld.try_emplace(Key{bits(p.x), bits(p.y), bits(p.z)}, vertex).first->second;
-  };
+  const auto [lo, hi] = std::minmax_element(world.indices.begin() + long(3 * r.begin), world.indices.begin() + long(3 * r.end));
+  const uint32_t first = *lo;
+  const std::vector<uint32_t> weld =
+      weldByPosition(std::span<const glm::dvec3>(world.positions.data() + first, size_t(*hi - first + 1)));
+  auto welded = [&](uint32_t vertex) { return first + weld[vertex - first]; };
   // Per undirected edge: how often it is used and the last direction seen.
   struct Use {
     uint32_t count = 0, from = 0, to = 0;

@@ -3,15 +3,18 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <span>
+#include <type_traits>
 
 #include "libcpvs/error.h"
 
 namespace cpvs {
 namespace {
 
-uint32_t floatBits(float value) {
-  if (value == 0.0f) value = 0.0f;  // -0.0 and 0.0 are the same point
-  return std::bit_cast<uint32_t>(value);
+template <class Real>
+auto positionBits(Real value) {
+  if (value == Real(0)) value = Real(0);  // -0.0 and 0.0 are the same point
+  return std::bit_cast<std::conditional_t<sizeof(Real) == 4, uint32_t, uint64_t>>(value);
 }
 
 uint64_t mix64(uint64_t x) {  // splitmix64 finaliser
@@ -23,21 +26,24 @@ uint64_t mix64(uint64_t x) {  // splitmix64 finaliser
   return x;
 }
 
-// Maps every vertex to the id of the first vertex with bit-identical position (an open-addressing hash
-// table: linear in the vertex count, unlike a sort).
-std::vector<uint32_t> weldByPosition(const std::vector<glm::vec3>& positions) {
+}  // namespace
+
+// An open-addressing hash table: linear in the vertex count, unlike a sort.
+template <class Vec>
+std::vector<uint32_t> weldByPosition(std::span<const Vec> positions) {
   constexpr uint32_t kEmpty = ~0u;
   size_t capacity = 16;
   while (capacity < 2 * positions.size()) capacity *= 2;
   std::vector<uint32_t> table(capacity, kEmpty);
   std::vector<uint32_t> welded(positions.size());
   auto bits = [&](uint32_t v) {
-    const glm::vec3& p = positions[v];
-    return std::array<uint32_t, 3>{floatBits(p.x), floatBits(p.y), floatBits(p.z)};
+    const Vec& p = positions[v];
+    return std::array{positionBits(p.x), positionBits(p.y), positionBits(p.z)};
   };
   for (uint32_t v = 0; v < positions.size(); ++v) {
     const auto key = bits(v);
-    size_t slot = mix64((uint64_t(key[0]) << 32 | key[1]) ^ mix64(key[2])) & (capacity - 1);
+    size_t slot = mix64(mix64(uint64_t(key[0])) ^ mix64(uint64_t(key[1]) + 0x9E3779B97F4A7C15ull) ^ uint64_t(key[2])) &
+                  (capacity - 1);
     while (true) {
       if (table[slot] == kEmpty) {
         table[slot] = v;
@@ -54,7 +60,8 @@ std::vector<uint32_t> weldByPosition(const std::vector<glm::vec3>& positions) {
   return welded;
 }
 
-}  // namespace
+template std::vector<uint32_t> weldByPosition(std::span<const glm::vec3>);
+template std::vector<uint32_t> weldByPosition(std::span<const glm::dvec3>);
 
 void classifyMesh(Mesh& mesh) {
   mesh.closed = false;
@@ -66,7 +73,7 @@ void classifyMesh(Mesh& mesh) {
                                               " out of range (" + std::to_string(mesh.positions.size()) +
                                               " vertices)");
 
-  const std::vector<uint32_t> welded = weldByPosition(mesh.positions);
+  const std::vector<uint32_t> welded = weldByPosition(std::span<const glm::vec3>(mesh.positions));
 
   // Bucket every edge by its lower vertex id (a counting sort); each entry keeps the higher id and whether
   // the triangle runs low -> high. Buckets are tiny, so sorting them is cheap.

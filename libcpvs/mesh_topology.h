@@ -1,8 +1,17 @@
 #pragma once
 // Decides whether a mesh is closed (DESIGN.md §4.1) from its geometry alone.
+#include <cstdint>
+#include <span>
+#include <vector>
+
 #include "libcpvs/scene.h"
 
 namespace cpvs {
+
+// Maps every vertex to the id of the first vertex with a bit-identical position (-0 and 0 alike); for
+// glm::vec3 (a mesh) and glm::dvec3 (world geometry).
+template <class Vec>
+std::vector<uint32_t> weldByPosition(std::span<const Vec> positions);
 
 // Welds vertices with identical positions, then counts edges: boundary (one triangle), non-manifold (more
 // than two), inconsistent (two triangles that traverse the edge the same way). The mesh is closed when all

@@ -320,12 +320,14 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   EXPECT_EQ(file->lights()[1].views.size(), 6u);
   EXPECT_EQ(j["file_bytes"].get<uint64_t>(), file->fileSize());
   EXPECT_EQ(j["settings"]["ground"], "auto");
+  EXPECT_EQ(j["triangles"], 2880u);
   EXPECT_TRUE(j["ground_sheets"].is_array() && j["ground_sheets"].empty()) << "the torus knot has no ground";
   // Tiny's ground quad spans the scene: reported as used, with what closed it.
   const auto tiny = runTool(toolPath("cpvs-bake") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " -o " + dir +
                             "/t.cpvs --resolution 64 --sun 0.3,-1,0.2 --quiet --report " + dir + "/t.json");
   ASSERT_EQ(tiny.exitCode, 0) << tiny.output;
   const nlohmann::json t = nlohmann::json::parse(readFile(dir + "/t.json"));
+  EXPECT_EQ(t["triangles"], 26u) << "the scene's own: the ground's 12 closing triangles are not counted";
   ASSERT_EQ(t["ground_sheets"].size(), 1u);
   EXPECT_EQ(t["ground_sheets"][0]["mesh"], "Ground");
   EXPECT_EQ(t["ground_sheets"][0]["faces"], "+y");

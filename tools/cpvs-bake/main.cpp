@@ -77,7 +77,7 @@ nlohmann::json groundSheetsJson(const std::vector<GroundSheet>& sheets) {
   return out;
 }
 
-nlohmann::json reportJson(const Options& options, const Scene& scene, const BakeSettings& settings,
+nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                           const BakeReport& report, double totalMs, double writeMs, uint64_t fileBytes) {
   uint64_t dagBytes = 0;
   for (const LightReport& l : report.lights)
@@ -122,7 +122,7 @@ nlohmann::json reportJson(const Options& options, const Scene& scene, const Bake
             {"max_peels", settings.peel.maxPeels},
             {"ground", settings.ground == GroundSheets::Auto ? "auto" : "off"}}},
           {"renderer", report.renderer},
-          {"triangles", flatten(scene, GroundSheets::Off).triangleCount()},
+          {"triangles", report.sceneTriangles},
           {"ground_sheets", groundSheetsJson(report.groundSheets)},
           {"total_ms", totalMs},
           {"peak_rss_bytes", peakRssBytes()},
@@ -222,7 +222,7 @@ int run(int argc, char** argv) {
   const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 
   if (!o.report.empty()) {
-    const nlohmann::json j = reportJson(o, scene, settings, report, totalMs, writeMs, fileBytes);
+    const nlohmann::json j = reportJson(o, settings, report, totalMs, writeMs, fileBytes);
     tools::writeFileAtomically(o.report, j.dump(2) + "\n");
   }
   if (!o.quiet) {
