@@ -1,6 +1,8 @@
 // ShadowReference: the ground truth of cpvs-query --reference and cpvs-sweep. Its "uniform" flag decides
 // which points the 0.1 % target is measured on, so its definition is pinned here: the same answer on a circle
 // of radius 2 voxels on the tangent plane and 2 voxels out along the normal.
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "libcpvs/light_view.h"
@@ -75,6 +77,32 @@ TEST(ShadowReference, PointsInsideClosedSolids) {
   EXPECT_FALSE(reference.insideClosedSolid({{-15, 0, 15}, {0, 1, 0}}));
   // The tower's own wall, seen from outside.
   EXPECT_FALSE(reference.insideClosedSolid({{14, 5, 12}, {1, 0, 0}}));
+}
+
+// Two single-sided walls back to back, `gap` apart (a party wall between two buildings of the generated open
+// city): a point on the first wall facing the gap is in the second wall's shadow for a sun shining down into
+// the gap. The ray's origin, moved `epsilon()` along the normal, must not land beyond the second wall.
+TEST(ShadowReference, OffsetStaysInsideANarrowGapBetweenWalls) {
+  Scene scene;
+  test::addQuad(scene, "ground", {-20, 0, -20}, {-20, 0, 20}, {20, 0, 20}, {20, 0, -20});
+  const double diagonal = std::sqrt(40.0 * 40.0 + 10.0 * 10.0 + 40.0 * 40.0);
+  const double gap = 4e-6 * diagonal;  // between the default offset (1e-6) and the old one (1e-5)
+  test::addQuad(scene, "wall a", {0, 0, -5}, {0, 10, -5}, {0, 10, 5}, {0, 0, 5});
+  test::addQuad(scene, "wall b", {-gap, 0, -5}, {-gap, 0, 5}, {-gap, 10, 5}, {-gap, 10, -5});
+  test::classifyMeshes(scene);
+  const WorldGeometry world = flatten(scene);
+  Light sun = overheadSun();
+  sun.direction = glm::normalize(glm::dvec3(1, -1, 0));  // from the -x side, down into the gap
+  const SurfacePoint onWallA{{0, 5, 0}, {-1, 0, 0}};
+  const ShadowReference reference(world);
+  EXPECT_NEAR(reference.epsilon(), ShadowReference::kDefaultRelativeEpsilon * diagonal, 1e-12);
+  EXPECT_EQ(reference.visibility(sun, onWallA), 0) << "wall b shadows wall a";
+  // The offset of earlier releases (1e-5 of the diagonal) jumps the origin past wall b: a false "lit".
+  const ShadowReference coarse(world, NormalOrientation::AsGiven, 1e-5);
+  EXPECT_EQ(coarse.visibility(sun, onWallA), 1);
+  // The ground on the sun's side of the walls is lit, the ground 5 units behind them is in their shadow.
+  EXPECT_EQ(reference.visibility(sun, {{-10, 0, 0}, {0, 1, 0}}), 1);
+  EXPECT_EQ(reference.visibility(sun, {{5, 0, 0}, {0, 1, 0}}), 0);
 }
 
 }  // namespace

@@ -7,13 +7,13 @@
 // Points: area-weighted surface samples with their geometric normals (sampleSurfaces, deterministic seed),
 // without the samples that lie inside a closed solid (faces of intersecting or embedded solids, e.g. a
 // building's base inside the ground slab or a fin inside a tower: no camera sees them, and inside closed
-// geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved 1e-5 of the
-// scene diagonal along its normal (ShadowReference::insideClosedSolid); per light only those inside the light's
+// geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved the reference's
+// offset (referenceEpsilon: by default 1e-6 of the scene diagonal) along its normal (ShadowReference::insideClosedSolid); per light only those inside the light's
 // influence and, unless `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its
 // own surface's shadow, which every method answers from the normal alone, so counting those would only dilute
 // the rates.
 // Reference: ShadowReference (libcpvs/reference/shadow_reference.h), the one `cpvs-query --reference` uses: a
-// shadow ray from the point moved 1e-5 of the scene diagonal along its normal, toward the light (directional:
+// shadow ray from the point moved referenceEpsilon of the scene diagonal along its normal, toward the light (directional:
 // unbounded; spot/point: up to the light); 0 without a ray for a point facing away from the light. A point is
 // *uniform* at resolution N when the reference agrees at 8 points on a circle of radius 2 voxels of that view
 // around it on its tangent plane and at the point 2 voxels out along its normal; misclassifiedUniform counts
@@ -26,12 +26,11 @@
 
 #include "libcpvs/bake.h"
 #include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/scene.h"
 #include "libcpvs/surface_samples.h"
 
 namespace cpvs {
-
-class ShadowReference;
 
 enum class BaselineDepth : uint8_t { Embree = 0, Raster = 1 };
 // "embree" / "raster"; throws Error(Usage) for anything else.
@@ -48,7 +47,7 @@ struct SweepSettings {
   // `samples` (seeds seed + 1, seed + 2, ...; same filters) until it has this many: enough errors to count.
   // The first round is the same for every light, so lights above it keep the same points. 0: off.
   size_t minLightPoints = 0;
-  double referenceEpsilon = 1e-5;  // ShadowReference's ray offset, a fraction of the scene's diagonal
+  double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;  // ShadowReference's ray offset, a fraction of the scene's diagonal
   int pcfKernel = 1;        // K for both the CPVS and the shadow map
   BaselineDepth baselineDepth = BaselineDepth::Embree;
   BakeSettings bake;        // resolution is set per sweep step

@@ -20,8 +20,9 @@ ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation o
   }
   sceneTriangles_ = world.sceneTriangleCount();
   const double diagonal = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
-  // Scale-relative: by default ~100x the float precision Embree stores the scene with; 1e-5 of the diagonal
-  // is a voxel of a view spanning the whole scene only at N ~ 100k, but a narrow spot's voxels are smaller.
+  // Scale-relative, as Embree's float precision is (it stores the scene relative to its centre): the default
+  // 1e-6 is ~16x that precision (1e-7 found more errors, self-hits) and a voxel of a view spanning the whole
+  // scene only at N ~ 1M; a narrow spot's voxels, and gaps between walls, are smaller than 1e-5 of it.
   epsilon_ = relativeEpsilon * (diagonal > 0 ? diagonal : 1.0);
 }
 

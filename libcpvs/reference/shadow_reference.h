@@ -16,7 +16,7 @@ class ShadowReference {
 public:
   // Builds the Embree BVH of the geometry. `orientation`: how the lookups being scored orient normals.
   // `relativeEpsilon`: the rays' offset off the surface as a fraction of the scene's diagonal (see epsilon()).
-  static constexpr double kDefaultRelativeEpsilon = 1e-5;
+  static constexpr double kDefaultRelativeEpsilon = 1e-6;
   explicit ShadowReference(const WorldGeometry& world, NormalOrientation orientation = NormalOrientation::AsGiven,
                            double relativeEpsilon = kDefaultRelativeEpsilon);
   ~ShadowReference();
@@ -43,8 +43,10 @@ public:
   // free voxels: the bake may answer either way.
   bool insideClosedSolid(const SurfacePoint& point) const;
 
-  // The offset along the normal: by default 1e-5 of the scene's diagonal. Keep it well under a voxel of the
-  // views being scored: a narrow spot over a large scene at 32k has voxels of about that size.
+  // The offset along the normal: by default 1e-6 of the scene's diagonal, about 16 times the float precision
+  // Embree stores the scene with (relative to its centre). It must stay under a voxel of the views being scored
+  // and under the gaps between surfaces: an origin moved across a nearby wall escapes its shadow (docs/query.md,
+  // "The reference's offset": 1e-5 misjudged back-to-back walls of the generated city).
   double epsilon() const { return epsilon_; }
   size_t triangles() const { return sceneTriangles_; }  // the scene's own, without ground closings
   const EmbreeScene& scene() const { return *scene_; }  // the scene's own triangles

@@ -756,7 +756,7 @@ int main(int argc, char** argv) {
                "no surface there can be seen, and the bake may answer either way)");
   app.add_option("--reference-epsilon", options.referenceEpsilon,
                  "Offset of the reference's shadow rays off the surface, as a fraction of the scene's diagonal; keep "
-                 "it under a voxel of the views (a narrow spot over a large scene at 32k needs 1e-6)")
+                 "it under a voxel of the views and under the gaps between surfaces (docs/query.md)")
       ->capture_default_str();
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh from the reference scene (repeatable)")
       ->type_name("NAME");

@@ -14,6 +14,7 @@
 
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/baseline/sweep.h"
+#include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
@@ -28,7 +29,7 @@ struct Options {
   std::string resolutions = "1k,2k,4k,8k,16k";
   size_t samples = 100000;
   size_t minLightPoints = 0;
-  double referenceEpsilon = 1e-5;
+  double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;
   uint64_t seed = 1;
   bool allPoints = false;
   bool interiorPoints = false;
