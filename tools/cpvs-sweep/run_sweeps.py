@@ -176,6 +176,12 @@ def write_doc(a, out_dir, doc, resolutions, points):
     w(f"* {machine_line()}")
     if renderer:
         w(f"* Renderer for the bakes: `{renderer}`")
+    offsets = sorted({j.get("reference_epsilon", 1e-5) for _, _, j in jsons})  # JSONs before 0.4.1 lack it: 1e-5
+    if offsets:
+        w("* Reference rays start " + " or ".join(f"{e:g}" for e in offsets) + " of the scene's diagonal off the "
+          "surface (`--reference-epsilon`, docs/query.md \"The reference's offset\")" +
+          ("" if len(offsets) == 1 else ": " + ", ".join(
+              f"{name} {j.get('reference_epsilon', 1e-5):g}" for name, _, j in jsons)) + ".")
     w("* The machine is shared with other work (2 cores): bake times and throughputs are indicative; "
       "misclassification counts are deterministic (fixed seeds, deterministic bakes).")
     # The run_sweeps.py commands that measured the scenes (recorded in each scene's JSON; older JSONs lack it).
@@ -220,6 +226,27 @@ def write_doc(a, out_dir, doc, resolutions, points):
         at = (f"the largest N ({res_name(largest[0])})" if len(largest) == 1
               else "each scene's largest N (" + ", ".join(map(res_name, largest)) + ")")
         w(f"At {at}: {met} of {total} scene/light pairs reach the 10× target.")
+        w("")
+    w("## Summary: compression against a shadow map of the same resolution")
+    w("")
+    w("Per scene and light at each N: C = (2 N² bytes of a 16-bit N × N shadow map) ÷ (the light's DAG bytes), "
+      "and in brackets √C, the ratio of the CPVS's N to the equal-bytes shadow map's M. Errors at shadow edges "
+      "fall about as 1 / resolution, so the equal-bytes error ratio above follows √C.")
+    w("")
+
+    def compression_cell(row, n, largest):
+        c = 2.0 * n * n / max(row["bytes"], 1)
+        return f"{c:.0f} ({c ** 0.5:.1f})", False, False
+
+    summary_table(w, jsons, res_all, compression_cell)
+    fits = [(r["shadow_map"]["misclassified_count"] / max(r["misclassified_count"], 1)) /
+            (2.0 * r["resolution"] ** 2 / max(r["bytes"], 1)) ** 0.5
+            for _, _, j in jsons for r in j["rows"] if r["resolution"] >= 8192 and r["misclassified_count"] >= 10]
+    if fits:
+        fits.sort()
+        w(f"Equal-bytes error ratio ÷ √C over the rows at N ≥ 8k with at least 10 CPVS errors ({len(fits)} rows): "
+          f"{fits[0]:.2f} to {fits[-1]:.2f}, median {fits[len(fits) // 2]:.2f}; at the median, the 10× target needs "
+          f"C ≈ {(TARGET_RATIO / fits[len(fits) // 2]) ** 2:.0f}.")
         w("")
     w("## Summary: lookups against Embree rays")
     w("")
