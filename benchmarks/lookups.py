@@ -107,6 +107,9 @@ def main():
     w("")
     w("* Machine: " + machine_line(with_load=True))
     w(f"* Date: {datetime.date.today().isoformat()}; build: Release (`-O3`, baseline x86-64; the batch mapping picks its AVX-512 or AVX2 kernel at run time) from `{a.bin}`")
+    offsets = sorted({r["reference"].get("relative_epsilon", 1e-5) for _, _, _, _, r, _ in rows})  # 0.4.0: 1e-5
+    w("* Reference rays start " + " or ".join(f"{e:g}" for e in offsets) + " of the scene's diagonal off the "
+      "surface (docs/query.md, \"The reference's offset\")")
     w("* Targets: unfiltered lookups ≥ 5× Embree occlusion rays; 9×9 PCF ≤ 4× the cost of an unfiltered lookup.")
     w("")
     w("| scene | N | K | lookups/s | single-point calls/s | rays/s (16-wide packets) | lookups ÷ rays | PCF cost | "

@@ -767,11 +767,13 @@ TEST(QueryReport, HoldsTheRequiredFieldsAsFractions) {
   // The reference's offset: 1e-6 of Tiny's diagonal (10 x 2 x 10), or what --reference-epsilon asks.
   const double diagonal = std::sqrt(10.0 * 10.0 + 2.0 * 2.0 + 10.0 * 10.0);
   EXPECT_NEAR(ref.at("epsilon").get<double>(), 1e-6 * diagonal, 1e-12);
+  EXPECT_EQ(ref.at("relative_epsilon").get<double>(), 1e-6);
   const auto finer = query(quote(tinyCpvs()) + " --points " + quote(dir / "p.csv") + " -o " + quote(dir / "o.csv") +
                            " --reference " + quote(sourcePath("data/scenes/Tiny/tiny.gltf")) + " --report " +
                            quote(dir / "r2.json") + " --timing-rounds 0 --reference-epsilon 1e-5");
   ASSERT_EQ(finer.exitCode, 0) << finer.output;
   EXPECT_NEAR(readJson(dir / "r2.json").at("reference").at("epsilon").get<double>(), 1e-5 * diagonal, 1e-12);
+  EXPECT_EQ(readJson(dir / "r2.json").at("reference").at("relative_epsilon").get<double>(), 1e-5);
 }
 
 // ---- accuracy against Embree -----------------------------------------------------------------------------------

@@ -708,6 +708,7 @@ int run(const Options& options) {
     r["lookup_speedup"] = raysPerS > 0 ? lookupsPerS / raysPerS : 0.0;
     r["unfiltered_speedup"] = raysPerS > 0 ? unfilteredPerS / raysPerS : 0.0;
     r["epsilon"] = reference->epsilon();
+    r["relative_epsilon"] = options.referenceEpsilon;
     r["triangles"] = reference->triangles();
     r["uniform_offset_voxels"] = 2;
     r["inside_closed_points"] = totals.insideClosed;
