@@ -417,7 +417,7 @@ TEST_P(ExitDepth, FreeVoxelsAreInsideClosedSolidsAndExitsAreExact) {
   const uint32_t n = 256;
   const ViewSetup& s = setup(c.scene, c.light, n);
   RenderStats stats;
-  const DepthRegion d = renderWhole(*r, s, PeelSettings{16}, &stats);
+  const DepthRegion d = renderWhole(*r, s, PeelSettings{16, 0}, &stats);  // every texel peeled to its exit
   const Reference ref = reference(s);
   const ExitCheck k = checkExit(s, d, ref);
   const double exact = k.exitCompared ? 100.0 * double(k.exitWithinOne) / double(k.exitCompared) : 100.0;
@@ -545,6 +545,16 @@ TEST(ExitRules, PeelCapIsConservative) {
     EXPECT_EQ(k.exitLater, 0u);
     std::printf("[ cap      ] %s: maxPeels=1: %llu texels capped, %zu exits earlier; full: %u peels\n",
                 sceneName(scene), (unsigned long long)capped.texelsAtPeelCap, earlier, full.peelIterations);
+
+    // Stopping once few texels are left (PeelSettings::stopBelowPerMillion) is the cap applied early: with
+    // "few" = all of them it gives the one-peel maps exactly, and the default changes nothing here, where
+    // hundreds of texels are still inside after each peel.
+    RenderStats stopped;
+    const DepthRegion early = renderWhole(*r, s, PeelSettings{16, 1000000}, &stopped);
+    EXPECT_EQ(early.exit, b.exit) << sceneName(scene);
+    EXPECT_EQ(stopped.texelsAtPeelCap, capped.texelsAtPeelCap) << sceneName(scene);
+    EXPECT_EQ(stopped.peelIterations, 1u);
+    EXPECT_EQ(renderWhole(*r, s, PeelSettings{16, 0}).exit, a.exit) << sceneName(scene);
 
     const DepthRegion none = renderWhole(*r, s, PeelSettings{0});
     for (size_t i = 0; i < none.exit.size(); ++i)

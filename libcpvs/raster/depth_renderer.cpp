@@ -191,7 +191,7 @@ void main() {
 }
 )";
 
-// Counts the texels still peeling (GL_SAMPLES_PASSED): peeling stops as soon as none is left.
+// Counts the texels still peeling (GL_SAMPLES_PASSED): peeling stops when none, or only a few, are left.
 const char* kActiveFS = R"(
 uniform sampler2D counts;
 void main() {
@@ -220,7 +220,7 @@ void main() {
       float n = texelFetch(counts, p, 0).r;
       x = min(N, max(e + 1.0, floor(2.0 * max(c.x, c.y) * N)));
       if (n < kStuck + 0.5) x = N;   // every voxel up to the far plane lies inside the solid
-      else if (n < kCapped + 0.5) x = -x - 1.0;
+      else if (n < kCapped + 0.5 || n > 0.0) x = -x - 1.0;   // capped, or still inside when peeling stopped
     }
   }
   slices = vec2(e, x);
@@ -804,16 +804,17 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       fullscreen(updateProgram_);
       cur = 1 - cur;
       if (last) break;
-      // Any texel left? (Saves the iteration that would only find nothing to peel.)
+      // Texels left? None: the next iteration would find nothing to peel. A handful: not worth an iteration,
+      // they keep the exit consumed so far (the resolve flags them as capped).
       g.BindFramebuffer(GL_FRAMEBUFFER, t.frontFbo);
       g.UseProgram(activeProgram_);
       bindTexture(activeProgram_, "counts", 0, t.counts[cur]);
-      g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[2]);
+      g.BeginQuery(GL_SAMPLES_PASSED, queries_[2]);
       fullscreen(activeProgram_);
-      g.EndQuery(GL_ANY_SAMPLES_PASSED);
-      GLuint anyActive = 0;
-      g.GetQueryObjectuiv(queries_[2], GL_QUERY_RESULT, &anyActive);
-      if (!anyActive) break;
+      g.EndQuery(GL_SAMPLES_PASSED);
+      GLuint active = 0;
+      g.GetQueryObjectuiv(queries_[2], GL_QUERY_RESULT, &active);
+      if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
     }
   }
 
