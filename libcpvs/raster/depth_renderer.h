@@ -25,7 +25,7 @@ struct PeelSettings {
   uint32_t maxPeels = 2;
   // Peeling also stops once at most this many texels per million of the region are still inside: they get
   // the cap's conservative exit. A few texels where a front and a back face meet within a float step (ridges
-  // seen edge-on) would otherwise cost a whole iteration (docs/depth-maps.md: the terrain at 8k, 12-22 % of
+  // seen edge-on) would otherwise cost a whole iteration (docs/depth-maps.md: the terrain's sun at 8k, 18 % of
   // its peel time for 18 texels). 0: only the cap and an empty state stop it.
   uint32_t stopBelowPerMillion = 64;
 };
