@@ -8,16 +8,16 @@
 // without the samples that lie inside a closed solid (faces of intersecting or embedded solids, e.g. a
 // building's base inside the ground slab or a fin inside a tower: no camera sees them, and inside closed
 // geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved the reference's
-// offset (referenceEpsilon: by default 1e-6 of the scene diagonal) along its normal (ShadowReference::insideClosedSolid); per light only those inside the light's
-// influence and, unless `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its
-// own surface's shadow, which every method answers from the normal alone, so counting those would only dilute
-// the rates.
+// offset (referenceEpsilon: by default 1e-6 of the scene diagonal) along its normal
+// (ShadowReference::insideClosedSolid); per light only those inside the light's influence and, unless
+// `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its own surface's shadow,
+// which every method answers from the normal alone, so counting those would only dilute the rates.
 // Reference: ShadowReference (libcpvs/reference/shadow_reference.h), the one `cpvs-query --reference` uses: a
-// shadow ray from the point moved referenceEpsilon of the scene diagonal along its normal, toward the light (directional:
-// unbounded; spot/point: up to the light); 0 without a ray for a point facing away from the light. A point is
-// *uniform* at resolution N when the reference agrees at 8 points on a circle of radius 2 voxels of that view
-// around it on its tangent plane and at the point 2 voxels out along its normal; misclassifiedUniform counts
-// among those.
+// shadow ray from the point moved referenceEpsilon of the scene diagonal along its normal, toward the light
+// (directional: unbounded; spot/point: up to the light); 0 without a ray for a point facing away from the
+// light. A point is *uniform* at resolution N when the reference agrees at 8 points on a circle of radius 2
+// voxels of that view around it on its tangent plane and at the point 2 voxels out along its normal;
+// misclassifiedUniform counts among those.
 // A binary answer is lit when the value is >= 0.5.
 #include <cstdint>
 #include <functional>
@@ -47,7 +47,8 @@ struct SweepSettings {
   // `samples` (seeds seed + 1, seed + 2, ...; same filters) until it has this many: enough errors to count.
   // The first round is the same for every light, so lights above it keep the same points. 0: off.
   size_t minLightPoints = 0;
-  double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;  // ShadowReference's ray offset, a fraction of the scene's diagonal
+  // ShadowReference's ray offset, a fraction of the scene's diagonal.
+  double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;
   int pcfKernel = 1;        // K for both the CPVS and the shadow map
   BaselineDepth baselineDepth = BaselineDepth::Embree;
   BakeSettings bake;        // resolution is set per sweep step
