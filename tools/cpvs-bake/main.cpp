@@ -138,7 +138,7 @@ int run(int argc, char** argv) {
   tools::addVersionFlag(app, "cpvs-bake");
   app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
   app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
-  app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 1k..64k (e.g. 4k, 16k)")
+  app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
       ->capture_default_str();
   o.lights.addTo(app);
   app.add_option("--undefined", o.undefinedMode,
