@@ -39,7 +39,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash) {
                       {"node_reuse", settings.nodeReuse},
                       {"max_peels", settings.peel.maxPeels},
                       {"region", std::min(settings.regionSize, settings.resolution)},
-                      {"ground", settings.ground == GroundSheets::Auto ? "auto" : "off"},
+                      {"ground", groundSheetsName(settings.ground)},
                       {"input_hash", hash}};
   return j.dump();
 }

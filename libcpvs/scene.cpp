@@ -80,6 +80,14 @@ bool nameMatches(const std::string& meshName, const std::string& wanted) {
 
 }  // namespace
 
+GroundSheets parseGroundSheets(const std::string& name) {
+  if (name == "auto") return GroundSheets::Auto;
+  if (name == "off") return GroundSheets::Off;
+  throw Error(ExitCode::Usage, "unknown ground mode '" + name + "' (expected auto or off)");
+}
+
+const char* groundSheetsName(GroundSheets ground) { return ground == GroundSheets::Off ? "off" : "auto"; }
+
 WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   std::vector<UsedVertices> used;
   used.reserve(scene.meshes.size());

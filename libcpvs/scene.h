@@ -101,6 +101,9 @@ struct WorldGeometry {
 
 // Whether flatten() may close ground sheets into solids (cpvs-bake --ground).
 enum class GroundSheets : uint8_t { Auto = 0, Off = 1 };
+// "auto" / "off"; throws Error(Usage) for anything else.
+GroundSheets parseGroundSheets(const std::string& name);
+const char* groundSheetsName(GroundSheets ground);
 
 // Flattens the scene. Negative-determinant transforms and inside-out closed meshes get their winding
 // flipped so every closed triangle faces out of its solid. With GroundSheets::Auto, ground sheets are closed

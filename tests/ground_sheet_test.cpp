@@ -6,6 +6,7 @@
 #include <functional>
 
 #include "formats/gltf/gltf_import.h"
+#include "libcpvs/error.h"
 #include "libcpvs/light_view.h"
 #include "libcpvs/mesh_topology.h"
 #include "libcpvs/scene.h"
@@ -200,6 +201,12 @@ TEST(GroundSheet, ClosingTrianglesAreNeverSampledNorFittedIntoAView) {
       EXPECT_EQ(a[i].far, b[i].far);
     }
   }
+}
+
+TEST(GroundSheet, ModeNames) {
+  for (GroundSheets g : {GroundSheets::Auto, GroundSheets::Off}) EXPECT_EQ(parseGroundSheets(groundSheetsName(g)), g);
+  EXPECT_STREQ(groundSheetsName(GroundSheets::Off), "off");
+  EXPECT_THROW(parseGroundSheets("on"), Error);
 }
 
 TEST(GroundSheet, BundledScenes) {

@@ -268,6 +268,12 @@ TEST(SweepTool, QuietWithAnOutputFolderWritesOnlyTheFiles) {
   const auto table = test::runTool(base + " -q");
   ASSERT_EQ(table.exitCode, 0) << table.output;
   EXPECT_NE(table.output.find("| 64 |"), std::string::npos) << table.output;
+  // The reference's offset is checked as cpvs-query checks it, before any work.
+  for (const char* bad : {" --reference-epsilon 0", " --reference-epsilon 0.5"}) {
+    const auto r = test::runTool(base + " -q" + bad);
+    EXPECT_EQ(r.exitCode, 1) << bad;
+    EXPECT_NE(r.output.find("--reference-epsilon must be in"), std::string::npos) << r.output;
+  }
 }
 
 }  // namespace

@@ -109,7 +109,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
     if (callbacks.log) callbacks.log(line);
   };
   checkPcfKernel(settings.pcfKernel);
-  const WorldGeometry world = flatten(scene);
+  const WorldGeometry world = flatten(scene, settings.bake.ground);  // the solids the bakes take
   const ShadowReference referenceRays(world, NormalOrientation::AsGiven, settings.referenceEpsilon);
   const EmbreeScene& embree = referenceRays.scene();
   const LookupOptions lookup{settings.pcfKernel, NormalOrientation::AsGiven};

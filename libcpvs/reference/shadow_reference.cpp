@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "libcpvs/error.h"
+
 namespace cpvs {
 
 ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation, double relativeEpsilon)
@@ -27,6 +29,11 @@ ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation o
 }
 
 ShadowReference::~ShadowReference() = default;
+
+void ShadowReference::checkRelativeEpsilon(double relativeEpsilon) {
+  if (!(relativeEpsilon >= 1e-9 && relativeEpsilon <= 1e-2))
+    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
+}
 
 bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax,
                                 uint8_t& known) const {

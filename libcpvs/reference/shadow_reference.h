@@ -17,6 +17,8 @@ public:
   // Builds the Embree BVH of the geometry. `orientation`: how the lookups being scored orient normals.
   // `relativeEpsilon`: the rays' offset off the surface as a fraction of the scene's diagonal (see epsilon()).
   static constexpr double kDefaultRelativeEpsilon = 1e-6;
+  // Validates a relative offset given by a user (1e-9 .. 1e-2). Throws Error(Usage).
+  static void checkRelativeEpsilon(double relativeEpsilon);
   explicit ShadowReference(const WorldGeometry& world, NormalOrientation orientation = NormalOrientation::AsGiven,
                            double relativeEpsilon = kDefaultRelativeEpsilon);
   ~ShadowReference();

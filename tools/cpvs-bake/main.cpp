@@ -120,7 +120,7 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
             {"backend", rasterBackendName(settings.backend)},
             {"region_size", settings.regionSize},
             {"max_peels", settings.peel.maxPeels},
-            {"ground", settings.ground == GroundSheets::Auto ? "auto" : "off"}}},
+            {"ground", groundSheetsName(settings.ground)}}},
           {"renderer", report.renderer},
           {"triangles", report.sceneTriangles},
           {"ground_sheets", groundSheetsJson(report.groundSheets)},
@@ -179,7 +179,7 @@ int run(int argc, char** argv) {
   settings.backend = parseRasterBackend(o.backend);
   settings.regionSize = parseResolution(o.regionSize);
   settings.peel.maxPeels = o.maxPeels;
-  settings.ground = o.ground == "off" ? GroundSheets::Off : GroundSheets::Auto;
+  settings.ground = parseGroundSheets(o.ground);
 
   const auto start = std::chrono::steady_clock::now();
   Scene scene = importGltf(o.scene);

@@ -497,8 +497,7 @@ int run(const Options& options) {
   if (!options.excludedMeshes.empty() && options.reference.empty())
     throw Error(ExitCode::Usage, "--exclude-mesh only applies to the --reference scene");
   if (options.threads == 0) throw Error(ExitCode::Usage, "--threads must be at least 1");
-  if (!(options.referenceEpsilon >= 1e-9 && options.referenceEpsilon <= 1e-2))
-    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
+  ShadowReference::checkRelativeEpsilon(options.referenceEpsilon);
   if (options.topGrid < -1 || options.topGrid > 8) throw Error(ExitCode::Usage, "--top-grid must be -1 to 8");
   if (options.timingRounds < 0) throw Error(ExitCode::Usage, "--timing-rounds must be 0 or more");
   if (!(options.biasMargin >= 0 && options.biasMargin <= 64))

@@ -298,8 +298,7 @@ int run(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
   }
   if (o.samples < 1 || o.samples > 100000000) throw Error(ExitCode::Usage, "--points must be in 1..1e8");
-  if (!(o.referenceEpsilon >= 1e-9 && o.referenceEpsilon <= 1e-2))
-    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
+  ShadowReference::checkRelativeEpsilon(o.referenceEpsilon);
   if (o.minLightPoints > 100000000) throw Error(ExitCode::Usage, "--min-light-points must be in 0..1e8");
   if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
   if (!(o.timing > 0 && o.timing <= 60)) throw Error(ExitCode::Usage, "--timing must be in (0, 60] seconds");
