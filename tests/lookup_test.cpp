@@ -5,11 +5,17 @@
 
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <random>
+#include <stdexcept>
+
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "libcpvs/bake.h"
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/error.h"
+#include "libcpvs/lookup/dag_walks.h"
 #include "libcpvs/lookup/shadow_lookup.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -225,6 +231,139 @@ TEST(Lookup, BatchEqualsSinglePointLookups) {
           ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k, o}))
               << "K=" << k << " grid " << gridLevels << " point " << i;
       }
+    }
+  }
+}
+
+// ---- the AVX-512 walks (dag_walks.h) against DagView::shadowed ---------------------------------------
+
+// A copy of a DAG's units that ends exactly where an unreadable page begins: a walk that reads one byte past
+// the last unit dies of SIGSEGV instead of passing unnoticed.
+class GuardedUnits {
+public:
+  explicit GuardedUnits(std::span<const uint16_t> units) {
+    const size_t page = size_t(sysconf(_SC_PAGESIZE));
+    const size_t bytes = units.size() * sizeof(uint16_t);
+    length_ = (bytes + page - 1) / page * page + page;
+    base_ = mmap(nullptr, length_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (base_ == MAP_FAILED) throw std::runtime_error("mmap failed");
+    char* guard = static_cast<char*>(base_) + length_ - page;
+    mprotect(guard, page, PROT_NONE);
+    data_ = reinterpret_cast<uint16_t*>(guard - bytes);
+    std::memcpy(data_, units.data(), bytes);
+  }
+  ~GuardedUnits() { munmap(base_, length_); }
+  GuardedUnits(const GuardedUnits&) = delete;
+  GuardedUnits& operator=(const GuardedUnits&) = delete;
+  std::span<const uint16_t> units(size_t count) const { return {data_, count}; }
+
+private:
+  void* base_ = nullptr;
+  size_t length_ = 0;
+  uint16_t* data_ = nullptr;
+};
+
+// A 16^3 DAG whose leaf parents reference leaves past index 65535 (two-unit references), mixed with
+// homogeneous children and one-unit references; leaf masks from a hash. The baked DAGs of the tests are too
+// small to need two-unit references.
+ShadowDag wideReferenceDag() {
+  std::vector<uint64_t> leaves(70000);
+  for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0x9E3779B97F4A7C15ull;
+  std::vector<uint32_t> root{0}, parents;
+  for (unsigned c = 0; c < 8; ++c) {
+    root[0] |= 2u << (2 * c);
+    root.push_back(uint32_t(parents.size()));
+    const size_t header = parents.size();
+    parents.push_back(0);
+    for (unsigned z = 0; z < 8; ++z) {
+      const unsigned kind = (c + z) % 4;  // 0 lit, 1 shadowed, 2 a low leaf index, 3 a high one
+      parents[header] |= std::min(kind, 2u) << (2 * z);
+      if (kind == 2) parents.push_back(c * 8 + z);
+      if (kind == 3) parents.push_back(65530 + c * 500 + z);
+    }
+  }
+  const std::span<const uint32_t> levels[2] = {root, parents};
+  const uint64_t counts[2] = {1, 8};
+  return encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves));
+}
+
+// Every voxel of the DAG walked from the root (in groups, as the lookups do) with the vector walks: its
+// visibility, and its tile's mask at its slice; also stopped half-way (stopSize 16) and resumed.
+TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
+  if (!vectorWalksAvailable()) GTEST_SKIP() << "no AVX-512F on this CPU (or CPVS_LOOKUP_ISA lowers it)";
+  size_t dagsWalked = 0;
+  std::vector<std::pair<uint32_t, uint32_t>> cases{{16, 0}};  // (N, seed); seed 0: wideReferenceDag
+  for (uint32_t n : {16u, 32u, 64u})
+    for (uint32_t seed = 1; seed <= 4; ++seed) cases.emplace_back(n, seed);
+  for (const auto& [n, seed] : cases) {
+    const ShadowDag dag = seed == 0 ? wideReferenceDag() : dagFrom(randomDepth(n, seed * 13 + n));
+    if (dag.rootCode != ChildCode::Ref) continue;
+    const GuardedUnits guarded(dag.nodes);
+    DagView view = dag.view();
+    view.nodes = guarded.units(dag.nodes.size());
+    const WalkDag walkDag{view.nodes.data(), view.nodes.size(), view.leaves.data(), view.childBase, n};
+    const size_t count = size_t(n) * n * n;
+    WalkStorage storage;
+    const WalkSet walks = storage.reserve(count);
+    auto start = [&] {
+      for (uint32_t i = 0; i < count; ++i) walks.set(i, i % n, (i / n) % n, i / (n * n), 0, i);
+    };
+    std::vector<float> visibility(count, -1.0f);
+    std::vector<uint64_t> masks(count, 0x5A5A5A5A5A5A5A5Aull), resumed(count, 0x5A5A5A5A5A5A5A5Aull);
+    start();
+    for (size_t b = 0; b < count; b += kWalksInFlight)
+      ASSERT_EQ(descendGroupAvx512(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, 8,
+                                   WalkResult::Visibility, visibility.data()), 0u);
+    start();
+    for (size_t b = 0; b < count; b += kWalksInFlight)
+      descendGroupAvx512(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, 8, WalkResult::TileMask,
+                         masks.data());
+    start();
+    for (size_t b = 0; b < count; b += kWalksInFlight) {
+      const WalkSet group = walks.from(b);
+      const size_t at = descendGroupAvx512(walkDag, group, std::min(kWalksInFlight, count - b), n, 16,
+                                           WalkResult::TileMask, resumed.data());
+      descendGroupAvx512(walkDag, group, at, 16, 8, WalkResult::TileMask, resumed.data());
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+      const uint32_t x = i % n, y = (i / n) % n, z = i / (n * n);
+      ASSERT_EQ(visibility[i], view.shadowed(x, y, z) ? 0.0f : 1.0f) << "N=" << n << " at " << x << "," << y << "," << z;
+      uint64_t tile = 0;
+      for (uint32_t b = 0; b < 64; ++b)
+        tile |= uint64_t(view.shadowed((x & ~7u) + (b & 7u), (y & ~7u) + (b >> 3), z)) << b;
+      ASSERT_EQ(masks[i], tile) << "N=" << n << " at " << x << "," << y << "," << z;
+      ASSERT_EQ(resumed[i], tile) << "N=" << n << " at " << x << "," << y << "," << z;
+    }
+    ++dagsWalked;
+  }
+  EXPECT_GE(dagsWalked, 9u);
+}
+
+// The batch lookups through LightShadow on a DAG that ends at an unreadable page: the vector walks (where the
+// CPU has them) give the scalar single-point answers, K = 1 and PCF, with and without a top grid.
+TEST(DagWalks, BatchOnAGuardedDagEqualsSinglePointLookups) {
+  const uint32_t n = 64;
+  const ShadowDag dag = dagFrom(randomDepth(n, 23));
+  ASSERT_EQ(dag.rootCode, ChildCode::Ref);
+  const GuardedUnits guarded(dag.nodes);
+  DagView view = dag.view();
+  view.nodes = guarded.units(dag.nodes.size());
+  std::vector<SurfacePoint> points;
+  for (uint32_t z = 0; z < n; z += 3)
+    for (uint32_t y = 0; y < n; ++y)
+      for (uint32_t x = 0; x < n; ++x) points.push_back({{x + 0.5, y + 0.5, -(z + 0.5)}, glm::dvec3(0.0)});
+  for (uint32_t gridLevels : {0u, 1u, 2u}) {
+    const LightShadow shadow(sun(), {identityView(n)}, {view}, int(gridLevels));
+    for (int k : {1, 3, 9}) {
+      std::vector<float> batch(points.size());
+      for (size_t b = 0; b < points.size(); b += kLookupBatch) {
+        const size_t e = std::min(points.size(), b + kLookupBatch);
+        shadow.visibility(std::span<const SurfacePoint>(points.data() + b, e - b), {k},
+                          std::span<float>(batch.data() + b, e - b));
+      }
+      for (size_t i = 0; i < points.size(); ++i)
+        ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k}))
+            << "K=" << k << " grid " << gridLevels << " point " << i;
     }
   }
 }

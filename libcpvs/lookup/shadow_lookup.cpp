@@ -8,6 +8,7 @@
 
 #include "libcpvs/error.h"
 #include "libcpvs/lookup/batch_cells.h"
+#include "libcpvs/lookup/dag_walks.h"
 
 namespace cpvs {
 namespace {
@@ -24,16 +25,26 @@ inline uint32_t overlap(uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1) {  /
   return hi >= lo ? hi - lo + 1 : 0;
 }
 
-// Mask of the 8x8 tile at (ox, oy) covered by the footprint (bit (y & 7) * 8 + (x & 7)).
+// Texel masks of an 8x8 tile (bit (y & 7) * 8 + (x & 7)) from two small tables: columns a..b of every row,
+// and every column of rows a..b (entry a * 8 + b, a <= b).
+struct TileSpans {
+  uint64_t columns[64] = {}, rows[64] = {};
+  constexpr TileSpans() {
+    for (uint32_t a = 0; a < 8; ++a)
+      for (uint32_t b = a; b < 8; ++b) {
+        const uint64_t row = ((uint64_t(2) << b) - 1) & ~((uint64_t(1) << a) - 1);
+        columns[a * 8 + b] = row * 0x0101010101010101ull;
+        rows[a * 8 + b] = (b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1) & ~((uint64_t(1) << (8 * a)) - 1);
+      }
+  }
+};
+inline constexpr TileSpans kTileSpans;
+
+// Mask of the 8x8 tile at (ox, oy) covered by the footprint (which must overlap it).
 inline uint64_t tileMask(const Footprint& f, uint32_t ox, uint32_t oy) {
   const uint32_t xa = std::max(f.x0, ox) - ox, xb = std::min(f.x1, ox + 7) - ox;
   const uint32_t ya = std::max(f.y0, oy) - oy, yb = std::min(f.y1, oy + 7) - oy;
-  const uint64_t row = ((uint64_t(2) << xb) - 1) & ~((uint64_t(1) << xa) - 1);
-  // One bit per selected row: bits 8*ya .. 8*yb.
-  const uint32_t rows = yb - ya + 1;
-  const uint64_t column = (rows == 8 ? 0x0101010101010101ull : (0x0101010101010101ull & ((uint64_t(1) << (8 * rows)) - 1)))
-                          << (8 * ya);
-  return row * column;
+  return kTileSpans.columns[xa * 8 + xb] & kTileSpans.rows[ya * 8 + yb];
 }
 
 // Shadowed texels of the footprint inside a node of edge `size` at (ox, oy) with child code `code`
@@ -401,37 +412,47 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
   return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
 }
 
-// One path from a node down to a voxel (PCF: to the voxel's 8 x 8 tile).
-struct Walk {
-  uint32_t x, y, z;
-  uint32_t offset;  // the node's units, then (after the leaf-parent level) the leaf's index
-  uint32_t out;     // where the result goes
-};
-
-// Where a walk's result goes: a visibility (1 lit, 0 shadowed) or the 8 x 8 mask of its tile at its slice.
+// Where a walk's result goes (dag_walks.h's WalkResult): a visibility (1 lit, 0 shadowed) or the 8 x 8 mask
+// of its tile at its slice.
 struct VoxelAnswers {
+  static constexpr WalkResult kKind = WalkResult::Visibility;
   float* answers;
+  void* slots() const { return answers; }
   void homogeneous(uint32_t out, uint32_t code) const { answers[out] = float(code != uint32_t(ChildCode::Shadowed)); }
-  void leaf(const Walk& walk, uint64_t mask) const {
-    answers[walk.out] = float(uint32_t(mask >> ((walk.y & 7u) * 8u + (walk.x & 7u)) & 1u) ^ 1u);
+  void leaf(uint32_t out, uint32_t x, uint32_t y, uint64_t mask) const {
+    answers[out] = float(uint32_t(mask >> ((y & 7u) * 8u + (x & 7u)) & 1u) ^ 1u);
   }
 };
 struct TileMasks {
+  static constexpr WalkResult kKind = WalkResult::TileMask;
   uint64_t* masks;
+  void* slots() const { return masks; }
   void homogeneous(uint32_t out, uint32_t code) const {
     masks[out] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
   }
-  void leaf(const Walk& walk, uint64_t mask) const { masks[walk.out] = mask; }
+  void leaf(uint32_t out, uint32_t, uint32_t, uint64_t mask) const { masks[out] = mask; }
 };
 
-// The walks w[0, active), each at a node of edge startSize, go down level by level: every walk of the group
-// takes its step at one level before any takes the next, in a loop without data-dependent branches (the
-// child's code decides only which values are kept), so the loop runs at the speed of its loads: each child's
-// node is prefetched when its reference is read and read one pass over the group later, by which time it has
-// arrived. A walk's result is written at every step (final unless a reference follows).
+WalkDag walkDag(const DagView& dag) {
+  return {dag.nodes.data(), dag.nodes.size(), dag.leaves.data(), dag.childBase, dag.resolution};
+}
+// The AVX-512 walks where the CPU has them and the DAG fits their 32-bit unit gathers.
+bool vectorWalks(const DagView& dag) {
+  return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31);
+}
+
+// The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
+// (dag_walks.h): every walk of the group takes its step at one level before any takes the next, in a loop
+// without data-dependent branches (the child's code decides only which values are kept), so the loop runs at
+// the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
+// the group later, by which time it has arrived. A walk's result is written at every step (final unless a
+// reference follows). With stopSize > 8 the walks still going at nodes of that edge stop there and their
+// number is returned (compacted at the front); else 0. The AVX-512 path gives the same results.
 template <class Results>
-[[gnu::always_inline]] inline size_t descendGroup(const DagView& dag, Walk* w, size_t active, uint32_t startSize,
-                                                  const Results& results, uint32_t stopSize = 8) {
+[[gnu::always_inline]] inline size_t descendGroup(const DagView& dag, const WalkSet& w, size_t active,
+                                                  uint32_t startSize, const Results& results, uint32_t stopSize = 8) {
+  if (vectorWalks(dag))
+    return descendGroupAvx512(walkDag(dag), w, active, startSize, stopSize, Results::kKind, results.slots());
   const uint16_t* nodes = dag.nodes.data();
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
   for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
@@ -439,15 +460,15 @@ template <class Results>
     const uint32_t base = dag.childBase[bit + 1];
     size_t kept = 0;
     for (size_t i = 0; i < active; ++i) {
-      Walk walk = w[i];
-      const uint32_t header = nodes[walk.offset];
-      const unsigned c = (((walk.z >> bit) & 1u) << 2) | (((walk.y >> bit) & 1u) << 1) | ((walk.x >> bit) & 1u);
+      const uint32_t x = w.x[i], y = w.y[i], z = w.z[i], offset = w.offset[i], out = w.out[i];
+      const uint32_t header = nodes[offset];
+      const unsigned c = (((z >> bit) & 1u) << 2) | (((y >> bit) & 1u) << 1) | ((x >> bit) & 1u);
       const uint32_t code = childCodeOf(header, c);
-      results.homogeneous(walk.out, code);
+      results.homogeneous(out, code);
       // Without a reference this reads the header again: in bounds, and no branch.
-      walk.offset = base + readRef(nodes, walk.offset, header, c);
-      prefetchNode(nodes + walk.offset);
-      w[kept] = walk;
+      const uint32_t child = base + readRef(nodes, offset, header, c);
+      prefetchNode(nodes + child);
+      w.set(kept, x, y, z, child, out);
       kept += code == uint32_t(ChildCode::Ref);
     }
     active = kept;
@@ -457,33 +478,28 @@ template <class Results>
   // Leaf-parent level: z-only split into 8x8x1 leaves.
   size_t kept = 0;
   for (size_t i = 0; i < active; ++i) {
-    Walk walk = w[i];
-    const uint32_t header = nodes[walk.offset];
-    const unsigned c = walk.z & 7u;
+    const uint32_t x = w.x[i], y = w.y[i], z = w.z[i], offset = w.offset[i], out = w.out[i];
+    const uint32_t header = nodes[offset];
+    const unsigned c = z & 7u;
     const uint32_t code = childCodeOf(header, c);
     const uint32_t ref = code == uint32_t(ChildCode::Ref);
-    results.homogeneous(walk.out, code);
-    walk.offset = readRef(nodes, walk.offset, header, c) & (0u - ref);  // leaf 0 when not a reference
-    prefetch(dag.leaves.data() + walk.offset);
-    w[kept] = walk;
+    results.homogeneous(out, code);
+    const uint32_t leaf = readRef(nodes, offset, header, c) & (0u - ref);  // leaf 0 when not a reference
+    prefetch(dag.leaves.data() + leaf);
+    w.set(kept, x, y, z, leaf, out);
     kept += ref;
   }
   // Leaves.
   const uint64_t* leaves = dag.leaves.data();
-  for (size_t i = 0; i < kept; ++i) results.leaf(w[i], leaves[w[i].offset]);
+  for (size_t i = 0; i < kept; ++i) results.leaf(w.out[i], w.x[i], w.y[i], leaves[w.offset[i]]);
   return 0;
 }
 
-// Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
-// lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
-// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs.
-constexpr size_t kWalksInFlight = 128;
-
 template <class Results>
-[[gnu::always_inline]] inline void descend(const DagView& dag, Walk* w, size_t active, uint32_t startSize,
+[[gnu::always_inline]] inline void descend(const DagView& dag, const WalkSet& w, size_t active, uint32_t startSize,
                                            const Results& results) {
   for (size_t begin = 0; begin < active; begin += kWalksInFlight)
-    descendGroup(dag, w + begin, std::min(kWalksInFlight, active - begin), startSize, results);
+    descendGroup(dag, w.from(begin), std::min(kWalksInFlight, active - begin), startSize, results);
 }
 
 // The top-grid entry of voxel (x, y, z), or the root's (code, offset 0) without a grid.
@@ -493,12 +509,7 @@ template <class Results>
                    : rootEntry;
 }
 
-thread_local std::vector<Walk> tWalks;
-
-Walk* walkStorage(size_t count) {
-  if (tWalks.size() < count) tWalks.resize(count);
-  return tWalks.data();
-}
+thread_local WalkStorage tWalks;
 
 }  // namespace
 
@@ -507,6 +518,19 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
                                                 const uint32_t* indices, size_t count, std::span<float> out) const {
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
+  if (vectorWalks(dag)) {
+    VoxelWalkBatch batch;
+    batch.dag = walkDag(dag);
+    batch.gridCells = grid.empty() ? nullptr : grid.cells.data();
+    batch.gridShift = grid.shift;
+    batch.gridLevel = grid.level;
+    batch.rootEntry = uint32_t(dag.rootCode);
+    batch.cells = cells;
+    batch.indices = indices;
+    batch.count = count;
+    batch.answers = out.data();
+    return walkVoxelsAvx512(batch);
+  }
   const uint16_t* nodes = dag.nodes.data();
   // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
@@ -514,7 +538,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
   const int32_t *xs = cells.x, *ys = cells.y, *zs = cells.z;
   const uint8_t* states = cells.state;
   float* answers = out.data();
-  Walk* w = walkStorage(count);
+  const WalkSet w = tWalks.reserve(count);
   size_t started = 0;
   for (size_t j = 0; j < count; ++j) {
     const uint32_t i = indices ? indices[j] : uint32_t(j);
@@ -527,7 +551,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
     const uint32_t lit = (voxel & uint32_t(code != uint32_t(ChildCode::Shadowed))) | uint32_t(state == kCellLit);
     answers[i] = float(lit);  // final unless a walk follows
     prefetchNode(nodes + (entry >> 2));
-    w[started] = {x, y, z, entry >> 2, i};
+    w.set(started, x, y, z, entry >> 2, i);
     started += voxel & uint32_t(code == uint32_t(ChildCode::Ref));
   }
   descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, VoxelAnswers{answers});
@@ -548,11 +572,12 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
   const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
   const size_t n = pending.size();
   thread_local std::vector<uint64_t> masks, shared;
-  thread_local std::vector<Walk> corners;
+  thread_local WalkStorage cornerStorage;
   thread_local std::vector<uint32_t> order;
-  if (masks.size() < 4 * n) masks.resize(4 * n), corners.resize(4 * n);
+  if (masks.size() < 4 * n) masks.resize(4 * n);
   if (shared.size() < n) shared.resize(n), order.resize(n);
-  Walk* w = walkStorage(n);
+  const WalkSet corners = cornerStorage.reserve(4 * n);
+  const WalkSet w = tWalks.reserve(n);
   auto cornerAt = [](const Footprint& f, uint32_t q) {
     return std::pair<uint32_t, uint32_t>{q & 1u ? f.x1 : f.x0, q & 2u ? f.y1 : f.y0};
   };
@@ -588,11 +613,11 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
           const uint32_t code = entry & 3u, keep = distinct(f, q);
           masks[4 * p + q] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(keep));
           prefetchNode(nodes + (entry >> 2));
-          corners[cornerCount + started] = {x, y, pending[p].z, entry >> 2, 4 * p + q};
+          corners.set(cornerCount + started, x, y, pending[p].z, entry >> 2, 4 * p + q);
           started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
         }
       }
-      descend(dag, corners.data() + cornerCount, started, startSize, TileMasks{masks.data()});
+      descend(dag, corners.from(cornerCount), started, startSize, TileMasks{masks.data()});
       continue;
     }
     // One walk per footprint from corner 0's cell down to the shared node (or, for a single tile, its mask).
@@ -605,7 +630,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
       const uint32_t code = entry & 3u;
       shared[p] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
       prefetchNode(nodes + (entry >> 2));
-      w[started] = {x, y, pending[p].z, entry >> 2, p};
+      w.set(started, x, y, pending[p].z, entry >> 2, p);
       started += code == uint32_t(ChildCode::Ref);
     }
     // Walks that ended above the shared node (a homogeneous region holding every corner) leave its mask in
@@ -613,13 +638,13 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
     const size_t firstCorner = cornerCount;
     for (size_t b = 0; b < started; b += kWalksInFlight) {
       const size_t count = std::min(kWalksInFlight, started - b);
-      const size_t at = descendGroup(dag, w + b, count, startSize, TileMasks{shared.data()}, edge);
-      for (size_t i = 0; i < at; ++i) {
-        const Walk& walk = w[b + i];
-        const Footprint& f = pending[walk.out].f;
+      const size_t at = descendGroup(dag, w.from(b), count, startSize, TileMasks{shared.data()}, edge);
+      for (size_t i = b; i < b + at; ++i) {
+        const uint32_t point = w.out[i];
+        const Footprint& f = pending[point].f;
         for (uint32_t q = 0; q < 4; ++q) {
           const auto [x, y] = cornerAt(f, q);
-          corners[cornerCount] = {x, y, walk.z, walk.offset, 4 * walk.out + q};
+          corners.set(cornerCount, x, y, w.z[i], w.offset[i], 4 * point + q);
           cornerCount += distinct(f, q);
         }
       }
@@ -628,7 +653,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
       const uint32_t p = order[o];
       for (uint32_t q = 0; q < 4; ++q) masks[4 * p + q] = shared[p] & (0 - uint64_t(distinct(pending[p].f, q)));
     }
-    if (edge > 8) descend(dag, corners.data() + firstCorner, cornerCount - firstCorner, edge, TileMasks{masks.data()});
+    if (edge > 8) descend(dag, corners.from(firstCorner), cornerCount - firstCorner, edge, TileMasks{masks.data()});
   }
   counts.resize(n);
   for (size_t p = 0; p < n; ++p) {

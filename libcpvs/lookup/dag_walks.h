@@ -1,0 +1,91 @@
+#pragma once
+// Walks that descend one view's DAG together, level by level: the inner loop of LightShadow's batch lookups
+// (shadow_lookup.cpp). Each pass over the walks still going reads their nodes, writes the result of those that
+// reach a homogeneous child or a leaf, and compacts the others for the next pass, prefetching their nodes,
+// which are read one pass later. The walks are kept one array per field, so that the AVX-512 path
+// (dag_walks_avx512.cpp) takes sixteen of them per instruction: gathers for the node reads, compress-stores
+// for the compaction. The scalar path (shadow_lookup.cpp) runs the same passes on the same arrays, and both
+// give the same results bit for bit.
+//
+// Why a vector path: once the mapping ran eight points at a time, the scalar walk's ~50 instructions per
+// level and walk (child index, header decode, the reference's popcount, compaction) were most of a lookup's
+// time even with the DAG in L2; sixteen lanes made the lookups 1.7-2x faster (docs/lookups.md).
+//
+// Same rule as view_mapping.h: standard headers only (dag_walks_avx512.cpp includes it before its
+// `#pragma GCC target`).
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/lookup/batch_cells.h"
+
+namespace cpvs {
+
+// A DAG as the walks read it: DagView's stored form (docs/format.md).
+struct WalkDag {
+  const uint16_t* nodes = nullptr;
+  size_t nodeUnits = 0;
+  const uint64_t* leaves = nullptr;
+  const uint32_t* childBase = nullptr;  // DagView::childBase
+  uint32_t resolution = 0;
+};
+
+// Walk i: voxel (x[i], y[i], z[i]), at the node whose first unit is offset[i] (a leaf index once past the
+// leaf parents), writing its result to slot out[i].
+struct WalkSet {
+  uint32_t *x = nullptr, *y = nullptr, *z = nullptr, *offset = nullptr, *out = nullptr;
+  void set(size_t i, uint32_t vx, uint32_t vy, uint32_t vz, uint32_t voffset, uint32_t vout) const {
+    x[i] = vx, y[i] = vy, z[i] = vz, offset[i] = voffset, out[i] = vout;
+  }
+  WalkSet from(size_t first) const { return {x + first, y + first, z + first, offset + first, out + first}; }
+};
+
+// Storage for a WalkSet (per thread: one LightShadow serves many threads).
+struct WalkStorage {
+  std::vector<uint32_t> x, y, z, offset, out;
+  WalkSet reserve(size_t count) {
+    if (x.size() < count)
+      for (std::vector<uint32_t>* v : {&x, &y, &z, &offset, &out}) v->resize(count);
+    return {x.data(), y.data(), z.data(), offset.data(), out.data()};
+  }
+};
+
+// What a walk writes to slot out[i] of the results when it ends.
+enum class WalkResult : uint8_t {
+  Visibility,  // float: 1 lit, 0 shadowed (the voxel's bit)
+  TileMask,    // uint64_t: the 8 x 8 mask of the voxel's tile at its slice (bit (y & 7) * 8 + (x & 7) set = shadowed)
+};
+
+// Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
+// lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
+// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs.
+inline constexpr size_t kWalksInFlight = 128;
+
+// Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
+// lowers mapCells).
+bool vectorWalksAvailable();
+
+// AVX-512: walks [0, count) (count <= kWalksInFlight), each at a node of edge startSize, descend level by
+// level; a walk that reaches a homogeneous child or a leaf writes its result. With stopSize > 8 the walks
+// still going at nodes of edge stopSize stop there: the return value says how many, compacted to the front of
+// `walks` (offset = that node's first unit); with stopSize 8 every walk ends and 0 is returned.
+// Precondition: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31.
+size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
+                          uint32_t stopSize, WalkResult kind, void* results);
+
+// K = 1, AVX-512: the start of LightShadow::walkVoxels for a mapped batch (lane j answers point indices[j],
+// or j when null): each voxel's top-grid cell (or the root), the answers that need no walk, then the walks.
+struct VoxelWalkBatch {
+  WalkDag dag;
+  const uint32_t* gridCells = nullptr;  // TopGrid::cells, or null: every walk starts at the root
+  uint32_t gridShift = 0, gridLevel = 0;
+  uint32_t rootEntry = 0;  // the root's child code (offset 0)
+  CellBatchOutput cells;
+  const uint32_t* indices = nullptr;
+  size_t count = 0;
+  float* answers = nullptr;
+};
+// Same preconditions as descendGroupAvx512.
+void walkVoxelsAvx512(const VoxelWalkBatch& batch);
+
+}  // namespace cpvs

@@ -1,0 +1,272 @@
+// dag_walks.h with AVX-512F: sixteen walks per instruction, 32 bits a lane. Same passes as the scalar
+// descendGroup in shadow_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of
+// the walks that end (scatters), gather the references of the others, compress-store them for the next pass
+// and prefetch their nodes, read one pass later.
+#if defined(__x86_64__) && defined(__GNUC__)
+
+// GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() as the unused merge operand, which
+// -Wmaybe-uninitialized reports wherever they are inlined (as in batch_cells_avx512.cpp).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include <algorithm>
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+
+#include <immintrin.h>
+
+#include "libcpvs/lookup/dag_walks.h"
+
+namespace cpvs {
+
+bool vectorWalksAvailable() { return bestCellIsa() == CellIsa::Avx512; }
+
+}  // namespace cpvs
+
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+
+namespace cpvs {
+namespace {
+
+// Sixteen unsigned 32-bit lanes (a wrapper: __m512i's own operators work on 64-bit lanes).
+struct V {
+  __m512i v;
+  V() = default;
+  V(__m512i x) : v(x) {}
+};
+using M = __mmask16;
+
+inline V splat(uint32_t x) { return _mm512_set1_epi32(int32_t(x)); }
+inline V operator&(V a, V b) { return _mm512_and_si512(a.v, b.v); }
+inline V operator|(V a, V b) { return _mm512_or_si512(a.v, b.v); }
+inline V operator+(V a, V b) { return _mm512_add_epi32(a.v, b.v); }
+inline V operator-(V a, V b) { return _mm512_sub_epi32(a.v, b.v); }
+inline V operator<<(V a, unsigned n) { return _mm512_slli_epi32(a.v, n); }
+inline V shr(V a, unsigned n) { return _mm512_srli_epi32(a.v, n); }
+inline V shr(V a, V n) { return _mm512_srlv_epi32(a.v, n.v); }
+inline V shl(V a, V n) { return _mm512_sllv_epi32(a.v, n.v); }
+inline M equal(V a, V b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
+inline V blend(M m, V a, V b) { return _mm512_mask_blend_epi32(m, a.v, b.v); }  // b where m, else a
+inline M laneMask(size_t lanes) { return lanes >= 16 ? M(0xFFFF) : M((1u << lanes) - 1u); }
+inline V load(const uint32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
+inline V load(const int32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
+inline void compress(uint32_t* p, M m, V v) { _mm512_mask_compressstoreu_epi32(p, m, v.v); }
+// 32 bits at base + kScale * index[lane] for the lanes of m, 0 elsewhere.
+template <int kScale>
+inline V gather(M m, V index, const void* base) {
+  return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, index.v, base, kScale);
+}
+inline size_t lanesSet(M m) { return size_t(std::popcount(unsigned(m))); }
+
+// Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
+inline V popcount16(V v) {
+  v = v - (shr(v, 1) & splat(0x5555u));
+  v = (v & splat(0x3333u)) + (shr(v, 2) & splat(0x3333u));
+  v = (v + shr(v, 4)) & splat(0x0F0Fu);
+  return (v + shr(v, 8)) & splat(0x1Fu);
+}
+
+// Unit reads: 32 bits gathered at a unit index give that unit and the next, except at the DAG's last unit,
+// where the read starts one unit earlier and is shifted down (the caller needs only the low half there: a
+// header or a narrow reference), so no lane reads past the array.
+struct Units {
+  const uint16_t* nodes;
+  V last;
+  V pair(M m, V index) const {
+    const M atLast = equal(index, last);
+    const V at = _mm512_mask_sub_epi32(index.v, atLast, index.v, splat(1).v);
+    const V v = gather<2>(m, at, nodes);
+    return _mm512_mask_srli_epi32(v.v, atLast, v.v, 16);
+  }
+};
+
+// One step of sixteen walks at their nodes: child c's code (0 lit, 1 shadowed, 2 reference: childCodeOf)
+// and, for the references, readRef's value.
+struct Step {
+  V code, ref;
+  M isRef;
+};
+inline Step step(const Units& units, M m, V offset, V c) {
+  const V header = units.pair(m, offset) & splat(0xFFFFu);
+  const V twoC = c + c;
+  const V raw = shr(header, twoC) & splat(3);
+  Step s;
+  s.code = raw - (raw & shr(raw, 1));
+  s.isRef = _mm512_mask_cmpge_epu32_mask(m, raw.v, splat(2).v);
+  // The reference's unit follows the header and the units of the references before it (readRef).
+  const V refBits = (header & splat(0xAAAAu)) | (header & shr(header, 1) & splat(0x5555u));
+  const V before = shl(splat(1), twoC) - splat(1);
+  const V pair = units.pair(s.isRef, offset + splat(1) + popcount16(refBits & before));
+  s.ref = blend(equal(raw, splat(3)), pair & splat(0xFFFFu), pair);  // a wide reference takes both units
+  return s;
+}
+
+// Results of the walks that end, as dag_walks.h's WalkResult says.
+template <WalkResult kKind>
+struct Results {
+  void* slots;
+  // Walks ending on a homogeneous child: code 1 shadowed, else lit.
+  void homogeneous(M m, V out, V code) const {
+    const M shadowed = equal(code, splat(1));
+    if constexpr (kKind == WalkResult::Visibility) {
+      const __m512 lit = _mm512_mask_blend_ps(shadowed, _mm512_set1_ps(1.0f), _mm512_setzero_ps());
+      _mm512_mask_i32scatter_ps(slots, m, out.v, lit, 4);
+    } else {
+      for (int h = 0; h < 2; ++h) {  // eight 64-bit masks per half
+        const __m256i index = h ? _mm512_extracti64x4_epi64(out.v, 1) : _mm512_castsi512_si256(out.v);
+        const __mmask8 mh = __mmask8(m >> (8 * h)), sh = __mmask8(shadowed >> (8 * h));
+        const __m512i mask = _mm512_maskz_set1_epi64(sh, -1);
+        _mm512_mask_i32scatter_epi64(slots, mh, index, mask, 8);
+      }
+    }
+  }
+  // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
+  void leaf(const uint64_t* leaves, M m, V out, V leaf, V x, V y) const {
+    if constexpr (kKind == WalkResult::Visibility) {
+      const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
+      const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
+      homogeneous(m, out, shr(word, bit & splat(31)) & splat(1));
+    } else {
+      (void)x, (void)y;
+      for (int h = 0; h < 2; ++h) {
+        const __m256i index = h ? _mm512_extracti64x4_epi64(out.v, 1) : _mm512_castsi512_si256(out.v);
+        const __m256i leafIndex = h ? _mm512_extracti64x4_epi64(leaf.v, 1) : _mm512_castsi512_si256(leaf.v);
+        const __mmask8 mh = __mmask8(m >> (8 * h));
+        const __m512i mask = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, leafIndex, leaves, 8);
+        _mm512_mask_i32scatter_epi64(slots, mh, index, mask, 8);
+      }
+    }
+  }
+};
+
+// As prefetchNode in shadow_lookup.cpp: a node (at most 34 bytes) may straddle two cache lines.
+inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
+  for (size_t i = begin; i < end; ++i) {
+    const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
+    __builtin_prefetch(node, 0, 3);
+    __builtin_prefetch(node + 33, 0, 3);
+  }
+}
+
+template <WalkResult kKind>
+size_t descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, uint32_t stopSize,
+               const Results<kKind>& results) {
+  const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
+  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+  for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
+    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+    const V base = splat(dag.childBase[bit + 1]);
+    size_t kept = 0;
+    for (size_t i = 0; i < active; i += 16) {
+      const M m = laneMask(active - i);
+      const V x = load(w.x + i, m), y = load(w.y + i, m), z = load(w.z + i, m);
+      const V offset = load(w.offset + i, m), out = load(w.out + i, m);
+      const V c = (shr(z, bit) & splat(1)) << 2 | (shr(y, bit) & splat(1)) << 1 | (shr(x, bit) & splat(1));
+      const Step s = step(units, m, offset, c);
+      results.homogeneous(m & M(~s.isRef), out, s.code);
+      // The compress-stores write at kept <= i: this group's lanes are already in registers.
+      compress(w.x + kept, s.isRef, x);
+      compress(w.y + kept, s.isRef, y);
+      compress(w.z + kept, s.isRef, z);
+      compress(w.offset + kept, s.isRef, base + s.ref);
+      compress(w.out + kept, s.isRef, out);
+      const size_t next = kept + lanesSet(s.isRef);
+      prefetchNodes(dag.nodes, w.offset, kept, next);
+      kept = next;
+    }
+    active = kept;
+  }
+  if (stopSize > 8 || active == 0) return active;
+  // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
+  size_t kept = 0;
+  for (size_t i = 0; i < active; i += 16) {
+    const M m = laneMask(active - i);
+    const V x = load(w.x + i, m), y = load(w.y + i, m), z = load(w.z + i, m);
+    const V offset = load(w.offset + i, m), out = load(w.out + i, m);
+    const Step s = step(units, m, offset, z & splat(7));
+    results.homogeneous(m & M(~s.isRef), out, s.code);
+    compress(w.x + kept, s.isRef, x);
+    compress(w.y + kept, s.isRef, y);
+    compress(w.offset + kept, s.isRef, s.ref);
+    compress(w.out + kept, s.isRef, out);
+    const size_t next = kept + lanesSet(s.isRef);
+    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
+    kept = next;
+  }
+  // Leaves.
+  for (size_t i = 0; i < kept; i += 16) {
+    const M m = laneMask(kept - i);
+    results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
+  }
+  return 0;
+}
+
+thread_local WalkStorage tVoxelWalks;
+
+}  // namespace
+
+size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
+                          uint32_t stopSize, WalkResult kind, void* results) {
+  if (kind == WalkResult::Visibility)
+    return descend(dag, walks, count, startSize, stopSize, Results<WalkResult::Visibility>{results});
+  return descend(dag, walks, count, startSize, stopSize, Results<WalkResult::TileMask>{results});
+}
+
+void walkVoxelsAvx512(const VoxelWalkBatch& b) {
+  const WalkSet w = tVoxelWalks.reserve(b.count);
+  const Results<WalkResult::Visibility> results{b.answers};
+  const V sh = splat(b.gridShift), level = splat(b.gridLevel), twoLevels = splat(2 * b.gridLevel);
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  size_t started = 0;
+  for (size_t j = 0; j < b.count; j += 16) {
+    const M m = laneMask(b.count - j);
+    const V x = load(b.cells.x + j, m), y = load(b.cells.y + j, m), z = load(b.cells.z + j, m);
+    alignas(16) uint8_t stateBytes[16] = {};
+    std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
+    const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
+    const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
+    V entry = splat(b.rootEntry);  // the top-grid cell's entry (code, offset << 2), or the root's
+    if (b.gridCells) {
+      const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
+      entry = _mm512_mask_i32gather_epi32(entry.v, m, cell.v, b.gridCells, 4);
+    }
+    const V code = entry & splat(3);
+    const M voxel = m & equal(state, splat(kCellVoxel));
+    // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
+    // follows.
+    const M lit = (voxel & M(~equal(code, splat(1)))) | equal(state, splat(kCellLit));
+    results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
+    const M walk = voxel & equal(code, splat(2));
+    compress(w.x + started, walk, x);
+    compress(w.y + started, walk, y);
+    compress(w.z + started, walk, z);
+    compress(w.offset + started, walk, shr(entry, 2));
+    compress(w.out + started, walk, out);
+    started += lanesSet(walk);
+  }
+  prefetchNodes(b.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = b.gridCells ? 1u << b.gridShift : b.dag.resolution;
+  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+    descend(b.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+}
+
+}  // namespace cpvs
+
+#pragma GCC pop_options
+
+#else
+
+#include <cstdlib>
+
+#include "libcpvs/lookup/dag_walks.h"
+
+namespace cpvs {
+bool vectorWalksAvailable() { return false; }
+size_t descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, uint32_t, WalkResult, void*) {
+  std::abort();  // unreachable: vectorWalksAvailable() is false
+}
+void walkVoxelsAvx512(const VoxelWalkBatch&) { std::abort(); }
+}  // namespace cpvs
+
+#endif
