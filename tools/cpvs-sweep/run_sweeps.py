@@ -104,6 +104,7 @@ def main():
             with open(js) as f:
                 measured = json.load(f)
             measured["run_sweeps_command"] = this_command()
+            measured["machine"] = machine_line()  # scenes may come from runs on different machines
             with open(js, "w") as f:
                 json.dump(measured, f, indent=1, ensure_ascii=False)
                 f.write("\n")
@@ -173,7 +174,19 @@ def write_doc(a, out_dir, doc, resolutions, points):
     renderer = next((j["renderer"] for _, _, j in jsons if j.get("renderer")), "")
     w("## Machine and command")
     w("")
-    w(f"* {machine_line()}")
+    # The machine each scene was measured on (recorded in its JSON; older JSONs lack it).
+    machines = []
+    for name, _, j in jsons:
+        m = j.get("machine", "not recorded (measured before run_sweeps.py recorded the machine)")
+        entry = next((e for e in machines if e[0] == m), None)
+        if entry:
+            entry[1].append(name)
+        else:
+            machines.append((m, [name]))
+    if len(machines) == 1:
+        w(f"* {machines[0][0]}")
+    for m, names in machines if len(machines) > 1 else []:
+        w(f"* {', '.join(names)}: {m}")
     if renderer:
         w(f"* Renderer for the bakes: `{renderer}`")
     offsets = sorted({j.get("reference_epsilon", 1e-5) for _, _, j in jsons})  # JSONs before 0.4.1 lack it: 1e-5
