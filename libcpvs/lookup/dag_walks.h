@@ -9,7 +9,7 @@
 //
 // Why a vector path: once the mapping ran eight points at a time, the scalar walk's ~50 instructions per
 // level and walk (child index, header decode, the reference's popcount, compaction) were most of a lookup's
-// time even with the DAG in L2; sixteen lanes made the lookups 1.7-2x faster (docs/lookups.md).
+// time even with the DAG in L2; sixteen lanes made unfiltered lookups 1.5-2.0x faster (docs/lookups.md).
 //
 // Same rule as view_mapping.h: standard headers only (dag_walks_avx512.cpp includes it before its
 // `#pragma GCC target`).
@@ -65,11 +65,12 @@ inline constexpr size_t kWalksInFlight = 128;
 // lowers mapCells).
 bool vectorWalksAvailable();
 
-// AVX-512: walks [0, count) (count <= kWalksInFlight), each at a node of edge startSize, descend level by
+// AVX-512: walks [0, count) (best in groups of kWalksInFlight), each at a node of edge startSize, descend level by
 // level; a walk that reaches a homogeneous child or a leaf writes its result. With stopSize > 8 the walks
 // still going at nodes of edge stopSize stop there: the return value says how many, compacted to the front of
 // `walks` (offset = that node's first unit); with stopSize 8 every walk ends and 0 is returned.
-// Precondition: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31.
+// Preconditions: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31, fewer than 2^30 leaves (the gathers'
+// indices are signed 32-bit: units, and a leaf's two 32-bit halves).
 size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
                           uint32_t stopSize, WalkResult kind, void* results);
 

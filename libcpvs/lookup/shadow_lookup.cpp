@@ -436,9 +436,10 @@ struct TileMasks {
 WalkDag walkDag(const DagView& dag) {
   return {dag.nodes.data(), dag.nodes.size(), dag.leaves.data(), dag.childBase, dag.resolution};
 }
-// The AVX-512 walks where the CPU has them and the DAG fits their 32-bit unit gathers.
+// The AVX-512 walks where the CPU has them and the DAG fits their signed 32-bit gather indices.
 bool vectorWalks(const DagView& dag) {
-  return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31);
+  return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
+         dag.leaves.size() < (size_t(1) << 30);
 }
 
 // The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
