@@ -56,6 +56,21 @@ enum class WalkResult : uint8_t {
   TileMask,    // uint64_t: the 8 x 8 mask of the voxel's tile at its slice (bit (y & 7) * 8 + (x & 7) set = shadowed)
 };
 
+// Texel masks of an 8 x 8 tile (bit (y & 7) * 8 + (x & 7)) for PCF footprints, from two small tables: columns
+// a..b of every row, and every column of rows a..b (entry a * 8 + b, a <= b); their AND is the footprint's part
+// of the tile.
+struct TileSpans {
+  uint64_t columns[64] = {}, rows[64] = {};
+  constexpr TileSpans() {
+    for (uint32_t a = 0; a < 8; ++a)
+      for (uint32_t b = a; b < 8; ++b) {
+        columns[a * 8 + b] = (((uint64_t(2) << b) - 1) & ~((uint64_t(1) << a) - 1)) * 0x0101010101010101ull;
+        rows[a * 8 + b] = (b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1) & ~((uint64_t(1) << (8 * a)) - 1);
+      }
+  }
+};
+inline constexpr TileSpans kTileSpans;
+
 // Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
 // lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
 // walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs.
@@ -88,5 +103,24 @@ struct VoxelWalkBatch {
 };
 // Same preconditions as descendGroupAvx512.
 void walkVoxelsAvx512(const VoxelWalkBatch& batch);
+
+// K <= 9 PCF, AVX-512: the shadowed texels of footprints that span at most 2 x 2 tiles of 8 x 8 texels. One walk
+// per distinct corner tile, from its top-grid cell (or the root) down to the tile's mask at the footprint's
+// slice, AND-ed with the footprint's part of the tile and counted: the answers of LightShadow's scalar
+// countCornerTiles, with no bookkeeping between the walks that sixteen lanes cannot do at once.
+struct CornerTileBatch {
+  WalkDag dag;
+  const uint32_t* gridCells = nullptr;  // as VoxelWalkBatch
+  uint32_t gridShift = 0, gridLevel = 0;
+  uint32_t rootEntry = 0;
+  // Footprint i: inclusive texel bounds x0, x1, y0, y1 (within [0, N), x1 - x0 and y1 - y0 at most 8) and its
+  // slice z, at fields + stride * i (five consecutive 32-bit fields).
+  const uint32_t* fields = nullptr;
+  size_t stride = 0;
+  size_t count = 0;
+  uint32_t* counts = nullptr;  // counts[i] for footprint i
+};
+// Same preconditions as descendGroupAvx512.
+void countCornerTilesAvx512(const CornerTileBatch& batch);
 
 }  // namespace cpvs

@@ -12,6 +12,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include <immintrin.h>
 
@@ -251,6 +252,104 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
     descend(b.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
 }
 
+namespace {
+
+// Bits set in each 64-bit lane.
+inline __m512i splat64(uint64_t x) { return _mm512_set1_epi64(int64_t(x)); }
+inline __m512i popcount64(__m512i v) {
+  v = _mm512_sub_epi64(v, _mm512_and_si512(_mm512_srli_epi64(v, 1), splat64(0x5555555555555555ull)));
+  v = _mm512_add_epi64(_mm512_and_si512(v, splat64(0x3333333333333333ull)),
+                       _mm512_and_si512(_mm512_srli_epi64(v, 2), splat64(0x3333333333333333ull)));
+  v = _mm512_and_si512(_mm512_add_epi64(v, _mm512_srli_epi64(v, 4)), splat64(0x0F0F0F0F0F0F0F0Full));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 8));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 16));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 32));
+  return _mm512_and_si512(v, splat64(0x7F));
+}
+
+inline V maxU(V a, V b) { return _mm512_max_epu32(a.v, b.v); }
+inline V minU(V a, V b) { return _mm512_min_epu32(a.v, b.v); }
+
+thread_local WalkStorage tCornerWalks;
+thread_local std::vector<uint64_t> tCornerMasks;
+
+}  // namespace
+
+void countCornerTilesAvx512(const CornerTileBatch& b) {
+  const size_t n = b.count;
+  // Corner q of footprint i: x1 if q & 1 else x0, y1 if q & 2 else y0; its mask in masks[q * n + i].
+  const WalkSet w = tCornerWalks.reserve(4 * n);
+  if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
+  uint64_t* masks = tCornerMasks.data();
+  const V sh = splat(b.gridShift), level = splat(b.gridLevel), twoLevels = splat(2 * b.gridLevel);
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const V stride = splat(uint32_t(b.stride));
+  size_t started = 0;
+  for (size_t i = 0; i < n; i += 16) {
+    const M m = laneMask(n - i);
+    const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, stride.v);
+    const V x0 = gather<4>(m, at, b.fields), x1 = gather<4>(m, at + splat(1), b.fields);
+    const V y0 = gather<4>(m, at + splat(2), b.fields), y1 = gather<4>(m, at + splat(3), b.fields);
+    const V z = gather<4>(m, at + splat(4), b.fields);
+    const M twoColumns = M(~equal(shr(x0, 3), shr(x1, 3))), twoRows = M(~equal(shr(y0, 3), shr(y1, 3)));
+    for (uint32_t q = 0; q < 4; ++q) {
+      const V x = q & 1u ? x1 : x0, y = q & 2u ? y1 : y0;
+      // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
+      const M keep = m & (q & 1u ? twoColumns : M(0xFFFF)) & (q & 2u ? twoRows : M(0xFFFF));
+      V entry = splat(b.rootEntry);
+      if (b.gridCells) {
+        const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
+        entry = _mm512_mask_i32gather_epi32(entry.v, keep, cell.v, b.gridCells, 4);
+      }
+      const V code = entry & splat(3);
+      const M shadowed = keep & equal(code, splat(1));
+      for (int h = 0; h < 2; ++h) {  // the homogeneous answers (0 where not kept), final unless a walk follows
+        const __mmask8 mh = __mmask8(m >> (8 * h)), sh8 = __mmask8(shadowed >> (8 * h));
+        _mm512_mask_storeu_epi64(masks + q * n + i + 8 * h, mh, _mm512_maskz_set1_epi64(sh8, -1));
+      }
+      const M walk = keep & equal(code, splat(2));
+      compress(w.x + started, walk, x);
+      compress(w.y + started, walk, y);
+      compress(w.z + started, walk, z);
+      compress(w.offset + started, walk, shr(entry, 2));
+      compress(w.out + started, walk, iota + splat(uint32_t(q * n + i)));
+      started += lanesSet(walk);
+    }
+  }
+  prefetchNodes(b.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = b.gridCells ? 1u << b.gridShift : b.dag.resolution;
+  const Results<WalkResult::TileMask> results{masks};
+  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+    descend(b.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+  // Count: each corner's mask AND-ed with the footprint's part of its tile, eight footprints per step.
+  for (size_t i = 0; i < n; i += 16) {
+    const M m = laneMask(n - i);
+    const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, stride.v);
+    const V x0 = gather<4>(m, at, b.fields), x1 = gather<4>(m, at + splat(1), b.fields);
+    const V y0 = gather<4>(m, at + splat(2), b.fields), y1 = gather<4>(m, at + splat(3), b.fields);
+    __m512i total[2] = {_mm512_setzero_si512(), _mm512_setzero_si512()};
+    for (uint32_t q = 0; q < 4; ++q) {
+      // The corner tile's origin and the footprint's columns xa..xb and rows ya..yb inside it.
+      const V ox = (q & 1u ? x1 : x0) & splat(~7u), oy = (q & 2u ? y1 : y0) & splat(~7u);
+      const V column = ((maxU(x0, ox) - ox) << 3) + (minU(x1, ox + splat(7)) - ox);
+      const V row = ((maxU(y0, oy) - oy) << 3) + (minU(y1, oy + splat(7)) - oy);
+      for (int h = 0; h < 2; ++h) {
+        const __mmask8 mh = __mmask8(m >> (8 * h));
+        const __m256i c = h ? _mm512_extracti64x4_epi64(column.v, 1) : _mm512_castsi512_si256(column.v);
+        const __m256i r = h ? _mm512_extracti64x4_epi64(row.v, 1) : _mm512_castsi512_si256(row.v);
+        const __m512i tile = _mm512_and_si512(
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, c, kTileSpans.columns, 8),
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, r, kTileSpans.rows, 8));
+        const __m512i mask = _mm512_maskz_loadu_epi64(mh, masks + q * n + i + 8 * h);
+        total[h] = _mm512_add_epi64(total[h], popcount64(_mm512_and_si512(mask, tile)));
+      }
+    }
+    const __m512i counts = _mm512_inserti64x4(_mm512_castsi256_si512(_mm512_cvtepi64_epi32(total[0])),
+                                              _mm512_cvtepi64_epi32(total[1]), 1);
+    _mm512_mask_storeu_epi32(b.counts + i, m, counts);
+  }
+}
+
 }  // namespace cpvs
 
 #pragma GCC pop_options
@@ -267,6 +366,7 @@ size_t descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, uint
   std::abort();  // unreachable: vectorWalksAvailable() is false
 }
 void walkVoxelsAvx512(const VoxelWalkBatch&) { std::abort(); }
+void countCornerTilesAvx512(const CornerTileBatch&) { std::abort(); }
 }  // namespace cpvs
 
 #endif

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cstddef>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -24,21 +25,6 @@ inline uint32_t overlap(uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1) {  /
   const uint32_t lo = std::max(a0, b0), hi = std::min(a1, b1);
   return hi >= lo ? hi - lo + 1 : 0;
 }
-
-// Texel masks of an 8x8 tile (bit (y & 7) * 8 + (x & 7)) from two small tables: columns a..b of every row,
-// and every column of rows a..b (entry a * 8 + b, a <= b).
-struct TileSpans {
-  uint64_t columns[64] = {}, rows[64] = {};
-  constexpr TileSpans() {
-    for (uint32_t a = 0; a < 8; ++a)
-      for (uint32_t b = a; b < 8; ++b) {
-        const uint64_t row = ((uint64_t(2) << b) - 1) & ~((uint64_t(1) << a) - 1);
-        columns[a * 8 + b] = row * 0x0101010101010101ull;
-        rows[a * 8 + b] = (b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1) & ~((uint64_t(1) << (8 * a)) - 1);
-      }
-  }
-};
-inline constexpr TileSpans kTileSpans;
 
 // Mask of the 8x8 tile at (ox, oy) covered by the footprint (which must overlap it).
 inline uint64_t tileMask(const Footprint& f, uint32_t ox, uint32_t oy) {
@@ -567,11 +553,28 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
                                                       std::vector<uint32_t>& counts) const {
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
+  const size_t n = pending.size();
+  if (vectorWalks(dag)) {
+    static_assert(offsetof(PendingPoint, f) == 0 && offsetof(PendingPoint, z) == 4 * sizeof(uint32_t) &&
+                      sizeof(PendingPoint) % sizeof(uint32_t) == 0,
+                  "CornerTileBatch reads x0, x1, y0, y1, z as five consecutive 32-bit fields");
+    counts.resize(n);
+    CornerTileBatch batch;
+    batch.dag = walkDag(dag);
+    batch.gridCells = grid.empty() ? nullptr : grid.cells.data();
+    batch.gridShift = grid.shift;
+    batch.gridLevel = grid.level;
+    batch.rootEntry = uint32_t(dag.rootCode);
+    batch.fields = reinterpret_cast<const uint32_t*>(pending.data());
+    batch.stride = sizeof(PendingPoint) / sizeof(uint32_t);
+    batch.count = n;
+    batch.counts = counts.data();
+    return countCornerTilesAvx512(batch);
+  }
   const uint16_t* nodes = dag.nodes.data();
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
   const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
-  const size_t n = pending.size();
   thread_local std::vector<uint64_t> masks, shared;
   thread_local WalkStorage cornerStorage;
   thread_local std::vector<uint32_t> order;
