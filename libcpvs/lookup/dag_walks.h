@@ -89,13 +89,18 @@ bool vectorWalksAvailable();
 size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
                           uint32_t stopSize, WalkResult kind, void* results);
 
-// K = 1, AVX-512: the start of LightShadow::walkVoxels for a mapped batch (lane j answers point indices[j],
-// or j when null): each voxel's top-grid cell (or the root), the answers that need no walk, then the walks.
-struct VoxelWalkBatch {
+// Where the walks of a batch start: the DAG and its top grid.
+struct WalkStart {
   WalkDag dag;
   const uint32_t* gridCells = nullptr;  // TopGrid::cells, or null: every walk starts at the root
   uint32_t gridShift = 0, gridLevel = 0;
   uint32_t rootEntry = 0;  // the root's child code (offset 0)
+};
+
+// K = 1, AVX-512: the start of LightShadow::walkVoxels for a mapped batch (lane j answers point indices[j],
+// or j when null): each voxel's top-grid cell (or the root), the answers that need no walk, then the walks.
+struct VoxelWalkBatch {
+  WalkStart start;
   CellBatchOutput cells;
   const uint32_t* indices = nullptr;
   size_t count = 0;
@@ -109,10 +114,7 @@ void walkVoxelsAvx512(const VoxelWalkBatch& batch);
 // slice, AND-ed with the footprint's part of the tile and counted: the answers of LightShadow's scalar
 // countCornerTiles, with no bookkeeping between the walks that sixteen lanes cannot do at once.
 struct CornerTileBatch {
-  WalkDag dag;
-  const uint32_t* gridCells = nullptr;  // as VoxelWalkBatch
-  uint32_t gridShift = 0, gridLevel = 0;
-  uint32_t rootEntry = 0;
+  WalkStart start;
   // Footprint i: inclusive texel bounds x0, x1, y0, y1 (within [0, N), x1 - x0 and y1 - y0 at most 8) and its
   // slice z, at fields + stride * i (five consecutive 32-bit fields).
   const uint32_t* fields = nullptr;

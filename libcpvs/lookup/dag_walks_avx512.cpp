@@ -215,9 +215,10 @@ size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count
 }
 
 void walkVoxelsAvx512(const VoxelWalkBatch& b) {
+  const WalkStart& g = b.start;
   const WalkSet w = tVoxelWalks.reserve(b.count);
   const Results<WalkResult::Visibility> results{b.answers};
-  const V sh = splat(b.gridShift), level = splat(b.gridLevel), twoLevels = splat(2 * b.gridLevel);
+  const V sh = splat(g.gridShift), level = splat(g.gridLevel), twoLevels = splat(2 * g.gridLevel);
   const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   size_t started = 0;
   for (size_t j = 0; j < b.count; j += 16) {
@@ -227,10 +228,10 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
     std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
     const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
     const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
-    V entry = splat(b.rootEntry);  // the top-grid cell's entry (code, offset << 2), or the root's
-    if (b.gridCells) {
+    V entry = splat(g.rootEntry);  // the top-grid cell's entry (code, offset << 2), or the root's
+    if (g.gridCells) {
       const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
-      entry = _mm512_mask_i32gather_epi32(entry.v, m, cell.v, b.gridCells, 4);
+      entry = _mm512_mask_i32gather_epi32(entry.v, m, cell.v, g.gridCells, 4);
     }
     const V code = entry & splat(3);
     const M voxel = m & equal(state, splat(kCellVoxel));
@@ -246,10 +247,10 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
     compress(w.out + started, walk, out);
     started += lanesSet(walk);
   }
-  prefetchNodes(b.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = b.gridCells ? 1u << b.gridShift : b.dag.resolution;
+  prefetchNodes(g.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(b.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
 }
 
 namespace {
@@ -276,12 +277,13 @@ thread_local std::vector<uint64_t> tCornerMasks;
 }  // namespace
 
 void countCornerTilesAvx512(const CornerTileBatch& b) {
+  const WalkStart& g = b.start;
   const size_t n = b.count;
   // Corner q of footprint i: x1 if q & 1 else x0, y1 if q & 2 else y0; its mask in masks[q * n + i].
   const WalkSet w = tCornerWalks.reserve(4 * n);
   if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
   uint64_t* masks = tCornerMasks.data();
-  const V sh = splat(b.gridShift), level = splat(b.gridLevel), twoLevels = splat(2 * b.gridLevel);
+  const V sh = splat(g.gridShift), level = splat(g.gridLevel), twoLevels = splat(2 * g.gridLevel);
   const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   const V stride = splat(uint32_t(b.stride));
   size_t started = 0;
@@ -296,10 +298,10 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
       const V x = q & 1u ? x1 : x0, y = q & 2u ? y1 : y0;
       // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
       const M keep = m & (q & 1u ? twoColumns : M(0xFFFF)) & (q & 2u ? twoRows : M(0xFFFF));
-      V entry = splat(b.rootEntry);
-      if (b.gridCells) {
+      V entry = splat(g.rootEntry);
+      if (g.gridCells) {
         const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
-        entry = _mm512_mask_i32gather_epi32(entry.v, keep, cell.v, b.gridCells, 4);
+        entry = _mm512_mask_i32gather_epi32(entry.v, keep, cell.v, g.gridCells, 4);
       }
       const V code = entry & splat(3);
       const M shadowed = keep & equal(code, splat(1));
@@ -316,11 +318,11 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
       started += lanesSet(walk);
     }
   }
-  prefetchNodes(b.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = b.gridCells ? 1u << b.gridShift : b.dag.resolution;
+  prefetchNodes(g.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
   const Results<WalkResult::TileMask> results{masks};
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(b.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
   // Count: each corner's mask AND-ed with the footprint's part of its tile, eight footprints per step.
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);

@@ -422,6 +422,9 @@ struct TileMasks {
 WalkDag walkDag(const DagView& dag) {
   return {dag.nodes.data(), dag.nodes.size(), dag.leaves.data(), dag.childBase, dag.resolution};
 }
+WalkStart walkStart(const DagView& dag, const TopGrid& grid) {
+  return {walkDag(dag), grid.empty() ? nullptr : grid.cells.data(), grid.shift, grid.level, uint32_t(dag.rootCode)};
+}
 // The AVX-512 walks where the CPU has them and the DAG fits their signed 32-bit gather indices.
 bool vectorWalks(const DagView& dag) {
   return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
@@ -507,11 +510,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
   const TopGrid& grid = grids_[view];
   if (vectorWalks(dag)) {
     VoxelWalkBatch batch;
-    batch.dag = walkDag(dag);
-    batch.gridCells = grid.empty() ? nullptr : grid.cells.data();
-    batch.gridShift = grid.shift;
-    batch.gridLevel = grid.level;
-    batch.rootEntry = uint32_t(dag.rootCode);
+    batch.start = walkStart(dag, grid);
     batch.cells = cells;
     batch.indices = indices;
     batch.count = count;
@@ -560,11 +559,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
                   "CornerTileBatch reads x0, x1, y0, y1, z as five consecutive 32-bit fields");
     counts.resize(n);
     CornerTileBatch batch;
-    batch.dag = walkDag(dag);
-    batch.gridCells = grid.empty() ? nullptr : grid.cells.data();
-    batch.gridShift = grid.shift;
-    batch.gridLevel = grid.level;
-    batch.rootEntry = uint32_t(dag.rootCode);
+    batch.start = walkStart(dag, grid);
     batch.fields = reinterpret_cast<const uint32_t*>(pending.data());
     batch.stride = sizeof(PendingPoint) / sizeof(uint32_t);
     batch.count = n;
