@@ -323,7 +323,8 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
   const Results<WalkResult::TileMask> results{masks};
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
     descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
-  // Count: each corner's mask AND-ed with the footprint's part of its tile, eight footprints per step.
+  // Count: each corner's mask AND-ed with the footprint's part of its tile, sixteen footprints per step (their
+  // 64-bit masks in two halves of eight).
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);
     const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, stride.v);

@@ -398,21 +398,17 @@ inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size
   return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
 }
 
-// Where a walk's result goes (dag_walks.h's WalkResult): a visibility (1 lit, 0 shadowed) or the 8 x 8 mask
+// Where a walk's result goes (as dag_walks.h's WalkResult): a visibility (1 lit, 0 shadowed) or the 8 x 8 mask
 // of its tile at its slice.
 struct VoxelAnswers {
-  static constexpr WalkResult kKind = WalkResult::Visibility;
   float* answers;
-  void* slots() const { return answers; }
   void homogeneous(uint32_t out, uint32_t code) const { answers[out] = float(code != uint32_t(ChildCode::Shadowed)); }
   void leaf(uint32_t out, uint32_t x, uint32_t y, uint64_t mask) const {
     answers[out] = float(uint32_t(mask >> ((y & 7u) * 8u + (x & 7u)) & 1u) ^ 1u);
   }
 };
 struct TileMasks {
-  static constexpr WalkResult kKind = WalkResult::TileMask;
   uint64_t* masks;
-  void* slots() const { return masks; }
   void homogeneous(uint32_t out, uint32_t code) const {
     masks[out] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
   }
@@ -425,10 +421,11 @@ WalkDag walkDag(const DagView& dag) {
 WalkStart walkStart(const DagView& dag, const TopGrid& grid) {
   return {walkDag(dag), grid.empty() ? nullptr : grid.cells.data(), grid.shift, grid.level, uint32_t(dag.rootCode)};
 }
-// The AVX-512 walks where the CPU has them and the DAG fits their signed 32-bit gather indices.
-bool vectorWalks(const DagView& dag) {
+// The AVX-512 walks where the CPU has them and the DAG and the batch (`slots` results: answers, or four tile
+// masks per footprint) fit their signed 32-bit gather and scatter indices.
+bool vectorWalks(const DagView& dag, size_t slots) {
   return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
-         dag.leaves.size() < (size_t(1) << 30);
+         dag.leaves.size() < (size_t(1) << 30) && slots < (size_t(1) << 31);
 }
 
 // The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
@@ -437,12 +434,11 @@ bool vectorWalks(const DagView& dag) {
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). With stopSize > 8 the walks still going at nodes of that edge stop there and their
-// number is returned (compacted at the front); else 0. The AVX-512 path gives the same results.
+// number is returned (compacted at the front); else 0. The scalar path: with AVX-512 the batches walk in
+// dag_walks_avx512.cpp (walkVoxelsAvx512, countCornerTilesAvx512), which gives the same results.
 template <class Results>
 [[gnu::always_inline]] inline size_t descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                   uint32_t startSize, const Results& results, uint32_t stopSize = 8) {
-  if (vectorWalks(dag))
-    return descendGroupAvx512(walkDag(dag), w, active, startSize, stopSize, Results::kKind, results.slots());
   const uint16_t* nodes = dag.nodes.data();
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
   for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
@@ -508,7 +504,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
                                                 const uint32_t* indices, size_t count, std::span<float> out) const {
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
-  if (vectorWalks(dag)) {
+  if (vectorWalks(dag, out.size())) {
     VoxelWalkBatch batch;
     batch.start = walkStart(dag, grid);
     batch.cells = cells;
@@ -553,7 +549,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
   const size_t n = pending.size();
-  if (vectorWalks(dag)) {
+  if (vectorWalks(dag, 4 * n)) {
     static_assert(offsetof(PendingPoint, f) == 0 && offsetof(PendingPoint, z) == 4 * sizeof(uint32_t) &&
                       sizeof(PendingPoint) % sizeof(uint32_t) == 0,
                   "CornerTileBatch reads x0, x1, y0, y1, z as five consecutive 32-bit fields");
