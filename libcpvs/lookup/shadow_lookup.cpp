@@ -540,10 +540,11 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
 }
 
 // K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: each
-// distinct corner tile's mask at the slice (the same descent as K = 1, ending in the tile), AND-ed with the
-// kernel's part of the tile and counted. The corners share their path down to the smallest node that holds
-// them all, so one walk per footprint goes down to that node and the corner walks start there; points whose
-// corners lie in different top-grid cells walk each corner from its own cell.
+// distinct corner tile walks from its own top-grid cell (the same descent as K = 1, ending in the tile's mask
+// at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 the
+// same in dag_walks_avx512.cpp (countCornerTilesAvx512), sixteen footprints at a time. (Walking once per
+// footprint to the node its corner tiles share, then from there, took as long: the grouping it needs cost
+// what the shared steps saved; docs/lookups.md.)
 CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
                                                       std::vector<uint32_t>& counts) const {
   const DagView& dag = dags_[view];
@@ -566,90 +567,30 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
   const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
-  thread_local std::vector<uint64_t> masks, shared;
+  thread_local std::vector<uint64_t> masks;
   thread_local WalkStorage cornerStorage;
-  thread_local std::vector<uint32_t> order;
   if (masks.size() < 4 * n) masks.resize(4 * n);
-  if (shared.size() < n) shared.resize(n), order.resize(n);
   const WalkSet corners = cornerStorage.reserve(4 * n);
-  const WalkSet w = tWalks.reserve(n);
   auto cornerAt = [](const Footprint& f, uint32_t q) {
     return std::pair<uint32_t, uint32_t>{q & 1u ? f.x1 : f.x0, q & 2u ? f.y1 : f.y0};
   };
-  auto distinct = [](const Footprint& f, uint32_t q) {  // a corner in the same tile as another counts nothing
-    return uint32_t(!(q & 1u) || (f.x0 >> 3) != (f.x1 >> 3)) & uint32_t(!(q & 2u) || (f.y0 >> 3) != (f.y1 >> 3));
-  };
-  // Edge of the smallest node holding all of a footprint's corner tiles (8: a single tile), grouped by it
-  // (counting sort over log2 of the edge); beyond the grid cell: kept apart.
-  uint32_t groupStart[35] = {};  // group g: order[groupStart[g], groupStart[g + 1])
-  auto groupOf = [&](const Footprint& f) {
-    const uint32_t diff = ((f.x0 >> 3) ^ (f.x1 >> 3)) | ((f.y0 >> 3) ^ (f.y1 >> 3));
-    const uint32_t edge = 8u << std::bit_width(diff);
-    return edge > startSize ? 33u : uint32_t(std::countr_zero(edge));
-  };
-  for (size_t p = 0; p < n; ++p) ++groupStart[groupOf(pending[p].f) + 1];
-  for (int g = 0; g < 34; ++g) groupStart[g + 1] += groupStart[g];
-  uint32_t fill[35];
-  std::copy(groupStart, groupStart + 35, fill);
-  for (size_t p = 0; p < n; ++p) order[fill[groupOf(pending[p].f)]++] = uint32_t(p);
-
-  size_t cornerCount = 0;
-  for (uint32_t g = 3; g <= 33; ++g) {
-    const uint32_t begin = groupStart[g], end = groupStart[g + 1];
-    if (begin == end) continue;
-    if (g == 33) {  // corners in different grid cells: each from its own cell
-      size_t started = 0;
-      for (uint32_t o = begin; o < end; ++o) {
-        const uint32_t p = order[o];
-        const Footprint& f = pending[p].f;
-        for (uint32_t q = 0; q < 4; ++q) {
-          const auto [x, y] = cornerAt(f, q);
-          const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, pending[p].z);
-          const uint32_t code = entry & 3u, keep = distinct(f, q);
-          masks[4 * p + q] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(keep));
-          prefetchNode(nodes + (entry >> 2));
-          corners.set(cornerCount + started, x, y, pending[p].z, entry >> 2, 4 * p + q);
-          started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
-        }
-      }
-      descend(dag, corners.from(cornerCount), started, startSize, TileMasks{masks.data()});
-      continue;
-    }
-    // One walk per footprint from corner 0's cell down to the shared node (or, for a single tile, its mask).
-    const uint32_t edge = 1u << g;
-    size_t started = 0;
-    for (uint32_t o = begin; o < end; ++o) {
-      const uint32_t p = order[o];
-      const auto [x, y] = cornerAt(pending[p].f, 0);
+  // Corner q of footprint p: its mask in masks[4 p + q], 0 for a corner in the same tile as another.
+  size_t started = 0;
+  for (size_t p = 0; p < n; ++p) {
+    const Footprint& f = pending[p].f;
+    const uint32_t twoColumns = (f.x0 >> 3) != (f.x1 >> 3), twoRows = (f.y0 >> 3) != (f.y1 >> 3);
+    for (uint32_t q = 0; q < 4; ++q) {
+      const auto [x, y] = cornerAt(f, q);
+      const uint32_t keep = (uint32_t((q & 1u) == 0) | twoColumns) & (uint32_t((q & 2u) == 0) | twoRows);
       const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, pending[p].z);
       const uint32_t code = entry & 3u;
-      shared[p] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+      masks[4 * p + q] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(keep));
       prefetchNode(nodes + (entry >> 2));
-      w.set(started, x, y, pending[p].z, entry >> 2, p);
-      started += code == uint32_t(ChildCode::Ref);
+      corners.set(started, x, y, pending[p].z, entry >> 2, uint32_t(4 * p + q));
+      started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
     }
-    // Walks that ended above the shared node (a homogeneous region holding every corner) leave its mask in
-    // shared[p], which every distinct corner takes; the corner walks below overwrite it.
-    const size_t firstCorner = cornerCount;
-    for (size_t b = 0; b < started; b += kWalksInFlight) {
-      const size_t count = std::min(kWalksInFlight, started - b);
-      const size_t at = descendGroup(dag, w.from(b), count, startSize, TileMasks{shared.data()}, edge);
-      for (size_t i = b; i < b + at; ++i) {
-        const uint32_t point = w.out[i];
-        const Footprint& f = pending[point].f;
-        for (uint32_t q = 0; q < 4; ++q) {
-          const auto [x, y] = cornerAt(f, q);
-          corners.set(cornerCount, x, y, w.z[i], w.offset[i], 4 * point + q);
-          cornerCount += distinct(f, q);
-        }
-      }
-    }
-    for (uint32_t o = begin; o < end; ++o) {
-      const uint32_t p = order[o];
-      for (uint32_t q = 0; q < 4; ++q) masks[4 * p + q] = shared[p] & (0 - uint64_t(distinct(pending[p].f, q)));
-    }
-    if (edge > 8) descend(dag, corners.from(firstCorner), cornerCount - firstCorner, edge, TileMasks{masks.data()});
   }
+  descend(dag, corners, started, startSize, TileMasks{masks.data()});
   counts.resize(n);
   for (size_t p = 0; p < n; ++p) {
     const Footprint& f = pending[p].f;
