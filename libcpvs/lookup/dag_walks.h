@@ -80,14 +80,13 @@ inline constexpr size_t kWalksInFlight = 128;
 // lowers mapCells).
 bool vectorWalksAvailable();
 
-// AVX-512: walks [0, count) (best in groups of kWalksInFlight), each at a node of edge startSize, descend level by
-// level; a walk that reaches a homogeneous child or a leaf writes its result. With stopSize > 8 the walks
-// still going at nodes of edge stopSize stop there: the return value says how many, compacted to the front of
-// `walks` (offset = that node's first unit); with stopSize 8 every walk ends and 0 is returned.
-// Preconditions: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31, fewer than 2^30 leaves (the gathers'
-// indices are signed 32-bit: units, and a leaf's two 32-bit halves).
-size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
-                          uint32_t stopSize, WalkResult kind, void* results);
+// AVX-512: walks [0, count) (best in groups of kWalksInFlight), each at a node of edge startSize, descend level
+// by level to their voxels; each writes its result when it reaches a homogeneous child or a leaf. The batch
+// functions below run the same passes.
+// Preconditions: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31, fewer than 2^30 leaves, result slots below
+// 2^31 (the gathers' and scatters' indices are signed 32-bit: units, a leaf's two 32-bit halves, slots).
+void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                        void* results);
 
 // Where the walks of a batch start: the DAG and its top grid.
 struct WalkStart {

@@ -151,11 +151,10 @@ inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t
 }
 
 template <WalkResult kKind>
-size_t descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, uint32_t stopSize,
-               const Results<kKind>& results) {
+void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
   const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-  for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
     const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
     const V base = splat(dag.childBase[bit + 1]);
     size_t kept = 0;
@@ -178,7 +177,7 @@ size_t descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t sta
     }
     active = kept;
   }
-  if (stopSize > 8 || active == 0) return active;
+  if (active == 0) return;
   // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
   size_t kept = 0;
   for (size_t i = 0; i < active; i += 16) {
@@ -200,18 +199,17 @@ size_t descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t sta
     const M m = laneMask(kept - i);
     results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
   }
-  return 0;
 }
 
 thread_local WalkStorage tVoxelWalks;
 
 }  // namespace
 
-size_t descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize,
-                          uint32_t stopSize, WalkResult kind, void* results) {
+void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                        void* results) {
   if (kind == WalkResult::Visibility)
-    return descend(dag, walks, count, startSize, stopSize, Results<WalkResult::Visibility>{results});
-  return descend(dag, walks, count, startSize, stopSize, Results<WalkResult::TileMask>{results});
+    return descend(dag, walks, count, startSize, Results<WalkResult::Visibility>{results});
+  descend(dag, walks, count, startSize, Results<WalkResult::TileMask>{results});
 }
 
 void walkVoxelsAvx512(const VoxelWalkBatch& b) {
@@ -250,7 +248,7 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
   prefetchNodes(g.dag.nodes, w.offset, 0, started);
   const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
 }
 
 namespace {
@@ -322,7 +320,7 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
   const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
   const Results<WalkResult::TileMask> results{masks};
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, 8, results);
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
   // Count: each corner's mask AND-ed with the footprint's part of its tile, sixteen footprints per step (their
   // 64-bit masks in two halves of eight).
   for (size_t i = 0; i < n; i += 16) {
@@ -365,7 +363,7 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
 
 namespace cpvs {
 bool vectorWalksAvailable() { return false; }
-size_t descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, uint32_t, WalkResult, void*) {
+void descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkResult, void*) {
   std::abort();  // unreachable: vectorWalksAvailable() is false
 }
 void walkVoxelsAvx512(const VoxelWalkBatch&) { std::abort(); }

@@ -433,15 +433,14 @@ bool vectorWalks(const DagView& dag, size_t slots) {
 // without data-dependent branches (the child's code decides only which values are kept), so the loop runs at
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
-// reference follows). With stopSize > 8 the walks still going at nodes of that edge stop there and their
-// number is returned (compacted at the front); else 0. The scalar path: with AVX-512 the batches walk in
-// dag_walks_avx512.cpp (walkVoxelsAvx512, countCornerTilesAvx512), which gives the same results.
+// reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
+// (walkVoxelsAvx512, countCornerTilesAvx512), which gives the same results.
 template <class Results>
-[[gnu::always_inline]] inline size_t descendGroup(const DagView& dag, const WalkSet& w, size_t active,
-                                                  uint32_t startSize, const Results& results, uint32_t stopSize = 8) {
+[[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
+                                                uint32_t startSize, const Results& results) {
   const uint16_t* nodes = dag.nodes.data();
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-  for (uint32_t size = startSize; size > stopSize && active > 0; size >>= 1) {
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
     const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
     const uint32_t base = dag.childBase[bit + 1];
     size_t kept = 0;
@@ -459,8 +458,6 @@ template <class Results>
     }
     active = kept;
   }
-  // Stopped above the leaves: the walks still going are w[0, active), at nodes of edge stopSize.
-  if (stopSize > 8) return active;
   // Leaf-parent level: z-only split into 8x8x1 leaves.
   size_t kept = 0;
   for (size_t i = 0; i < active; ++i) {
@@ -478,7 +475,6 @@ template <class Results>
   // Leaves.
   const uint64_t* leaves = dag.leaves.data();
   for (size_t i = 0; i < kept; ++i) results.leaf(w.out[i], w.x[i], w.y[i], leaves[w.offset[i]]);
-  return 0;
 }
 
 template <class Results>
