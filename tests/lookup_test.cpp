@@ -248,7 +248,7 @@ public:
     base_ = mmap(nullptr, length_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (base_ == MAP_FAILED) throw std::runtime_error("mmap failed");
     char* guard = static_cast<char*>(base_) + length_ - page;
-    mprotect(guard, page, PROT_NONE);
+    if (mprotect(guard, page, PROT_NONE) != 0) throw std::runtime_error("mprotect failed: no guard page");
     data_ = reinterpret_cast<uint16_t*>(guard - bytes);
     std::memcpy(data_, units.data(), bytes);
   }

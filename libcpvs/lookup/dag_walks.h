@@ -65,7 +65,8 @@ struct TileSpans {
     for (uint32_t a = 0; a < 8; ++a)
       for (uint32_t b = a; b < 8; ++b) {
         columns[a * 8 + b] = (((uint64_t(2) << b) - 1) & ~((uint64_t(1) << a) - 1)) * 0x0101010101010101ull;
-        rows[a * 8 + b] = (b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1) & ~((uint64_t(1) << (8 * a)) - 1);
+        const uint64_t upTo = b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1;  // rows 0 .. b
+        rows[a * 8 + b] = upTo & ~((uint64_t(1) << (8 * a)) - 1);
       }
   }
 };
@@ -73,7 +74,8 @@ inline constexpr TileSpans kTileSpans;
 
 // Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
 // lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
-// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs.
+// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs
+// (measured with the scalar walks; the vector walks use the same groups, not tuned separately).
 inline constexpr size_t kWalksInFlight = 128;
 
 // Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it

@@ -59,6 +59,9 @@ inline V gather(M m, V index, const void* base) {
   return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, index.v, base, kScale);
 }
 inline size_t lanesSet(M m) { return size_t(std::popcount(unsigned(m))); }
+// Lanes 8h .. 8h + 7 of v (the indices of eight 64-bit gathers or scatters) and of mask m.
+inline __m256i half(V v, int h) { return h ? _mm512_extracti64x4_epi64(v.v, 1) : _mm512_castsi512_si256(v.v); }
+inline __mmask8 half(M m, int h) { return __mmask8(m >> (8 * h)); }
 
 // Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
 inline V popcount16(V v) {
@@ -114,12 +117,9 @@ struct Results {
       const __m512 lit = _mm512_mask_blend_ps(shadowed, _mm512_set1_ps(1.0f), _mm512_setzero_ps());
       _mm512_mask_i32scatter_ps(slots, m, out.v, lit, 4);
     } else {
-      for (int h = 0; h < 2; ++h) {  // eight 64-bit masks per half
-        const __m256i index = h ? _mm512_extracti64x4_epi64(out.v, 1) : _mm512_castsi512_si256(out.v);
-        const __mmask8 mh = __mmask8(m >> (8 * h)), sh = __mmask8(shadowed >> (8 * h));
-        const __m512i mask = _mm512_maskz_set1_epi64(sh, -1);
-        _mm512_mask_i32scatter_epi64(slots, mh, index, mask, 8);
-      }
+      for (int h = 0; h < 2; ++h)  // eight 64-bit masks per half
+        _mm512_mask_i32scatter_epi64(slots, half(m, h), half(out, h),
+                                     _mm512_maskz_set1_epi64(half(shadowed, h), -1), 8);
     }
   }
   // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
@@ -131,11 +131,8 @@ struct Results {
     } else {
       (void)x, (void)y;
       for (int h = 0; h < 2; ++h) {
-        const __m256i index = h ? _mm512_extracti64x4_epi64(out.v, 1) : _mm512_castsi512_si256(out.v);
-        const __m256i leafIndex = h ? _mm512_extracti64x4_epi64(leaf.v, 1) : _mm512_castsi512_si256(leaf.v);
-        const __mmask8 mh = __mmask8(m >> (8 * h));
-        const __m512i mask = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, leafIndex, leaves, 8);
-        _mm512_mask_i32scatter_epi64(slots, mh, index, mask, 8);
+        const __m512i mask = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), half(m, h), half(leaf, h), leaves, 8);
+        _mm512_mask_i32scatter_epi64(slots, half(m, h), half(out, h), mask, 8);
       }
     }
   }
@@ -150,6 +147,24 @@ inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t
   }
 }
 
+// Sixteen walks' fields (WalkSet's arrays) in lanes.
+struct WalkLanes {
+  V x, y, z, offset, out;
+};
+inline WalkLanes loadWalks(const WalkSet& w, size_t i, M m) {
+  return {load(w.x + i, m), load(w.y + i, m), load(w.z + i, m), load(w.offset + i, m), load(w.out + i, m)};
+}
+// Appends the walks of the lanes `keep` at w[at, ...) and returns the new count. Compress-stores may write over
+// the walks being read (at <= their index): those lanes are already in registers.
+inline size_t storeWalks(const WalkSet& w, size_t at, M keep, const WalkLanes& l) {
+  compress(w.x + at, keep, l.x);
+  compress(w.y + at, keep, l.y);
+  compress(w.z + at, keep, l.z);
+  compress(w.offset + at, keep, l.offset);
+  compress(w.out + at, keep, l.out);
+  return at + lanesSet(keep);
+}
+
 template <WalkResult kKind>
 void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
   const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
@@ -160,18 +175,12 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
     size_t kept = 0;
     for (size_t i = 0; i < active; i += 16) {
       const M m = laneMask(active - i);
-      const V x = load(w.x + i, m), y = load(w.y + i, m), z = load(w.z + i, m);
-      const V offset = load(w.offset + i, m), out = load(w.out + i, m);
-      const V c = (shr(z, bit) & splat(1)) << 2 | (shr(y, bit) & splat(1)) << 1 | (shr(x, bit) & splat(1));
-      const Step s = step(units, m, offset, c);
-      results.homogeneous(m & M(~s.isRef), out, s.code);
-      // The compress-stores write at kept <= i: this group's lanes are already in registers.
-      compress(w.x + kept, s.isRef, x);
-      compress(w.y + kept, s.isRef, y);
-      compress(w.z + kept, s.isRef, z);
-      compress(w.offset + kept, s.isRef, base + s.ref);
-      compress(w.out + kept, s.isRef, out);
-      const size_t next = kept + lanesSet(s.isRef);
+      WalkLanes l = loadWalks(w, i, m);
+      const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
+      const Step s = step(units, m, l.offset, c);
+      results.homogeneous(m & M(~s.isRef), l.out, s.code);
+      l.offset = base + s.ref;
+      const size_t next = storeWalks(w, kept, s.isRef, l);
       prefetchNodes(dag.nodes, w.offset, kept, next);
       kept = next;
     }
@@ -182,15 +191,11 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
   size_t kept = 0;
   for (size_t i = 0; i < active; i += 16) {
     const M m = laneMask(active - i);
-    const V x = load(w.x + i, m), y = load(w.y + i, m), z = load(w.z + i, m);
-    const V offset = load(w.offset + i, m), out = load(w.out + i, m);
-    const Step s = step(units, m, offset, z & splat(7));
-    results.homogeneous(m & M(~s.isRef), out, s.code);
-    compress(w.x + kept, s.isRef, x);
-    compress(w.y + kept, s.isRef, y);
-    compress(w.offset + kept, s.isRef, s.ref);
-    compress(w.out + kept, s.isRef, out);
-    const size_t next = kept + lanesSet(s.isRef);
+    WalkLanes l = loadWalks(w, i, m);
+    const Step s = step(units, m, l.offset, l.z & splat(7));
+    results.homogeneous(m & M(~s.isRef), l.out, s.code);
+    l.offset = s.ref;  // a leaf index from here on
+    const size_t next = storeWalks(w, kept, s.isRef, l);
     for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
     kept = next;
   }
@@ -199,6 +204,25 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
     const M m = laneMask(kept - i);
     results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
   }
+}
+
+// The top-grid entries ((offset << 2) | code) of voxels (x, y, z) in the lanes of m, or the root's entry.
+inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
+  const V entry = splat(g.rootEntry);
+  if (!g.gridCells) return entry;
+  const V sh = splat(g.gridShift);
+  const V cell = shl(shr(z, sh), splat(2 * g.gridLevel)) | shl(shr(y, sh), splat(g.gridLevel)) | shr(x, sh);
+  return _mm512_mask_i32gather_epi32(entry.v, m, cell.v, g.gridCells, 4);
+}
+
+// Walks [0, started), each at its start entry's node: their nodes prefetched, then descended in groups of
+// kWalksInFlight (a group's prefetched lines are still in L1 one pass later).
+template <WalkResult kKind>
+void descendFromStart(const WalkStart& g, const WalkSet& w, size_t started, const Results<kKind>& results) {
+  prefetchNodes(g.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
+  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
 }
 
 thread_local WalkStorage tVoxelWalks;
@@ -216,7 +240,6 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
   const WalkStart& g = b.start;
   const WalkSet w = tVoxelWalks.reserve(b.count);
   const Results<WalkResult::Visibility> results{b.answers};
-  const V sh = splat(g.gridShift), level = splat(g.gridLevel), twoLevels = splat(2 * g.gridLevel);
   const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   size_t started = 0;
   for (size_t j = 0; j < b.count; j += 16) {
@@ -226,29 +249,16 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
     std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
     const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
     const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
-    V entry = splat(g.rootEntry);  // the top-grid cell's entry (code, offset << 2), or the root's
-    if (g.gridCells) {
-      const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
-      entry = _mm512_mask_i32gather_epi32(entry.v, m, cell.v, g.gridCells, 4);
-    }
+    const V entry = startEntries(g, m, x, y, z);
     const V code = entry & splat(3);
     const M voxel = m & equal(state, splat(kCellVoxel));
     // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
     // follows.
     const M lit = (voxel & M(~equal(code, splat(1)))) | equal(state, splat(kCellLit));
     results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
-    const M walk = voxel & equal(code, splat(2));
-    compress(w.x + started, walk, x);
-    compress(w.y + started, walk, y);
-    compress(w.z + started, walk, z);
-    compress(w.offset + started, walk, shr(entry, 2));
-    compress(w.out + started, walk, out);
-    started += lanesSet(walk);
+    started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
   }
-  prefetchNodes(g.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
-  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
+  descendFromStart(g, w, started, results);
 }
 
 namespace {
@@ -269,6 +279,17 @@ inline __m512i popcount64(__m512i v) {
 inline V maxU(V a, V b) { return _mm512_max_epu32(a.v, b.v); }
 inline V minU(V a, V b) { return _mm512_min_epu32(a.v, b.v); }
 
+// Footprints i .. i + 15 of a CornerTileBatch, in the lanes of m.
+struct FootprintLanes {
+  V x0, x1, y0, y1, z;
+};
+inline FootprintLanes loadFootprints(const CornerTileBatch& b, size_t i, M m) {
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, splat(uint32_t(b.stride)).v);
+  return {gather<4>(m, at, b.fields), gather<4>(m, at + splat(1), b.fields), gather<4>(m, at + splat(2), b.fields),
+          gather<4>(m, at + splat(3), b.fields), gather<4>(m, at + splat(4), b.fields)};
+}
+
 thread_local WalkStorage tCornerWalks;
 thread_local std::vector<uint64_t> tCornerMasks;
 
@@ -281,66 +302,42 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
   const WalkSet w = tCornerWalks.reserve(4 * n);
   if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
   uint64_t* masks = tCornerMasks.data();
-  const V sh = splat(g.gridShift), level = splat(g.gridLevel), twoLevels = splat(2 * g.gridLevel);
   const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const V stride = splat(uint32_t(b.stride));
   size_t started = 0;
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);
-    const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, stride.v);
-    const V x0 = gather<4>(m, at, b.fields), x1 = gather<4>(m, at + splat(1), b.fields);
-    const V y0 = gather<4>(m, at + splat(2), b.fields), y1 = gather<4>(m, at + splat(3), b.fields);
-    const V z = gather<4>(m, at + splat(4), b.fields);
+    const auto [x0, x1, y0, y1, z] = loadFootprints(b, i, m);
     const M twoColumns = M(~equal(shr(x0, 3), shr(x1, 3))), twoRows = M(~equal(shr(y0, 3), shr(y1, 3)));
     for (uint32_t q = 0; q < 4; ++q) {
       const V x = q & 1u ? x1 : x0, y = q & 2u ? y1 : y0;
       // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
       const M keep = m & (q & 1u ? twoColumns : M(0xFFFF)) & (q & 2u ? twoRows : M(0xFFFF));
-      V entry = splat(g.rootEntry);
-      if (g.gridCells) {
-        const V cell = shl(shr(z, sh), twoLevels) | shl(shr(y, sh), level) | shr(x, sh);
-        entry = _mm512_mask_i32gather_epi32(entry.v, keep, cell.v, g.gridCells, 4);
-      }
+      const V entry = startEntries(g, keep, x, y, z);
       const V code = entry & splat(3);
       const M shadowed = keep & equal(code, splat(1));
-      for (int h = 0; h < 2; ++h) {  // the homogeneous answers (0 where not kept), final unless a walk follows
-        const __mmask8 mh = __mmask8(m >> (8 * h)), sh8 = __mmask8(shadowed >> (8 * h));
-        _mm512_mask_storeu_epi64(masks + q * n + i + 8 * h, mh, _mm512_maskz_set1_epi64(sh8, -1));
-      }
-      const M walk = keep & equal(code, splat(2));
-      compress(w.x + started, walk, x);
-      compress(w.y + started, walk, y);
-      compress(w.z + started, walk, z);
-      compress(w.offset + started, walk, shr(entry, 2));
-      compress(w.out + started, walk, iota + splat(uint32_t(q * n + i)));
-      started += lanesSet(walk);
+      for (int h = 0; h < 2; ++h)  // the homogeneous answers (0 where not kept), final unless a walk follows
+        _mm512_mask_storeu_epi64(masks + q * n + i + 8 * h, half(m, h), _mm512_maskz_set1_epi64(half(shadowed, h), -1));
+      started = storeWalks(w, started, keep & equal(code, splat(2)),
+                           {x, y, z, shr(entry, 2), iota + splat(uint32_t(q * n + i))});
     }
   }
-  prefetchNodes(g.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
-  const Results<WalkResult::TileMask> results{masks};
-  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
+  descendFromStart(g, w, started, Results<WalkResult::TileMask>{masks});
   // Count: each corner's mask AND-ed with the footprint's part of its tile, sixteen footprints per step (their
   // 64-bit masks in two halves of eight).
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);
-    const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, stride.v);
-    const V x0 = gather<4>(m, at, b.fields), x1 = gather<4>(m, at + splat(1), b.fields);
-    const V y0 = gather<4>(m, at + splat(2), b.fields), y1 = gather<4>(m, at + splat(3), b.fields);
+    const FootprintLanes f = loadFootprints(b, i, m);  // gathered again from the batch's own array
     __m512i total[2] = {_mm512_setzero_si512(), _mm512_setzero_si512()};
     for (uint32_t q = 0; q < 4; ++q) {
       // The corner tile's origin and the footprint's columns xa..xb and rows ya..yb inside it.
-      const V ox = (q & 1u ? x1 : x0) & splat(~7u), oy = (q & 2u ? y1 : y0) & splat(~7u);
-      const V column = ((maxU(x0, ox) - ox) << 3) + (minU(x1, ox + splat(7)) - ox);
-      const V row = ((maxU(y0, oy) - oy) << 3) + (minU(y1, oy + splat(7)) - oy);
+      const V ox = (q & 1u ? f.x1 : f.x0) & splat(~7u), oy = (q & 2u ? f.y1 : f.y0) & splat(~7u);
+      const V column = ((maxU(f.x0, ox) - ox) << 3) + (minU(f.x1, ox + splat(7)) - ox);
+      const V row = ((maxU(f.y0, oy) - oy) << 3) + (minU(f.y1, oy + splat(7)) - oy);
       for (int h = 0; h < 2; ++h) {
-        const __mmask8 mh = __mmask8(m >> (8 * h));
-        const __m256i c = h ? _mm512_extracti64x4_epi64(column.v, 1) : _mm512_castsi512_si256(column.v);
-        const __m256i r = h ? _mm512_extracti64x4_epi64(row.v, 1) : _mm512_castsi512_si256(row.v);
+        const __mmask8 mh = half(m, h);
         const __m512i tile = _mm512_and_si512(
-            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, c, kTileSpans.columns, 8),
-            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, r, kTileSpans.rows, 8));
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(column, h), kTileSpans.columns, 8),
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(row, h), kTileSpans.rows, 8));
         const __m512i mask = _mm512_maskz_loadu_epi64(mh, masks + q * n + i + 8 * h);
         total[h] = _mm512_add_epi64(total[h], popcount64(_mm512_and_si512(mask, tile)));
       }
