@@ -11,7 +11,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 #include "support/test_support.h"
 #include "tools/common/atomic_file.h"
 

@@ -18,8 +18,8 @@
 #include "formats/cpvs/cpvs_file.h"
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/exr_image.h"
-#include "libcpvs/bake.h"
-#include "libcpvs/error.h"
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/base/error.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -56,7 +56,7 @@ Scene torusKnotScene() {
   return scene;
 }
 
-// The open terrain with a low sun and a spot: its sheet is closed into solid ground (libcpvs/ground_sheet.h).
+// The open terrain with a low sun and a spot: its sheet is closed into solid ground (libcpvs/scene/ground_sheet.h).
 Scene terrainScene() {
   Scene scene = importGltf(sourcePath("data/scenes/Terrain/terrain.gltf"));
   scene.lights = {test::sunLight("sun", {0.6, -0.5, 0.3}),

@@ -1,4 +1,4 @@
-// The batch's point-to-voxel mapping (libcpvs/lookup/batch_cells.h): the AVX2 and AVX-512 paths give the scalar path's
+// The batch's point-to-voxel mapping (libcpvs/runtime/batch_cells.h): the AVX2 and AVX-512 paths give the scalar path's
 // cells bit for bit, and both give lookupCell's (the single-point lookup), on random points and on the hard
 // ones: exactly on voxel boundaries, behind the eye, on the cone's edge, non-finite, huge, zero normals.
 #include <gtest/gtest.h>
@@ -7,8 +7,9 @@
 #include <limits>
 #include <random>
 
-#include "libcpvs/lookup/batch_cells.h"
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/shadow_lookup.h"
+#include "libcpvs/views/view_fitting.h"
 
 namespace cpvs {
 namespace {

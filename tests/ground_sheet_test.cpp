@@ -1,4 +1,4 @@
-// Ground sheets (libcpvs/ground_sheet.h): which open meshes are taken as the top of solid ground, and what
+// Ground sheets (libcpvs/scene/ground_sheet.h): which open meshes are taken as the top of solid ground, and what
 // closing them adds to the world geometry.
 #include <gtest/gtest.h>
 
@@ -6,11 +6,12 @@
 #include <functional>
 
 #include "formats/gltf/gltf_import.h"
-#include "libcpvs/error.h"
-#include "libcpvs/light_view.h"
-#include "libcpvs/mesh_topology.h"
-#include "libcpvs/scene.h"
-#include "libcpvs/surface_samples.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/scene/mesh_topology.h"
+#include "libcpvs/scene/scene.h"
+#include "libcpvs/scene/surface_samples.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {

@@ -12,9 +12,9 @@
 #include <nlohmann/json.hpp>
 
 #include "formats/gltf/gltf_import.h"
-#include "libcpvs/error.h"
-#include "libcpvs/mesh_topology.h"
-#include "libcpvs/scene.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/scene/mesh_topology.h"
+#include "libcpvs/scene/scene.h"
 #include "support/test_support.h"
 
 namespace cpvs {

@@ -4,8 +4,9 @@
 #include <cmath>
 #include <random>
 
-#include "libcpvs/error.h"
-#include "libcpvs/light_view.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -144,13 +145,6 @@ TEST(LightView, MappingLogIsWithinTwoUlpOfLibm) {
   EXPECT_TRUE(std::isfinite(mappingLog(0.0)));
   EXPECT_TRUE(std::isfinite(mappingLog(INFINITY)));
   EXPECT_LT(mappingLog(4.9e-324), -700);
-}
-
-TEST(LightView, ParsesResolutions) {
-  EXPECT_EQ(parseResolution("4k"), 4096u);
-  EXPECT_EQ(parseResolution("64K"), 65536u);
-  EXPECT_EQ(parseResolution("512"), 512u);
-  for (const char* bad : {"3000", "0", "-4k", "4kk", "", "1k5", "1024k", "nan"}) EXPECT_THROW(parseResolution(bad), Error);
 }
 
 }  // namespace

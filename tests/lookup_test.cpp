@@ -1,4 +1,4 @@
-// Runtime lookups (libcpvs/lookup): the one-traversal PCF equals K^2 single-voxel lookups, the bias rule
+// Runtime lookups (libcpvs/runtime): the one-traversal PCF equals K^2 single-voxel lookups, the bias rule
 // keeps lit surfaces lit without acne, influence and view selection, and a baked scene agrees with the
 // voxel convention (a surface point lands in its enter voxel).
 #include <gtest/gtest.h>
@@ -12,13 +12,14 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-#include "libcpvs/bake.h"
+#include "libcpvs/bake/bake.h"
 #include "libcpvs/dag/dag_builder.h"
-#include "libcpvs/error.h"
-#include "libcpvs/lookup/dag_walks.h"
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/dag_walks.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/tiles/tile_masks.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {

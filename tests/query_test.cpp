@@ -26,11 +26,11 @@
 #include "formats/cpvs/cpvs_file.h"
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/exr_image.h"
-#include "libcpvs/bake.h"
-#include "libcpvs/error.h"
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/embree_scene.h"
-#include "libcpvs/surface_samples.h"
+#include "libcpvs/scene/surface_samples.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -133,7 +133,7 @@ void writePly(const std::string& path, const std::vector<SurfacePoint>& points, 
   }
 }
 
-// Area-weighted points on the triangles with their geometric normals (libcpvs/surface_samples.h, as
+// Area-weighted points on the triangles with their geometric normals (libcpvs/scene/surface_samples.h, as
 // cpvs-sample writes them), without the points inside closed solids (see the file comment).
 std::vector<SurfacePoint> sampleSurface(const WorldGeometry& world, size_t count, uint32_t seed) {
   const EmbreeScene rt(world);

@@ -13,12 +13,13 @@
 
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/exr_image.h"
-#include "libcpvs/depth_maps.h"
-#include "libcpvs/error.h"
-#include "libcpvs/light_view.h"
+#include "libcpvs/raster/depth_maps.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/light_view.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
-#include "libcpvs/view_geometry.h"
+#include "libcpvs/views/view_geometry.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -448,7 +449,7 @@ TEST_P(ExitDepth, FreeVoxelsAreInsideClosedSolidsAndExitsAreExact) {
 
 std::vector<ExitCase> exitCases() {
   std::vector<ExitCase> cases;
-  // Terrain and Quads: open ground sheets closed into solids (libcpvs/ground_sheet.h).
+  // Terrain and Quads: open ground sheets closed into solids (libcpvs/scene/ground_sheet.h).
   for (SceneId s : {SceneId::Nested, SceneId::Overlapping, SceneId::OpenBoxOverBox, SceneId::QuadOverBox,
                     SceneId::Boxes, SceneId::TorusKnot, SceneId::Terrain, SceneId::Quads})
     for (LightId l : {LightId::Directional, LightId::Spot}) cases.push_back({RasterBackend::OSMesa, s, l});

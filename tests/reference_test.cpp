@@ -5,9 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include "libcpvs/light_view.h"
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {

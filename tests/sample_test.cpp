@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "libcpvs/surface_samples.h"
+#include "libcpvs/scene/surface_samples.h"
 #include "support/test_support.h"
 
 namespace cpvs {

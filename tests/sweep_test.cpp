@@ -1,17 +1,18 @@
-// The equal-bytes 16-bit shadow map baseline (libcpvs/baseline/shadow_map.h) and the speed-vs-error sweep
-// (libcpvs/baseline/sweep.h) on tiny scenes: sizes, quantisation, agreement with Embree, Embree vs GL depth,
+// The equal-bytes 16-bit shadow map baseline (libcpvs/eval/shadow_map.h) and the speed-vs-error sweep
+// (libcpvs/eval/sweep.h) on tiny scenes: sizes, quantisation, agreement with Embree, Embree vs GL depth,
 // and a whole sweep whose rows are consistent.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
 
-#include "libcpvs/baseline/shadow_map.h"
-#include "libcpvs/baseline/sweep.h"
-#include "libcpvs/error.h"
+#include "libcpvs/eval/shadow_map.h"
+#include "libcpvs/eval/sweep.h"
+#include "libcpvs/base/error.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/reference/shadow_reference.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {

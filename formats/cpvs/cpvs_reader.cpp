@@ -17,7 +17,7 @@
 #include <xxhash.h>
 
 #include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
                                                           "big-endian hosts are not supported");

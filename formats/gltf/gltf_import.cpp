@@ -18,8 +18,8 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
-#include "libcpvs/error.h"
-#include "libcpvs/mesh_topology.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/scene/mesh_topology.h"
 
 namespace cpvs {
 namespace {

@@ -2,7 +2,7 @@
 // glTF 2.0 import (DESIGN.md §4.1): triangle geometry, node transforms, instancing and KHR_lights_punctual.
 #include <string>
 
-#include "libcpvs/scene.h"
+#include "libcpvs/scene/scene.h"
 
 namespace cpvs {
 

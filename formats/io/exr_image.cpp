@@ -13,7 +13,7 @@
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs {
 

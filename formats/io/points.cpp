@@ -10,7 +10,7 @@
 
 #include <sys/stat.h>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs {
 namespace {

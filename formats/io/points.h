@@ -25,7 +25,7 @@
 
 #include <glm/glm.hpp>
 
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 
 namespace cpvs {
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <bit>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs {
 

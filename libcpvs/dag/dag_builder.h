@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "libcpvs/dag/node_table.h"
-#include "libcpvs/dag/shadow_dag.h"
+#include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/tiles/tile_masks.h"
 
 namespace cpvs {

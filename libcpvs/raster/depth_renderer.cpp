@@ -25,7 +25,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 #include "libcpvs/raster/gl_context.h"
 
 namespace cpvs {

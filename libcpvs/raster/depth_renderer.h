@@ -5,16 +5,13 @@
 #include <memory>
 #include <string>
 
-#include "libcpvs/depth_maps.h"
-#include "libcpvs/light_view.h"
-#include "libcpvs/view_geometry.h"
+#include "libcpvs/raster/depth_maps.h"
+#include "libcpvs/raster/raster_backend.h"
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/views/view_geometry.h"
 
 namespace cpvs {
 
-enum class RasterBackend { OSMesa, EGL };
-// "osmesa" / "egl"; throws Error(Usage) for anything else.
-RasterBackend parseRasterBackend(const std::string& name);
-const char* rasterBackendName(RasterBackend backend);
 
 struct PeelSettings {
   // Each peel iteration renders the closed front faces and the closed back faces once and consumes one layer

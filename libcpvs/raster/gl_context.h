@@ -7,7 +7,7 @@
 
 #include <GL/glcorearb.h>
 
-#include "libcpvs/raster/depth_renderer.h"
+#include "libcpvs/raster/raster_backend.h"
 
 namespace cpvs::gl {
 

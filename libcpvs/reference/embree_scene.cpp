@@ -10,7 +10,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs {
 

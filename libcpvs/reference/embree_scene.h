@@ -13,8 +13,8 @@
 
 #include <glm/glm.hpp>
 
-#include "libcpvs/light_view.h"
-#include "libcpvs/scene.h"
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/scene/scene.h"
 
 namespace cpvs {
 

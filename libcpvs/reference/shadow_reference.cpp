@@ -2,14 +2,14 @@
 
 #include <cmath>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs {
 
 ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation orientation, double relativeEpsilon)
     : orientation_(orientation) {
   // Rays see the scene as authored; the inside-a-solid test also sees the ground sheets' closing triangles,
-  // so it finds the ground solid the bake took (libcpvs/ground_sheet.h).
+  // so it finds the ground solid the bake took (libcpvs/scene/ground_sheet.h).
   if (world.closingBegin < world.closingEnd) {
     solids_ = std::make_unique<EmbreeScene>(world);
     WorldGeometry own = world;

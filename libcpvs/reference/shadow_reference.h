@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/embree_scene.h"
 
 namespace cpvs {

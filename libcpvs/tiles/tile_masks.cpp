@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <bit>
 #include <string>
-#include <thread>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
 
 namespace cpvs {
 
@@ -158,14 +158,9 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   chains.darkFrom.resize(tileCount);
   threads = std::max(1u, std::min(threads, chains.tilesY));
   std::vector<ChainBand> bands(threads);
-  std::vector<std::thread> workers;
-  for (unsigned t = 0; t < threads; ++t) {
-    const uint32_t begin = uint32_t(uint64_t(chains.tilesY) * t / threads);
-    const uint32_t end = uint32_t(uint64_t(chains.tilesY) * (t + 1) / threads);
-    workers.emplace_back(buildRows, std::cref(depth), mode, begin, end, chains.tilesX, std::ref(bands[t]),
-                         std::ref(chains.darkFrom));
-  }
-  for (auto& w : workers) w.join();
+  parallelParts(chains.tilesY, threads, [&](unsigned part, size_t begin, size_t end) {
+    buildRows(depth, mode, uint32_t(begin), uint32_t(end), chains.tilesX, bands[part], chains.darkFrom);
+  });
 
   // Bands hold consecutive rows in order: the region's chains are their concatenation.
   size_t total = 0;

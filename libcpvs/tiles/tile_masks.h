@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "libcpvs/depth_maps.h"
+#include "libcpvs/raster/depth_maps.h"
 
 namespace cpvs {
 

@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "libcpvs/mesh_topology.h"
+#include "libcpvs/scene/mesh_topology.h"
 
 namespace cpvs::test {
 

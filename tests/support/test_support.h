@@ -5,8 +5,8 @@
 #include <glm/glm.hpp>
 #include <gtest/gtest.h>
 
-#include "libcpvs/error.h"
-#include "libcpvs/scene.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/scene/scene.h"
 
 // Runs `expr` (a bake, a sweep, a renderer): where OSMesa is missing the test is skipped, not failed.
 #define SKIP_WITHOUT_OSMESA(expr)                                                                      \

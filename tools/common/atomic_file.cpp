@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <mutex>
 
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 
 namespace cpvs::tools {
 

@@ -118,4 +118,18 @@ void addVersionFlag(CLI::App& app, const char* toolName) {
   app.set_version_flag("--version", std::string(toolName) + " " + kVersion);
 }
 
+uint32_t parseResolution(const std::string& text) {
+  std::string digits = text;
+  uint64_t multiplier = 1;
+  if (!digits.empty() && (digits.back() == 'k' || digits.back() == 'K')) {
+    multiplier = 1024;
+    digits.pop_back();
+  }
+  const bool numeric = !digits.empty() && digits.size() <= 7 && std::all_of(digits.begin(), digits.end(), ::isdigit);
+  const uint64_t value = numeric ? std::stoull(digits) * multiplier : 0;
+  if (value < 8 || value > 262144 || (value & (value - 1)) != 0)
+    throw Error(ExitCode::Usage, "resolution '" + text + "': expected a power of two from 8 to 256k (e.g. 512, 4k, 16k, 64k)");
+  return uint32_t(value);
+}
+
 }  // namespace cpvs::tools

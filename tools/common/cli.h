@@ -6,8 +6,8 @@
 
 #include <CLI/CLI.hpp>
 
-#include "libcpvs/error.h"
-#include "libcpvs/scene.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/scene/scene.h"
 
 namespace cpvs::tools {
 
@@ -26,6 +26,9 @@ struct LightOptions {
   // Throws Error(Usage) on malformed values.
   void applyTo(Scene& scene) const;
 };
+
+// Parses "4k", "16k", "512", "65536": a power of two from 8 to 256k. Throws Error(Usage).
+uint32_t parseResolution(const std::string& text);
 
 // Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
 int runMain(const char* toolName, const std::function<int()>& body);

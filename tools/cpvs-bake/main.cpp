@@ -12,7 +12,7 @@
 
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/exr_image.h"
-#include "libcpvs/bake.h"
+#include "libcpvs/bake/bake.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
@@ -172,12 +172,12 @@ int run(int argc, char** argv) {
   if (o.maxPeels < 1 || o.maxPeels > 1024) throw Error(ExitCode::Usage, "--max-peels must be in 1..1024");
 
   BakeSettings settings;
-  settings.resolution = parseResolution(o.resolution);
+  settings.resolution = tools::parseResolution(o.resolution);
   settings.undefinedMode = parseUndefinedMode(o.undefinedMode);
   settings.nodeReuse = !o.noNodeReuse;
   settings.threads = o.threads;
   settings.backend = parseRasterBackend(o.backend);
-  settings.regionSize = parseResolution(o.regionSize);
+  settings.regionSize = tools::parseResolution(o.regionSize);
   settings.peel.maxPeels = o.maxPeels;
   settings.ground = parseGroundSheets(o.ground);
 

@@ -18,7 +18,7 @@
 #include <xxhash.h>
 
 #include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/error.h"
+#include "libcpvs/base/error.h"
 #include "tools/cpvs-info/info_common.h"
 
 namespace cpvs::info {

@@ -5,7 +5,7 @@
 #include <glm/glm.hpp>
 #include <nlohmann/json.hpp>
 
-#include "libcpvs/scene.h"
+#include "libcpvs/scene/scene.h"
 
 namespace cpvs::info {
 

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "formats/gltf/gltf_import.h"
-#include "libcpvs/scene.h"
+#include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
 #include "tools/cpvs-info/info_common.h"
 

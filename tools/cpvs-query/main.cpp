@@ -25,13 +25,13 @@
 #include "formats/io/exr_image.h"
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/points.h"
-#include "libcpvs/lookup/shadow_lookup.h"
+#include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/common/progress.h"
-#include "tools/cpvs-query/error_stats.h"
+#include "libcpvs/eval/error_stats.h"
 
 namespace {
 
@@ -205,7 +205,7 @@ struct Totals {
   uint64_t insideClosed = 0;           // valid points inside a closed solid of the reference (not scored)
   std::vector<uint64_t> firstInvalid;  // indices of the first few invalid points
   std::vector<double> visibilitySum;   // per light
-  std::vector<query::ErrorStats> errors;  // per light
+  std::vector<ErrorStats> errors;  // per light
 };
 
 // Lookups of points[begin, end) for every light into values[i * L + l], in batches (LightShadow's
@@ -260,13 +260,13 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       const float v = values[i * nl + l];
       totals.visibilitySum[l] += v;
       if (!reference || valid[i] == 2) continue;
-      query::ErrorStats& e = totals.errors[l];
+      ErrorStats& e = totals.errors[l];
       const uint8_t ref = refValues[i * nl + l];
       const bool cpvsLit = v >= 0.5f;
       const bool wrong = cpvsLit != (ref != 0);
       ++e.samples;
       e.misclassified += wrong;
-      if (wrong && e.firstMisclassified.size() < query::ErrorStats::kExamples)
+      if (wrong && e.firstMisclassified.size() < ErrorStats::kExamples)
         e.firstMisclassified.push_back(totals.points + i);
       e.absDiffSum += std::abs(double(v) - double(ref));
       e.referenceLit += ref;
@@ -274,7 +274,7 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       if (uniform[i * nl + l]) {
         ++e.uniform;
         e.misclassifiedUniform += wrong;
-        if (wrong && e.firstMisclassifiedUniform.size() < query::ErrorStats::kExamples)
+        if (wrong && e.firstMisclassifiedUniform.size() < ErrorStats::kExamples)
           e.firstMisclassifiedUniform.push_back(totals.points + i);
         e.absDiffSumUniform += std::abs(double(v) - double(ref));
       }
@@ -475,7 +475,7 @@ std::vector<QueryPoint> readGBuffer(const std::string& path, const std::string& 
 
 // ---- main --------------------------------------------------------------------------------------------
 
-nlohmann::json errorJson(const query::ErrorStats& e) {
+nlohmann::json errorJson(const ErrorStats& e) {
   return {{"samples", e.samples},
           {"misclassified", e.rate(e.misclassified, e.samples)},
           {"misclassified_count", e.misclassified},
@@ -610,8 +610,8 @@ int run(const Options& options) {
               << first << (totals.invalid > totals.firstInvalid.size() ? ", ..." : "") << ")\n";
   }
 
-  query::ErrorStats pooled;
-  for (const query::ErrorStats& e : totals.errors) pooled.add(e);
+  ErrorStats pooled;
+  for (const ErrorStats& e : totals.errors) pooled.add(e);
   if (reference && !options.quiet) {
     std::fprintf(stderr,
                  "cpvs-query: reference (every point with every light): %.4f%% misclassified, %.4f%% of the %llu uniform"

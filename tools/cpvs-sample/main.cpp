@@ -3,7 +3,7 @@
 #include <string>
 
 #include "formats/gltf/gltf_import.h"
-#include "libcpvs/surface_samples.h"
+#include "libcpvs/scene/surface_samples.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 

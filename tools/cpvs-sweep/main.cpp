@@ -1,6 +1,6 @@
 // cpvs-sweep: speed against error (issue 4). For a scene and its lights, bakes a CPVS at each resolution of a
 // sweep, answers sampled surface points with the CPVS lookups, measures the error against Embree shadow rays,
-// and sets a plain 16-bit shadow map of equal bytes beside it (libcpvs/baseline). Writes a markdown table, an
+// and sets a plain 16-bit shadow map of equal bytes beside it (libcpvs/eval). Writes a markdown table, an
 // SVG plot and a JSON file per scene; tools/cpvs-sweep/run_sweeps.py runs the shipped scenes and the city and
 // assembles docs/speed-vs-error.md.
 #include <cmath>
@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "formats/gltf/gltf_import.h"
-#include "libcpvs/baseline/sweep.h"
+#include "libcpvs/eval/sweep.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
@@ -50,7 +50,7 @@ std::vector<uint32_t> parseResolutions(const std::string& text) {
   std::stringstream stream(text);
   std::string item;
   while (std::getline(stream, item, ','))
-    if (!item.empty()) out.push_back(parseResolution(item));
+    if (!item.empty()) out.push_back(tools::parseResolution(item));
   if (out.empty()) throw Error(ExitCode::Usage, "--resolutions '" + text + "': no resolution given");
   return out;
 }

@@ -152,7 +152,7 @@ def write_doc(a, out_dir, doc, resolutions, points):
       "(the rule of `cpvs-query --reference`). Beside it, a plain 16-bit shadow map of **equal bytes** "
       "(M = floor(sqrt(DAG bytes / 2)) texels square over the same fitted view, same depth mapping, same normal "
       "bias rule in its own voxel units, depth from Embree rays through the texel centres; "
-      "libcpvs/baseline/shadow_map.h) answers the same points.")
+      "libcpvs/eval/shadow_map.h) answers the same points.")
     w("")
     w("* *misclassified*: points whose binary answer (value ≥ 0.5 = lit) differs from the ray-traced one, over "
       "the light's points (surface samples inside the light's influence that face the light; points facing away "

@@ -1,0 +1,41 @@
+#pragma once
+// The .cpvs format's version and layout constants, shared by the reader (formats/cpvs/cpvs_file.h) and the
+// writer (libcpvs/bake/cpvs_writer.h). The byte-level spec is docs/format.md.
+#include <cstdint>
+
+namespace cpvs {
+
+// Same-major rule: a reader of 2.x opens every 2.y file. A minor version may add section types (readers skip
+// the ones they do not know) and append fields to light and view records (readers read the prefix they know,
+// the record size is in the section table); it never changes the meaning of an existing byte. Anything else
+// bumps the major version, which readers reject with a message that says what to do.
+// Format 2.0 stores node references in 16 or 32 bits (1.0: always 32); this reader still opens 1.x files,
+// converting their DAGs on open.
+inline constexpr uint16_t kCpvsMajorVersion = 2;
+inline constexpr uint16_t kCpvsMinorVersion = 0;
+inline constexpr uint16_t kCpvsOldestReadableMajor = 1;
+// PNG-style magic: a high-bit byte, the name, CR LF, Ctrl-Z — catches 7-bit and text-mode corruption.
+inline constexpr uint8_t kCpvsMagic[8] = {0x89, 'C', 'P', 'V', 'S', '\r', '\n', 0x1A};
+
+// Layout constants of version 2.0, the same as 1.0 but for the NODE element (docs/format.md has the tables).
+namespace cpvsformat {
+inline constexpr uint32_t kHeaderSize = 64;
+inline constexpr uint32_t kSectionEntrySize = 32;
+inline constexpr uint32_t kAlignment = 64;          // of the section table and of every section
+inline constexpr uint32_t kLightRecordSize = 112;   // LGHT record, 1.0 and 2.0
+inline constexpr uint32_t kViewRecordSize = 472;    // VIEW record, 1.0 and 2.0
+inline constexpr uint32_t kMaxLevels = 32;          // nodesPerLevel slots in a VIEW record
+inline constexpr uint32_t kMaxResolution = 1u << 20;
+// Section types, as the four bytes in the file (first character in the lowest byte).
+inline constexpr uint32_t fourcc(char a, char b, char c, char d) {
+  return uint32_t(uint8_t(a)) | uint32_t(uint8_t(b)) << 8 | uint32_t(uint8_t(c)) << 16 | uint32_t(uint8_t(d)) << 24;
+}
+inline constexpr uint32_t kBake = fourcc('B', 'A', 'K', 'E');  // bake settings, UTF-8 JSON text
+inline constexpr uint32_t kStrs = fourcc('S', 'T', 'R', 'S');  // string pool (light names)
+inline constexpr uint32_t kLght = fourcc('L', 'G', 'H', 'T');  // light records
+inline constexpr uint32_t kView = fourcc('V', 'I', 'E', 'W');  // view records
+inline constexpr uint32_t kNode = fourcc('N', 'O', 'D', 'E');  // one view's node units (u16; 1.x: u32 words)
+inline constexpr uint32_t kLeaf = fourcc('L', 'E', 'A', 'F');  // one view's leaf masks (u64)
+}  // namespace cpvsformat
+
+}  // namespace cpvs

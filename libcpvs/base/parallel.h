@@ -1,0 +1,70 @@
+#pragma once
+// The one way cpvs runs work in parallel: TBB. Results never depend on how the work was split or scheduled
+// (callers write to disjoint, pre-sized outputs or concatenate parts in order), so bytes do not depend on
+// the thread count.
+#include <algorithm>
+#include <cstddef>
+#include <utility>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
+
+namespace cpvs {
+
+// fn(i) for every i in [0, count), in parallel; `grain` indices at least per task.
+template <class Fn>
+void parallelFor(size_t count, Fn&& fn, size_t grain = 256) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, std::max<size_t>(1, grain)),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i != r.end(); ++i) fn(i);
+                    });
+}
+
+// fn(part, begin, end) for `parts` contiguous, equal ranges of [0, count) (part p covers
+// [count p / parts, count (p + 1) / parts)), in parallel on at most `parts` threads. A fixed split:
+// callers that concatenate per-part results in part order get the same result for any scheduling.
+template <class Fn>
+void parallelParts(size_t count, unsigned parts, Fn&& fn) {
+  parts = std::max(1u, parts);
+  if (parts == 1) {
+    fn(0u, size_t(0), count);
+    return;
+  }
+  tbb::task_arena arena{int(parts)};
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<unsigned>(0, parts, 1), [&](const tbb::blocked_range<unsigned>& r) {
+      for (unsigned p = r.begin(); p != r.end(); ++p) fn(p, count * p / parts, count * (p + 1) / parts);
+    }, tbb::simple_partitioner());
+  });
+}
+
+// One piece of work running beside the calling thread (e.g. tile masks and DAG building while the caller
+// renders the next region). wait() rethrows what the work threw.
+class BackgroundWork {
+public:
+  ~BackgroundWork() {
+    try {
+      group_.wait();
+    } catch (...) {  // the caller is already unwinding from its own error
+    }
+  }
+  template <class Fn>
+  void start(Fn&& fn) {
+    wait();
+    group_.run(std::forward<Fn>(fn));
+    running_ = true;
+  }
+  void wait() {
+    if (!running_) return;
+    running_ = false;
+    group_.wait();
+  }
+
+private:
+  tbb::task_group group_;
+  bool running_ = false;
+};
+
+}  // namespace cpvs

@@ -1,0 +1,27 @@
+#pragma once
+// Enter and exit depth maps of one region of a light view, in integer slices (docs/architecture.md, "The voxel convention").
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/views/view_regions.h"
+
+namespace cpvs {
+
+// Per texel (row-major within the region):
+//  enter e: slice of the first surface along the ray through the texel centre, in [0, N-1];
+//           e = N where the ray meets nothing (every voxel lit).
+//  exit  x: first slice that must be shadowed. x = e + 1 where the first surface is open (or a back face);
+//           for a closed solid, max(e + 1, slice where the ray leaves the union of closed solids);
+//           x = N where the ray meets nothing.
+// Voxel z is lit when z <= e, shadowed when z >= x, free (either value allowed) when e < z < x.
+struct DepthRegion {
+  RegionRect rect;
+  uint32_t resolution = 0;
+  std::vector<uint32_t> enter;
+  std::vector<uint32_t> exit;
+  uint32_t enterAt(uint32_t x, uint32_t y) const { return enter[size_t(y) * rect.width + x]; }
+  uint32_t exitAt(uint32_t x, uint32_t y) const { return exit[size_t(y) * rect.width + x]; }
+};
+
+}  // namespace cpvs

@@ -1,0 +1,66 @@
+#pragma once
+// Steps 1-3 of a lookup (shadow_lookup.h) for a whole batch of points of one view: where each lands, eight
+// points at a time with AVX-512 or four with AVX2 where the CPU has them, one at a time otherwise. Every path
+// runs cell_lanes.h, so they give the same cells bit for bit (batch_cells_test pins them together).
+//
+// Same rule as view_mapping.h: standard headers only (included under `#pragma GCC target("avx2")`).
+#include <cstddef>
+#include <cstdint>
+
+#include "libcpvs/runtime/cell_lanes.h"
+
+namespace cpvs {
+
+// What a point's lookup needs next.
+enum CellState : uint8_t {
+  kCellZero = 0,   // 0 without the DAG: non-finite input, outside the spot's influence, a back face (AsGiven)
+  kCellLit = 1,    // 1 without the DAG: empty view, behind a perspective eye, outside the lateral grid
+  kCellVoxel = 2,  // look up voxel (x, y, z)
+};
+
+struct CellBatchInput {
+  const ViewMapping* mapping = nullptr;
+  CellSettings settings;
+  const SpotInfluence* spot = nullptr;  // tested when set (a spot light's only view)
+  // Points as 6 doubles each (position, then normal: SurfacePoint's layout), point i at points + 6 * i;
+  // `indices` (when set) selects which: lane j maps point indices[j].
+  const double* points = nullptr;
+  const uint32_t* indices = nullptr;
+  size_t count = 0;
+};
+
+// One entry per mapped point (count entries each; x, y, z are meaningful where state is kCellVoxel).
+struct CellBatchOutput {
+  int32_t* x = nullptr;
+  int32_t* y = nullptr;
+  int32_t* z = nullptr;
+  uint8_t* state = nullptr;
+};
+
+enum class CellIsa : uint8_t { Scalar, Avx2, Avx512 };
+
+// The fastest path this CPU runs (or the one the environment variable CPVS_LOOKUP_ISA = scalar, avx2 or
+// avx512 asks for, when the CPU has it; read once).
+CellIsa bestCellIsa();
+// Maps the batch with the given path, or the best one below it that this CPU runs.
+void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
+inline void mapCells(const CellBatchInput& in, const CellBatchOutput& out) { mapCells(in, out, bestCellIsa()); }
+
+namespace detail {
+// Calls run(FixedShape<orthographic, linear>{}) for the mapping's kind of view.
+template <class Run>
+[[gnu::always_inline]] inline void withFixedShape(const ViewMapping& mapping, Run&& run) {
+  if (mapping.orthographic) {
+    if (mapping.linear) run(FixedShape<true, true>{});
+    else run(FixedShape<true, false>{});
+  } else {
+    if (mapping.linear) run(FixedShape<false, true>{});
+    else run(FixedShape<false, false>{});
+  }
+}
+
+void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);    // batch_cells_avx2.cpp
+void mapCellsAvx512(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx512.cpp
+}
+
+}  // namespace cpvs

@@ -1,0 +1,129 @@
+#pragma once
+// Walks that descend one view's DAG together, level by level: the inner loop of LightShadow's batch lookups
+// (shadow_lookup.cpp). Each pass over the walks still going reads their nodes, writes the result of those that
+// reach a homogeneous child or a leaf, and compacts the others for the next pass, prefetching their nodes,
+// which are read one pass later. The walks are kept one array per field, so that the AVX-512 path
+// (dag_walks_avx512.cpp) takes sixteen of them per instruction: gathers for the node reads, compress-stores
+// for the compaction. The scalar path (shadow_lookup.cpp) runs the same passes on the same arrays, and both
+// give the same results bit for bit.
+//
+// Why a vector path: once the mapping ran eight points at a time, the scalar walk's ~50 instructions per
+// level and walk (child index, header decode, the reference's popcount, compaction) were most of a lookup's
+// time even with the DAG in L2; sixteen lanes made unfiltered lookups 1.5-2.0x faster (docs/lookups.md).
+//
+// Same rule as view_mapping.h: standard headers only (dag_walks_avx512.cpp includes it before its
+// `#pragma GCC target`).
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/runtime/batch_cells.h"
+
+namespace cpvs {
+
+// A DAG as the walks read it: DagView's stored form (docs/format.md).
+struct WalkDag {
+  const uint16_t* nodes = nullptr;
+  size_t nodeUnits = 0;
+  const uint64_t* leaves = nullptr;
+  const uint32_t* childBase = nullptr;  // DagView::childBase
+  uint32_t resolution = 0;
+};
+
+// Walk i: voxel (x[i], y[i], z[i]), at the node whose first unit is offset[i] (a leaf index once past the
+// leaf parents), writing its result to slot out[i].
+struct WalkSet {
+  uint32_t *x = nullptr, *y = nullptr, *z = nullptr, *offset = nullptr, *out = nullptr;
+  void set(size_t i, uint32_t vx, uint32_t vy, uint32_t vz, uint32_t voffset, uint32_t vout) const {
+    x[i] = vx, y[i] = vy, z[i] = vz, offset[i] = voffset, out[i] = vout;
+  }
+  WalkSet from(size_t first) const { return {x + first, y + first, z + first, offset + first, out + first}; }
+};
+
+// Storage for a WalkSet (per thread: one LightShadow serves many threads).
+struct WalkStorage {
+  std::vector<uint32_t> x, y, z, offset, out;
+  WalkSet reserve(size_t count) {
+    if (x.size() < count)
+      for (std::vector<uint32_t>* v : {&x, &y, &z, &offset, &out}) v->resize(count);
+    return {x.data(), y.data(), z.data(), offset.data(), out.data()};
+  }
+};
+
+// What a walk writes to slot out[i] of the results when it ends.
+enum class WalkResult : uint8_t {
+  Visibility,  // float: 1 lit, 0 shadowed (the voxel's bit)
+  TileMask,    // uint64_t: the 8 x 8 mask of the voxel's tile at its slice (bit (y & 7) * 8 + (x & 7) set = shadowed)
+};
+
+// Texel masks of an 8 x 8 tile (bit (y & 7) * 8 + (x & 7)) for PCF footprints, from two small tables: columns
+// a..b of every row, and every column of rows a..b (entry a * 8 + b, a <= b); their AND is the footprint's part
+// of the tile.
+struct TileSpans {
+  uint64_t columns[64] = {}, rows[64] = {};
+  constexpr TileSpans() {
+    for (uint32_t a = 0; a < 8; ++a)
+      for (uint32_t b = a; b < 8; ++b) {
+        columns[a * 8 + b] = (((uint64_t(2) << b) - 1) & ~((uint64_t(1) << a) - 1)) * 0x0101010101010101ull;
+        const uint64_t upTo = b == 7 ? ~uint64_t(0) : (uint64_t(1) << (8 * (b + 1))) - 1;  // rows 0 .. b
+        rows[a * 8 + b] = upTo & ~((uint64_t(1) << (8 * a)) - 1);
+      }
+  }
+};
+inline constexpr TileSpans kTileSpans;
+
+// Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
+// lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
+// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs
+// (measured with the scalar walks; the vector walks use the same groups, not tuned separately).
+inline constexpr size_t kWalksInFlight = 128;
+
+// Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
+// lowers mapCells).
+bool vectorWalksAvailable();
+
+// AVX-512: walks [0, count) (best in groups of kWalksInFlight), each at a node of edge startSize, descend level
+// by level to their voxels; each writes its result when it reaches a homogeneous child or a leaf. The batch
+// functions below run the same passes.
+// Preconditions: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31, fewer than 2^30 leaves, result slots below
+// 2^31 (the gathers' and scatters' indices are signed 32-bit: units, a leaf's two 32-bit halves, slots).
+void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                        void* results);
+
+// Where the walks of a batch start: the DAG and its top grid.
+struct WalkStart {
+  WalkDag dag;
+  const uint32_t* gridCells = nullptr;  // TopGrid::cells, or null: every walk starts at the root
+  uint32_t gridShift = 0, gridLevel = 0;
+  uint32_t rootEntry = 0;  // the root's child code (offset 0)
+};
+
+// K = 1, AVX-512: the start of LightShadow::walkVoxels for a mapped batch (lane j answers point indices[j],
+// or j when null): each voxel's top-grid cell (or the root), the answers that need no walk, then the walks.
+struct VoxelWalkBatch {
+  WalkStart start;
+  CellBatchOutput cells;
+  const uint32_t* indices = nullptr;
+  size_t count = 0;
+  float* answers = nullptr;
+};
+// Same preconditions as descendGroupAvx512.
+void walkVoxelsAvx512(const VoxelWalkBatch& batch);
+
+// K <= 9 PCF, AVX-512: the shadowed texels of footprints that span at most 2 x 2 tiles of 8 x 8 texels. One walk
+// per distinct corner tile, from its top-grid cell (or the root) down to the tile's mask at the footprint's
+// slice, AND-ed with the footprint's part of the tile and counted: the answers of LightShadow's scalar
+// countCornerTiles, with no bookkeeping between the walks that sixteen lanes cannot do at once.
+struct CornerTileBatch {
+  WalkStart start;
+  // Footprint i: inclusive texel bounds x0, x1, y0, y1 (within [0, N), x1 - x0 and y1 - y0 at most 8) and its
+  // slice z, at fields + stride * i (five consecutive 32-bit fields).
+  const uint32_t* fields = nullptr;
+  size_t stride = 0;
+  size_t count = 0;
+  uint32_t* counts = nullptr;  // counts[i] for footprint i
+};
+// Same preconditions as descendGroupAvx512.
+void countCornerTilesAvx512(const CornerTileBatch& batch);
+
+}  // namespace cpvs

@@ -1,0 +1,370 @@
+// dag_walks.h with AVX-512F: sixteen walks per instruction, 32 bits a lane. Same passes as the scalar
+// descendGroup in shadow_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of
+// the walks that end (scatters), gather the references of the others, compress-store them for the next pass
+// and prefetch their nodes, read one pass later.
+#if defined(__x86_64__) && defined(__GNUC__)
+
+// GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() as the unused merge operand, which
+// -Wmaybe-uninitialized reports wherever they are inlined (as in batch_cells_avx512.cpp).
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+
+#include <algorithm>
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <immintrin.h>
+
+#include "libcpvs/runtime/dag_walks.h"
+
+namespace cpvs {
+
+bool vectorWalksAvailable() { return bestCellIsa() == CellIsa::Avx512; }
+
+}  // namespace cpvs
+
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+
+namespace cpvs {
+namespace {
+
+// Sixteen unsigned 32-bit lanes (a wrapper: __m512i's own operators work on 64-bit lanes).
+struct V {
+  __m512i v;
+  V() = default;
+  V(__m512i x) : v(x) {}
+};
+using M = __mmask16;
+
+inline V splat(uint32_t x) { return _mm512_set1_epi32(int32_t(x)); }
+inline V operator&(V a, V b) { return _mm512_and_si512(a.v, b.v); }
+inline V operator|(V a, V b) { return _mm512_or_si512(a.v, b.v); }
+inline V operator+(V a, V b) { return _mm512_add_epi32(a.v, b.v); }
+inline V operator-(V a, V b) { return _mm512_sub_epi32(a.v, b.v); }
+inline V operator<<(V a, unsigned n) { return _mm512_slli_epi32(a.v, n); }
+inline V shr(V a, unsigned n) { return _mm512_srli_epi32(a.v, n); }
+inline V shr(V a, V n) { return _mm512_srlv_epi32(a.v, n.v); }
+inline V shl(V a, V n) { return _mm512_sllv_epi32(a.v, n.v); }
+inline M equal(V a, V b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
+inline V blend(M m, V a, V b) { return _mm512_mask_blend_epi32(m, a.v, b.v); }  // b where m, else a
+inline M laneMask(size_t lanes) { return lanes >= 16 ? M(0xFFFF) : M((1u << lanes) - 1u); }
+inline V load(const uint32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
+inline V load(const int32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
+inline void compress(uint32_t* p, M m, V v) { _mm512_mask_compressstoreu_epi32(p, m, v.v); }
+// 32 bits at base + kScale * index[lane] for the lanes of m, 0 elsewhere.
+template <int kScale>
+inline V gather(M m, V index, const void* base) {
+  return _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), m, index.v, base, kScale);
+}
+inline size_t lanesSet(M m) { return size_t(std::popcount(unsigned(m))); }
+// Lanes 8h .. 8h + 7 of v (the indices of eight 64-bit gathers or scatters) and of mask m.
+inline __m256i half(V v, int h) { return h ? _mm512_extracti64x4_epi64(v.v, 1) : _mm512_castsi512_si256(v.v); }
+inline __mmask8 half(M m, int h) { return __mmask8(m >> (8 * h)); }
+
+// Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
+inline V popcount16(V v) {
+  v = v - (shr(v, 1) & splat(0x5555u));
+  v = (v & splat(0x3333u)) + (shr(v, 2) & splat(0x3333u));
+  v = (v + shr(v, 4)) & splat(0x0F0Fu);
+  return (v + shr(v, 8)) & splat(0x1Fu);
+}
+
+// Unit reads: 32 bits gathered at a unit index give that unit and the next, except at the DAG's last unit,
+// where the read starts one unit earlier and is shifted down (the caller needs only the low half there: a
+// header or a narrow reference), so no lane reads past the array.
+struct Units {
+  const uint16_t* nodes;
+  V last;
+  V pair(M m, V index) const {
+    const M atLast = equal(index, last);
+    const V at = _mm512_mask_sub_epi32(index.v, atLast, index.v, splat(1).v);
+    const V v = gather<2>(m, at, nodes);
+    return _mm512_mask_srli_epi32(v.v, atLast, v.v, 16);
+  }
+};
+
+// One step of sixteen walks at their nodes: child c's code (0 lit, 1 shadowed, 2 reference: childCodeOf)
+// and, for the references, readRef's value.
+struct Step {
+  V code, ref;
+  M isRef;
+};
+inline Step step(const Units& units, M m, V offset, V c) {
+  const V header = units.pair(m, offset) & splat(0xFFFFu);
+  const V twoC = c + c;
+  const V raw = shr(header, twoC) & splat(3);
+  Step s;
+  s.code = raw - (raw & shr(raw, 1));
+  s.isRef = _mm512_mask_cmpge_epu32_mask(m, raw.v, splat(2).v);
+  // The reference's unit follows the header and the units of the references before it (readRef).
+  const V refBits = (header & splat(0xAAAAu)) | (header & shr(header, 1) & splat(0x5555u));
+  const V before = shl(splat(1), twoC) - splat(1);
+  const V pair = units.pair(s.isRef, offset + splat(1) + popcount16(refBits & before));
+  s.ref = blend(equal(raw, splat(3)), pair & splat(0xFFFFu), pair);  // a wide reference takes both units
+  return s;
+}
+
+// Results of the walks that end, as dag_walks.h's WalkResult says.
+template <WalkResult kKind>
+struct Results {
+  void* slots;
+  // Walks ending on a homogeneous child: code 1 shadowed, else lit.
+  void homogeneous(M m, V out, V code) const {
+    const M shadowed = equal(code, splat(1));
+    if constexpr (kKind == WalkResult::Visibility) {
+      const __m512 lit = _mm512_mask_blend_ps(shadowed, _mm512_set1_ps(1.0f), _mm512_setzero_ps());
+      _mm512_mask_i32scatter_ps(slots, m, out.v, lit, 4);
+    } else {
+      for (int h = 0; h < 2; ++h)  // eight 64-bit masks per half
+        _mm512_mask_i32scatter_epi64(slots, half(m, h), half(out, h),
+                                     _mm512_maskz_set1_epi64(half(shadowed, h), -1), 8);
+    }
+  }
+  // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
+  void leaf(const uint64_t* leaves, M m, V out, V leaf, V x, V y) const {
+    if constexpr (kKind == WalkResult::Visibility) {
+      const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
+      const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
+      homogeneous(m, out, shr(word, bit & splat(31)) & splat(1));
+    } else {
+      (void)x, (void)y;
+      for (int h = 0; h < 2; ++h) {
+        const __m512i mask = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), half(m, h), half(leaf, h), leaves, 8);
+        _mm512_mask_i32scatter_epi64(slots, half(m, h), half(out, h), mask, 8);
+      }
+    }
+  }
+};
+
+// As prefetchNode in shadow_lookup.cpp: a node (at most 34 bytes) may straddle two cache lines.
+inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
+  for (size_t i = begin; i < end; ++i) {
+    const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
+    __builtin_prefetch(node, 0, 3);
+    __builtin_prefetch(node + 33, 0, 3);
+  }
+}
+
+// Sixteen walks' fields (WalkSet's arrays) in lanes.
+struct WalkLanes {
+  V x, y, z, offset, out;
+};
+inline WalkLanes loadWalks(const WalkSet& w, size_t i, M m) {
+  return {load(w.x + i, m), load(w.y + i, m), load(w.z + i, m), load(w.offset + i, m), load(w.out + i, m)};
+}
+// Appends the walks of the lanes `keep` at w[at, ...) and returns the new count. Compress-stores may write over
+// the walks being read (at <= their index): those lanes are already in registers.
+inline size_t storeWalks(const WalkSet& w, size_t at, M keep, const WalkLanes& l) {
+  compress(w.x + at, keep, l.x);
+  compress(w.y + at, keep, l.y);
+  compress(w.z + at, keep, l.z);
+  compress(w.offset + at, keep, l.offset);
+  compress(w.out + at, keep, l.out);
+  return at + lanesSet(keep);
+}
+
+template <WalkResult kKind>
+void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
+  const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
+  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+    const V base = splat(dag.childBase[bit + 1]);
+    size_t kept = 0;
+    for (size_t i = 0; i < active; i += 16) {
+      const M m = laneMask(active - i);
+      WalkLanes l = loadWalks(w, i, m);
+      const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
+      const Step s = step(units, m, l.offset, c);
+      results.homogeneous(m & M(~s.isRef), l.out, s.code);
+      l.offset = base + s.ref;
+      const size_t next = storeWalks(w, kept, s.isRef, l);
+      prefetchNodes(dag.nodes, w.offset, kept, next);
+      kept = next;
+    }
+    active = kept;
+  }
+  if (active == 0) return;
+  // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
+  size_t kept = 0;
+  for (size_t i = 0; i < active; i += 16) {
+    const M m = laneMask(active - i);
+    WalkLanes l = loadWalks(w, i, m);
+    const Step s = step(units, m, l.offset, l.z & splat(7));
+    results.homogeneous(m & M(~s.isRef), l.out, s.code);
+    l.offset = s.ref;  // a leaf index from here on
+    const size_t next = storeWalks(w, kept, s.isRef, l);
+    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
+    kept = next;
+  }
+  // Leaves.
+  for (size_t i = 0; i < kept; i += 16) {
+    const M m = laneMask(kept - i);
+    results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
+  }
+}
+
+// The top-grid entries ((offset << 2) | code) of voxels (x, y, z) in the lanes of m, or the root's entry.
+inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
+  const V entry = splat(g.rootEntry);
+  if (!g.gridCells) return entry;
+  const V sh = splat(g.gridShift);
+  const V cell = shl(shr(z, sh), splat(2 * g.gridLevel)) | shl(shr(y, sh), splat(g.gridLevel)) | shr(x, sh);
+  return _mm512_mask_i32gather_epi32(entry.v, m, cell.v, g.gridCells, 4);
+}
+
+// Walks [0, started), each at its start entry's node: their nodes prefetched, then descended in groups of
+// kWalksInFlight (a group's prefetched lines are still in L1 one pass later).
+template <WalkResult kKind>
+void descendFromStart(const WalkStart& g, const WalkSet& w, size_t started, const Results<kKind>& results) {
+  prefetchNodes(g.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
+  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
+}
+
+thread_local WalkStorage tVoxelWalks;
+
+}  // namespace
+
+void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                        void* results) {
+  if (kind == WalkResult::Visibility)
+    return descend(dag, walks, count, startSize, Results<WalkResult::Visibility>{results});
+  descend(dag, walks, count, startSize, Results<WalkResult::TileMask>{results});
+}
+
+void walkVoxelsAvx512(const VoxelWalkBatch& b) {
+  const WalkStart& g = b.start;
+  const WalkSet w = tVoxelWalks.reserve(b.count);
+  const Results<WalkResult::Visibility> results{b.answers};
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  size_t started = 0;
+  for (size_t j = 0; j < b.count; j += 16) {
+    const M m = laneMask(b.count - j);
+    const V x = load(b.cells.x + j, m), y = load(b.cells.y + j, m), z = load(b.cells.z + j, m);
+    alignas(16) uint8_t stateBytes[16] = {};
+    std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
+    const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
+    const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
+    const V entry = startEntries(g, m, x, y, z);
+    const V code = entry & splat(3);
+    const M voxel = m & equal(state, splat(kCellVoxel));
+    // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
+    // follows.
+    const M lit = (voxel & M(~equal(code, splat(1)))) | equal(state, splat(kCellLit));
+    results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
+    started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
+  }
+  descendFromStart(g, w, started, results);
+}
+
+namespace {
+
+// Bits set in each 64-bit lane.
+inline __m512i splat64(uint64_t x) { return _mm512_set1_epi64(int64_t(x)); }
+inline __m512i popcount64(__m512i v) {
+  v = _mm512_sub_epi64(v, _mm512_and_si512(_mm512_srli_epi64(v, 1), splat64(0x5555555555555555ull)));
+  v = _mm512_add_epi64(_mm512_and_si512(v, splat64(0x3333333333333333ull)),
+                       _mm512_and_si512(_mm512_srli_epi64(v, 2), splat64(0x3333333333333333ull)));
+  v = _mm512_and_si512(_mm512_add_epi64(v, _mm512_srli_epi64(v, 4)), splat64(0x0F0F0F0F0F0F0F0Full));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 8));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 16));
+  v = _mm512_add_epi64(v, _mm512_srli_epi64(v, 32));
+  return _mm512_and_si512(v, splat64(0x7F));
+}
+
+inline V maxU(V a, V b) { return _mm512_max_epu32(a.v, b.v); }
+inline V minU(V a, V b) { return _mm512_min_epu32(a.v, b.v); }
+
+// Footprints i .. i + 15 of a CornerTileBatch, in the lanes of m.
+struct FootprintLanes {
+  V x0, x1, y0, y1, z;
+};
+inline FootprintLanes loadFootprints(const CornerTileBatch& b, size_t i, M m) {
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, splat(uint32_t(b.stride)).v);
+  return {gather<4>(m, at, b.fields), gather<4>(m, at + splat(1), b.fields), gather<4>(m, at + splat(2), b.fields),
+          gather<4>(m, at + splat(3), b.fields), gather<4>(m, at + splat(4), b.fields)};
+}
+
+thread_local WalkStorage tCornerWalks;
+thread_local std::vector<uint64_t> tCornerMasks;
+
+}  // namespace
+
+void countCornerTilesAvx512(const CornerTileBatch& b) {
+  const WalkStart& g = b.start;
+  const size_t n = b.count;
+  // Corner q of footprint i: x1 if q & 1 else x0, y1 if q & 2 else y0; its mask in masks[q * n + i].
+  const WalkSet w = tCornerWalks.reserve(4 * n);
+  if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
+  uint64_t* masks = tCornerMasks.data();
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  size_t started = 0;
+  for (size_t i = 0; i < n; i += 16) {
+    const M m = laneMask(n - i);
+    const auto [x0, x1, y0, y1, z] = loadFootprints(b, i, m);
+    const M twoColumns = M(~equal(shr(x0, 3), shr(x1, 3))), twoRows = M(~equal(shr(y0, 3), shr(y1, 3)));
+    for (uint32_t q = 0; q < 4; ++q) {
+      const V x = q & 1u ? x1 : x0, y = q & 2u ? y1 : y0;
+      // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
+      const M keep = m & (q & 1u ? twoColumns : M(0xFFFF)) & (q & 2u ? twoRows : M(0xFFFF));
+      const V entry = startEntries(g, keep, x, y, z);
+      const V code = entry & splat(3);
+      const M shadowed = keep & equal(code, splat(1));
+      for (int h = 0; h < 2; ++h)  // the homogeneous answers (0 where not kept), final unless a walk follows
+        _mm512_mask_storeu_epi64(masks + q * n + i + 8 * h, half(m, h), _mm512_maskz_set1_epi64(half(shadowed, h), -1));
+      started = storeWalks(w, started, keep & equal(code, splat(2)),
+                           {x, y, z, shr(entry, 2), iota + splat(uint32_t(q * n + i))});
+    }
+  }
+  descendFromStart(g, w, started, Results<WalkResult::TileMask>{masks});
+  // Count: each corner's mask AND-ed with the footprint's part of its tile, sixteen footprints per step (their
+  // 64-bit masks in two halves of eight).
+  for (size_t i = 0; i < n; i += 16) {
+    const M m = laneMask(n - i);
+    const FootprintLanes f = loadFootprints(b, i, m);  // gathered again from the batch's own array
+    __m512i total[2] = {_mm512_setzero_si512(), _mm512_setzero_si512()};
+    for (uint32_t q = 0; q < 4; ++q) {
+      // The corner tile's origin and the footprint's columns xa..xb and rows ya..yb inside it.
+      const V ox = (q & 1u ? f.x1 : f.x0) & splat(~7u), oy = (q & 2u ? f.y1 : f.y0) & splat(~7u);
+      const V column = ((maxU(f.x0, ox) - ox) << 3) + (minU(f.x1, ox + splat(7)) - ox);
+      const V row = ((maxU(f.y0, oy) - oy) << 3) + (minU(f.y1, oy + splat(7)) - oy);
+      for (int h = 0; h < 2; ++h) {
+        const __mmask8 mh = half(m, h);
+        const __m512i tile = _mm512_and_si512(
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(column, h), kTileSpans.columns, 8),
+            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(row, h), kTileSpans.rows, 8));
+        const __m512i mask = _mm512_maskz_loadu_epi64(mh, masks + q * n + i + 8 * h);
+        total[h] = _mm512_add_epi64(total[h], popcount64(_mm512_and_si512(mask, tile)));
+      }
+    }
+    const __m512i counts = _mm512_inserti64x4(_mm512_castsi256_si512(_mm512_cvtepi64_epi32(total[0])),
+                                              _mm512_cvtepi64_epi32(total[1]), 1);
+    _mm512_mask_storeu_epi32(b.counts + i, m, counts);
+  }
+}
+
+}  // namespace cpvs
+
+#pragma GCC pop_options
+
+#else
+
+#include <cstdlib>
+
+#include "libcpvs/runtime/dag_walks.h"
+
+namespace cpvs {
+bool vectorWalksAvailable() { return false; }
+void descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkResult, void*) {
+  std::abort();  // unreachable: vectorWalksAvailable() is false
+}
+void walkVoxelsAvx512(const VoxelWalkBatch&) { std::abort(); }
+void countCornerTilesAvx512(const CornerTileBatch&) { std::abort(); }
+}  // namespace cpvs
+
+#endif

@@ -1,0 +1,61 @@
+#pragma once
+// mapCells' loop over a batch in groups of the lane width, for every path (batch_cells.cpp's scalar lanes,
+// lanes_x86.h's vector ones). Same rule as view_mapping.h: standard headers only, and in an unnamed namespace,
+// since the vector kernels include it under their `#pragma GCC target`.
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+#include "libcpvs/runtime/batch_cells.h"
+
+namespace cpvs {
+namespace {
+
+// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them, L::cells
+// gives their voxels and states, one byte per lane; a short last group repeats its last point in the unused
+// lanes, read, never stored).
+template <class L, class Shape>
+void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
+  using Real = typename L::Real;
+  using Mask = typename L::Mask;
+  constexpr size_t kWidth = L::kWidth;
+  // Local copies: the byte stores to out.state could alias *in.mapping, which would make the compiler reload
+  // every constant in every group.
+  const ViewMapping mapping = *in.mapping;
+  const CellSettings settings = in.settings;
+  const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
+  const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
+  const double* const points = in.points;
+  const uint32_t* const indices = in.indices;
+  for (size_t j = 0; j < in.count; j += kWidth) {
+    const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
+    const double* p[kWidth];
+    for (size_t l = 0; l < kWidth; ++l) {
+      const size_t k = j + (l < lanes ? l : lanes - 1);
+      p[l] = points + 6 * size_t(indices ? indices[k] : k);
+    }
+    Real c[6];
+    L::load(p, c);
+    const CellVerdict<Real, Mask> v =
+        cellVerdict<Real, Mask, Shape>(mapping, settings, spotOrNull, c[0], c[1], c[2], c[3], c[4], c[5]);
+    alignas(64) int32_t xs[kWidth], ys[kWidth], zs[kWidth];
+    const uint64_t state = L::cells(v, xs, ys, zs);
+    if (lanes == kWidth && std::endian::native == std::endian::little) {
+      std::memcpy(out.x + j, xs, sizeof xs);
+      std::memcpy(out.y + j, ys, sizeof ys);
+      std::memcpy(out.z + j, zs, sizeof zs);
+      std::memcpy(out.state + j, &state, kWidth);  // little-endian: byte l is lane l
+      continue;
+    }
+    for (size_t l = 0; l < lanes; ++l) {
+      out.x[j + l] = xs[l];
+      out.y[j + l] = ys[l];
+      out.z[j + l] = zs[l];
+      out.state[j + l] = uint8_t(state >> (8 * l));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -1,0 +1,781 @@
+#include "libcpvs/runtime/shadow_lookup.h"
+
+#include <algorithm>
+#include <bit>
+#include <cstddef>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/dag_walks.h"
+
+namespace cpvs {
+namespace {
+
+bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
+
+// The kernel's footprint, inclusive texel bounds already clipped to [0, N).
+struct Footprint {
+  uint32_t x0, x1, y0, y1;
+};
+
+inline uint32_t overlap(uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1) {  // inclusive ranges
+  const uint32_t lo = std::max(a0, b0), hi = std::min(a1, b1);
+  return hi >= lo ? hi - lo + 1 : 0;
+}
+
+// Mask of the 8x8 tile at (ox, oy) covered by the footprint (which must overlap it).
+inline uint64_t tileMask(const Footprint& f, uint32_t ox, uint32_t oy) {
+  const uint32_t xa = std::max(f.x0, ox) - ox, xb = std::min(f.x1, ox + 7) - ox;
+  const uint32_t ya = std::max(f.y0, oy) - oy, yb = std::min(f.y1, oy + 7) - oy;
+  return kTileSpans.columns[xa * 8 + xb] & kTileSpans.rows[ya * 8 + yb];
+}
+
+// Shadowed texels of the footprint inside a node of edge `size` at (ox, oy) with child code `code`
+// (for a reference: the node at word `offset`), slice z.
+uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy,
+                   uint32_t z, const Footprint& f);
+
+uint32_t countNode(const DagView& dag, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy, uint32_t z,
+                   const Footprint& f) {
+  const uint32_t header = dag.nodes[offset];
+  if (size == 8) {  // leaf parent: z-only split into 8x8x1 leaves
+    const unsigned c = z & 7u;
+    const uint32_t code = childCodeOf(header, c);
+    if (code == uint32_t(ChildCode::Lit)) return 0;
+    if (code == uint32_t(ChildCode::Shadowed))
+      return overlap(ox, ox + 7, f.x0, f.x1) * overlap(oy, oy + 7, f.y0, f.y1);
+    const uint64_t mask = dag.leaves[dag.child(offset, header, c, 8)];
+    return popcount64(mask & tileMask(f, ox, oy));
+  }
+  const uint32_t half = size >> 1;
+  const unsigned zbit = (z & half) ? 4u : 0u;
+  uint32_t count = 0;
+  for (unsigned yb = 0; yb < 2; ++yb) {
+    const uint32_t cy = oy + yb * half;
+    const uint32_t oyCount = overlap(cy, cy + half - 1, f.y0, f.y1);
+    if (!oyCount) continue;
+    for (unsigned xb = 0; xb < 2; ++xb) {
+      const uint32_t cx = ox + xb * half;
+      const uint32_t oxCount = overlap(cx, cx + half - 1, f.x0, f.x1);
+      if (!oxCount) continue;
+      const unsigned c = zbit | (yb << 1) | xb;
+      const uint32_t code = childCodeOf(header, c);
+      if (code == uint32_t(ChildCode::Lit)) continue;
+      if (code == uint32_t(ChildCode::Shadowed)) {
+        count += oxCount * oyCount;
+      } else {
+        count += countNode(dag, dag.child(offset, header, c, size), half, cx, cy, z, f);
+      }
+    }
+  }
+  return count;
+}
+
+uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t ox, uint32_t oy,
+                   uint32_t z, const Footprint& f) {
+  if (code == uint32_t(ChildCode::Lit)) return 0;
+  if (code == uint32_t(ChildCode::Shadowed))
+    return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
+  return countNode(dag, offset, size, ox, oy, z, f);
+}
+
+// Walks from a node of edge `size` with child code `code` (offset: its words) down to voxel (x, y, z).
+inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t x, uint32_t y,
+                 uint32_t z) {
+  const uint16_t* nodes = dag.nodes.data();
+  for (uint32_t half = size >> 1; half >= 8; half >>= 1) {
+    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
+    const uint32_t header = nodes[offset];
+    code = childCodeOf(header, c);
+    if (code == uint32_t(ChildCode::Ref)) offset = dag.child(offset, header, c, half * 2);
+  }
+  if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+  const unsigned c = z & 7u;
+  const uint32_t header = nodes[offset];
+  code = childCodeOf(header, c);
+  if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+  const uint64_t mask = dag.leaves[dag.child(offset, header, c, 8)];
+  return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+}
+
+}  // namespace
+
+void checkPcfKernel(int pcfKernel) {
+  if (pcfKernel < 1 || pcfKernel > 255 || pcfKernel % 2 == 0)
+    throw Error(ExitCode::Usage, "PCF kernel " + std::to_string(pcfKernel) + ": expected an odd size from 1 to 255");
+}
+
+glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world) {
+  const glm::dmat3 rotation(view.viewFromWorld);  // rigid: upper-left 3x3
+  const glm::dvec3 v = glm::dvec3(view.viewFromWorld * glm::dvec4(world, 1.0));
+  const double n = view.resolution;
+  const double su = n / (view.xMax - view.xMin), sv = n / (view.yMax - view.yMin);
+  const double d = -v.z;
+  // Rows of d(a, b, d)/d(view) scaled to grid units; glm matrices are column-major, so build the transpose.
+  glm::dvec3 rowU, rowV, rowS;
+  if (view.projection == Projection::Orthographic) {
+    rowU = {su, 0, 0};
+    rowV = {0, sv, 0};
+  } else {
+    rowU = {su / d, 0, su * v.x / (d * d)};
+    rowV = {0, sv / d, sv * v.y / (d * d)};
+  }
+  const double ds = view.mapping == DepthMapping::Linear ? n / (view.far - view.near)
+                                                         : n / (d * std::log(view.far / view.near));
+  rowS = {0, 0, -ds};
+  const glm::dmat3 gridFromViewT(rowU, rowV, rowS);  // columns = rows of the Jacobian
+  return glm::transpose(gridFromViewT) * rotation;
+}
+
+// J^-T n in closed form, up to a positive factor. J = G R with R the view's rotation (orthonormal, so
+// R^-T = R) and G = d(u, v, s) / d(view) (gridJacobian), hence J^-T n = G^-T (R n): solve G^T m = R n, G
+// being upper triangular up to the sign of its last row. Orthographic: G = diag(1/su, 1/sv, -1/ds);
+// perspective: rows (1/(su d), 0, x/(su d^2)), (0, 1/(sv d), y/(sv d^2)), (0, 0, -1/ds), with (x, y) the
+// view-space point and d its depth. cell_lanes.h's cellLanes computes the same per lane for the bias.
+glm::dvec3 gridNormal(const LightView& view, const glm::dvec3& world, const glm::dvec3& normal) {
+  if (normal == glm::dvec3(0.0)) return glm::dvec3(0.0);
+  const ViewMapping mapping(view);
+  const GridLanes<double, bool> g = mapToGrid<double, bool>(mapping, world.x, world.y, world.z);
+  glm::dvec3 m;
+  gridNormalLanes(mapping, g, normal.x, normal.y, normal.z, m.x, m.y, m.z);
+  return m;
+}
+
+double biasDistance(const glm::dvec3& m, int pcfKernel, double margin) {
+  return 0.5 * double(pcfKernel) * (std::abs(m.x) + std::abs(m.y)) + margin;
+}
+
+LookupCell lookupCell(const LightView& view, const glm::dvec3& point, const glm::dvec3& normal,
+                      const LookupOptions& options) {
+  return lookupCell(ViewMapping(view), point, normal, options);
+}
+
+CellSettings cellSettings(const LookupOptions& options) {
+  CellSettings settings;
+  settings.kernelHalf = 0.5 * double(options.pcfKernel);
+  settings.margin = options.biasMargin;
+  settings.backFacingIsShadow = options.orientation == NormalOrientation::AsGiven;
+  return settings;
+}
+
+LookupCell lookupCell(const ViewMapping& mapping, const glm::dvec3& point, const glm::dvec3& normal,
+                      const LookupOptions& options) {
+  LookupCell cell;
+  if (!finite(point) || !finite(normal)) {
+    cell.kind = LookupCell::Kind::Invalid;
+    return cell;
+  }
+  if (mapping.empty) return cell;
+  const CellSettings settings = cellSettings(options);
+  const CellLanes<double, bool> lanes =
+      cellLanes<double, bool>(mapping, settings, point.x, point.y, point.z, normal.x, normal.y, normal.z);
+  if (!lanes.grid.inFront) return cell;
+  if (lanes.back && settings.backFacingIsShadow) {
+    cell.kind = LookupCell::Kind::BackFacing;
+    cell.uvs = {lanes.grid.u, lanes.grid.v, lanes.grid.s};
+    return cell;
+  }
+  cell.uvs = {lanes.qu, lanes.qv, lanes.qs};
+  if (!lanes.inside) return cell;
+  cell.kind = LookupCell::Kind::Voxel;
+  cell.x = int32_t(lanes.qu);
+  cell.y = int32_t(lanes.qv);
+  cell.z = int32_t(clampedSlice(lanes.qs, mapping.resolution - 1.0));
+  return cell;
+}
+
+uint32_t shadowedTexels(const DagView& dag, const TopGrid& grid, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
+  const int32_t n = int32_t(dag.resolution);
+  const int32_t h = pcfKernel / 2;
+  if (pcfKernel <= 1) {
+    if (x < 0 || y < 0 || x >= n || y >= n) return 0;
+    return shadowedVoxel(dag, grid, uint32_t(x), uint32_t(y), z) ? 1 : 0;
+  }
+  const int64_t x0 = std::max<int64_t>(0, int64_t(x) - h), x1 = std::min<int64_t>(n - 1, int64_t(x) + h);
+  const int64_t y0 = std::max<int64_t>(0, int64_t(y) - h), y1 = std::min<int64_t>(n - 1, int64_t(y) + h);
+  if (x0 > x1 || y0 > y1) return 0;
+  const Footprint f{uint32_t(x0), uint32_t(x1), uint32_t(y0), uint32_t(y1)};
+  if (dag.rootCode == ChildCode::Lit) return 0;
+  if (dag.rootCode == ChildCode::Shadowed) return (f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1);
+  if (grid.empty()) return countNode(dag, 0, dag.resolution, 0, 0, z, f);
+  // Start in the grid cells the footprint overlaps (at most 4 for a kernel no wider than a cell).
+  const uint32_t size = 1u << grid.shift, level = grid.level;
+  const uint32_t gz = z >> grid.shift;
+  uint32_t count = 0;
+  for (uint32_t gy = f.y0 >> grid.shift; gy <= (f.y1 >> grid.shift); ++gy)
+    for (uint32_t gx = f.x0 >> grid.shift; gx <= (f.x1 >> grid.shift); ++gx) {
+      const uint32_t cell = grid.cells[(size_t(gz) << (2 * level)) | (size_t(gy) << level) | gx];
+      count += countCode(dag, cell & 3u, cell >> 2, size, gx << grid.shift, gy << grid.shift, z, f);
+    }
+  return count;
+}
+
+uint32_t shadowedTexels(const DagView& dag, int32_t x, int32_t y, uint32_t z, int pcfKernel) {
+  static const TopGrid none;
+  return shadowedTexels(dag, none, x, y, z, pcfKernel);
+}
+
+CPVS_POPCNT_CLONES bool shadowedVoxel(const DagView& dag, const TopGrid& grid, uint32_t x, uint32_t y, uint32_t z) {
+  if (grid.empty()) return walk(dag, uint32_t(dag.rootCode), 0, dag.resolution, x, y, z);
+  const uint32_t s = grid.shift, level = grid.level;
+  const uint32_t cell =
+      grid.cells[(size_t(z >> s) << (2 * level)) | (size_t(y >> s) << level) | size_t(x >> s)];
+  return walk(dag, cell & 3u, cell >> 2, 1u << s, x, y, z);
+}
+
+TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
+  TopGrid grid;
+  // Entries pack a unit offset above a 2-bit code: no grid for a DAG of 2^30 units (2 GiB) or more.
+  if (dag.resolution < 16 || dag.nodes.size() >= (size_t(1) << 30)) return grid;
+  const uint32_t log2n = uint32_t(std::countr_zero(dag.resolution));
+  level = std::min(level, log2n - 3);  // cells of at least 8 voxels: a leaf-parent node
+  if (level == 0) return grid;
+  grid.level = level;
+  grid.shift = log2n - level;
+  const uint32_t side = 1u << level;
+  grid.cells.assign(size_t(side) * side * side, uint32_t(dag.rootCode));
+  if (dag.rootCode != ChildCode::Ref) return grid;
+  // Fill level by level: the entries of level l + 1 from the nodes of level l.
+  std::vector<uint32_t> current{uint32_t(ChildCode::Ref)}, next;
+  for (uint32_t l = 0; l < level; ++l) {
+    const uint32_t width = 1u << l, nextWidth = width << 1;
+    next.assign(size_t(nextWidth) * nextWidth * nextWidth, 0);
+    for (uint32_t cz = 0; cz < width; ++cz)
+      for (uint32_t cy = 0; cy < width; ++cy)
+        for (uint32_t cx = 0; cx < width; ++cx) {
+          const uint32_t entry = current[(size_t(cz) * width + cy) * width + cx];
+          const uint32_t code = entry & 3u, offset = entry >> 2;
+          const uint32_t header = code == uint32_t(ChildCode::Ref) ? dag.nodes[offset] : 0;
+          for (unsigned c = 0; c < 8; ++c) {
+            const uint32_t x = 2 * cx + (c & 1u), y = 2 * cy + ((c >> 1) & 1u), z = 2 * cz + ((c >> 2) & 1u);
+            uint32_t child = code;  // homogeneous: every child has the parent's code
+            if (code == uint32_t(ChildCode::Ref)) {
+              child = childCodeOf(header, c);
+              if (child == uint32_t(ChildCode::Ref)) child |= dag.child(offset, header, c, dag.resolution >> l) << 2;
+            }
+            next[(size_t(z) * nextWidth + y) * nextWidth + x] = child;
+          }
+        }
+    current.swap(next);
+  }
+  // Root offset 0 is encoded as (0 << 2) | Ref; offsets fit in 30 bits (checked above).
+  grid.cells = std::move(current);
+  return grid;
+}
+
+uint32_t TopGrid::automaticLevel(const DagView& dag) {
+  const uint64_t dagBytes = uint64_t(dag.nodes.size()) * 2 + uint64_t(dag.leaves.size()) * 8;
+  uint32_t level = kMaxAutomaticTopGridLevels;
+  while (level > 0 && (uint64_t(4) << (3 * level)) > dagBytes) --level;
+  return level;
+}
+
+SpotInfluence spotInfluence(const Light& light) {
+  SpotInfluence spot;
+  for (int i = 0; i < 3; ++i) {
+    spot.position[i] = light.position[i];
+    spot.direction[i] = light.direction[i];
+  }
+  spot.range = light.range;
+  spot.cosOuter = std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
+  return spot;
+}
+
+bool withinInfluence(const Light& light, const glm::dvec3& point) {
+  switch (light.type) {
+    case LightType::Directional: return true;
+    case LightType::Spot: return insideSpot<double, bool>(spotInfluence(light), point.x, point.y, point.z);
+    case LightType::Point: break;
+  }
+  return glm::length(point - light.position) <= light.range;
+}
+
+namespace {
+
+float cellVisibility(const ViewMapping& mapping, const DagView& dag, const TopGrid& grid, const glm::dvec3& point,
+                     const glm::dvec3& normal, const LookupOptions& options) {
+  const LookupCell cell = lookupCell(mapping, point, normal, options);
+  if (cell.kind == LookupCell::Kind::Invalid || cell.kind == LookupCell::Kind::BackFacing) return 0.0f;
+  if (cell.kind == LookupCell::Kind::Lit) return 1.0f;
+  const int k = options.pcfKernel;
+  const uint32_t shadowed = shadowedTexels(dag, grid, cell.x, cell.y, uint32_t(cell.z), k);
+  if (k <= 1) return shadowed ? 0.0f : 1.0f;
+  return float(1.0 - double(shadowed) / (double(k) * double(k)));
+}
+
+}  // namespace
+
+float visibility(const LightView& view, const DagView& dag, const Light& light, const glm::dvec3& point,
+                 const glm::dvec3& normal, int pcfKernel, NormalOrientation orientation) {
+  if (!finite(point) || !finite(normal)) return 0.0f;
+  if (!withinInfluence(light, point)) return 0.0f;
+  static const TopGrid none;
+  return cellVisibility(ViewMapping(view), dag, none, point, normal, {pcfKernel, orientation});
+}
+
+LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
+                         int topGridLevels)
+    : light_(light), views_(std::move(views)), dags_(std::move(dags)) {
+  if (views_.size() != dags_.size()) throw Error(ExitCode::InputInvalid, "light '" + light.name + "': views and DAGs differ in number");
+  for (const DagView& dag : dags_)
+    grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
+  for (const LightView& view : views_) mappings_.emplace_back(view);
+  if (light_.type == LightType::Spot) spot_ = spotInfluence(light_);
+}
+
+size_t LightShadow::topGridBytes() const {
+  size_t bytes = 0;
+  for (const TopGrid& g : grids_) bytes += g.cells.size() * sizeof(uint32_t);
+  return bytes;
+}
+
+int LightShadow::viewIndex(const glm::dvec3& point) const {
+  if (views_.empty()) return -1;
+  switch (light_.type) {
+    case LightType::Directional: return 0;
+    case LightType::Spot:  // withinInfluence's rule with the cone's cosine computed once, as the batch has it
+      return insideSpot<double, bool>(spot_, point.x, point.y, point.z) ? 0 : -1;
+    case LightType::Point: break;
+  }
+  const auto index = selectView(light_, views_, point);
+  return index ? int(*index) : -1;
+}
+
+float LightShadow::visibility(const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) const {
+  if (!finite(point) || !finite(normal)) return 0.0f;
+  const int index = viewIndex(point);
+  if (index < 0) return 0.0f;
+  const size_t i = size_t(index);
+  return cellVisibility(mappings_[i], dags_[i], grids_[i], point, normal, options);
+}
+
+// ---- batches: interleaved walks ----------------------------------------------------------------------
+
+// A point of the batch whose answer needs the DAG.
+struct LightShadow::PendingPoint {
+  Footprint f;    // clipped K x K footprint (inclusive texel bounds); K = 1: (x0, y0) is the texel
+  uint32_t z;
+  uint32_t out;   // index into the batch
+};
+
+namespace {
+
+// Reused buffers of a batch (per thread: one LightShadow serves many threads).
+struct BatchScratch {
+  std::vector<int32_t> x, y, z;
+  std::vector<uint8_t> state;
+  std::vector<uint32_t> indices, face;
+  std::vector<LightShadow::PendingPoint> pending;
+  std::vector<uint32_t> counts;  // sized by the counting functions
+  void resize(size_t count) {
+    if (x.size() >= count) return;
+    x.resize(count);
+    y.resize(count);
+    z.resize(count);
+    state.resize(count);
+    indices.resize(count);
+    face.resize(count);
+    pending.resize(count);
+  }
+};
+constexpr uint32_t kNoView = ~0u;
+// Kernels up to this size cover at most 2 x 2 tiles: LightShadow::countCornerTiles.
+constexpr int kCornerTileKernel = 9;
+
+inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
+// A node is at most 17 units (34 bytes: a header and 8 wide references) and may straddle two cache lines:
+// fetch its first and its last possible byte.
+inline void prefetchNode(const uint16_t* node) {
+  __builtin_prefetch(node, 0, 3);
+  __builtin_prefetch(reinterpret_cast<const char*>(node) + 33, 0, 3);
+}
+
+inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size) {
+  return overlap(ox, ox + size - 1, f.x0, f.x1) * overlap(oy, oy + size - 1, f.y0, f.y1);
+}
+
+// Where a walk's result goes (as dag_walks.h's WalkResult): a visibility (1 lit, 0 shadowed) or the 8 x 8 mask
+// of its tile at its slice.
+struct VoxelAnswers {
+  float* answers;
+  void homogeneous(uint32_t out, uint32_t code) const { answers[out] = float(code != uint32_t(ChildCode::Shadowed)); }
+  void leaf(uint32_t out, uint32_t x, uint32_t y, uint64_t mask) const {
+    answers[out] = float(uint32_t(mask >> ((y & 7u) * 8u + (x & 7u)) & 1u) ^ 1u);
+  }
+};
+struct TileMasks {
+  uint64_t* masks;
+  void homogeneous(uint32_t out, uint32_t code) const {
+    masks[out] = 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+  }
+  void leaf(uint32_t out, uint32_t, uint32_t, uint64_t mask) const { masks[out] = mask; }
+};
+
+WalkDag walkDag(const DagView& dag) {
+  return {dag.nodes.data(), dag.nodes.size(), dag.leaves.data(), dag.childBase, dag.resolution};
+}
+WalkStart walkStart(const DagView& dag, const TopGrid& grid) {
+  return {walkDag(dag), grid.empty() ? nullptr : grid.cells.data(), grid.shift, grid.level, uint32_t(dag.rootCode)};
+}
+// The AVX-512 walks where the CPU has them and the DAG and the batch (`slots` results: answers, or four tile
+// masks per footprint) fit their signed 32-bit gather and scatter indices.
+bool vectorWalks(const DagView& dag, size_t slots) {
+  return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
+         dag.leaves.size() < (size_t(1) << 30) && slots < (size_t(1) << 31);
+}
+
+// The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
+// (dag_walks.h): every walk of the group takes its step at one level before any takes the next, in a loop
+// without data-dependent branches (the child's code decides only which values are kept), so the loop runs at
+// the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
+// the group later, by which time it has arrived. A walk's result is written at every step (final unless a
+// reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
+// (walkVoxelsAvx512, countCornerTilesAvx512), which gives the same results.
+template <class Results>
+[[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
+                                                uint32_t startSize, const Results& results) {
+  const uint16_t* nodes = dag.nodes.data();
+  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+    const uint32_t base = dag.childBase[bit + 1];
+    size_t kept = 0;
+    for (size_t i = 0; i < active; ++i) {
+      const uint32_t x = w.x[i], y = w.y[i], z = w.z[i], offset = w.offset[i], out = w.out[i];
+      const uint32_t header = nodes[offset];
+      const unsigned c = (((z >> bit) & 1u) << 2) | (((y >> bit) & 1u) << 1) | ((x >> bit) & 1u);
+      const uint32_t code = childCodeOf(header, c);
+      results.homogeneous(out, code);
+      // Without a reference this reads the header again: in bounds, and no branch.
+      const uint32_t child = base + readRef(nodes, offset, header, c);
+      prefetchNode(nodes + child);
+      w.set(kept, x, y, z, child, out);
+      kept += code == uint32_t(ChildCode::Ref);
+    }
+    active = kept;
+  }
+  // Leaf-parent level: z-only split into 8x8x1 leaves.
+  size_t kept = 0;
+  for (size_t i = 0; i < active; ++i) {
+    const uint32_t x = w.x[i], y = w.y[i], z = w.z[i], offset = w.offset[i], out = w.out[i];
+    const uint32_t header = nodes[offset];
+    const unsigned c = z & 7u;
+    const uint32_t code = childCodeOf(header, c);
+    const uint32_t ref = code == uint32_t(ChildCode::Ref);
+    results.homogeneous(out, code);
+    const uint32_t leaf = readRef(nodes, offset, header, c) & (0u - ref);  // leaf 0 when not a reference
+    prefetch(dag.leaves.data() + leaf);
+    w.set(kept, x, y, z, leaf, out);
+    kept += ref;
+  }
+  // Leaves.
+  const uint64_t* leaves = dag.leaves.data();
+  for (size_t i = 0; i < kept; ++i) results.leaf(w.out[i], w.x[i], w.y[i], leaves[w.offset[i]]);
+}
+
+template <class Results>
+[[gnu::always_inline]] inline void descend(const DagView& dag, const WalkSet& w, size_t active, uint32_t startSize,
+                                           const Results& results) {
+  for (size_t begin = 0; begin < active; begin += kWalksInFlight)
+    descendGroup(dag, w.from(begin), std::min(kWalksInFlight, active - begin), startSize, results);
+}
+
+// The top-grid entry of voxel (x, y, z), or the root's (code, offset 0) without a grid.
+[[gnu::always_inline]] inline uint32_t startEntry(const uint32_t* gridCells, uint32_t shift, uint32_t level,
+                                                  uint32_t rootEntry, uint32_t x, uint32_t y, uint32_t z) {
+  return gridCells ? gridCells[(size_t(z >> shift) << (2 * level)) | (size_t(y >> shift) << level) | (x >> shift)]
+                   : rootEntry;
+}
+
+thread_local WalkStorage tWalks;
+
+}  // namespace
+
+// K = 1: one path per point (descend), started from the top-grid cell, whose code may answer at once.
+CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOutput& cells,
+                                                const uint32_t* indices, size_t count, std::span<float> out) const {
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  if (vectorWalks(dag, out.size())) {
+    VoxelWalkBatch batch;
+    batch.start = walkStart(dag, grid);
+    batch.cells = cells;
+    batch.indices = indices;
+    batch.count = count;
+    batch.answers = out.data();
+    return walkVoxelsAvx512(batch);
+  }
+  const uint16_t* nodes = dag.nodes.data();
+  // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
+  const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
+  const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
+  const int32_t *xs = cells.x, *ys = cells.y, *zs = cells.z;
+  const uint8_t* states = cells.state;
+  float* answers = out.data();
+  const WalkSet w = tWalks.reserve(count);
+  size_t started = 0;
+  for (size_t j = 0; j < count; ++j) {
+    const uint32_t i = indices ? indices[j] : uint32_t(j);
+    const uint32_t x = uint32_t(xs[j]), y = uint32_t(ys[j]), z = uint32_t(zs[j]);  // 0 unless a voxel
+    const uint32_t state = states[j];
+    const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, z);
+    const uint32_t code = entry & 3u;
+    // Integer flags, not conditionals: the outcomes are unpredictable, and a branch on them mispredicts.
+    const uint32_t voxel = state == kCellVoxel;
+    const uint32_t lit = (voxel & uint32_t(code != uint32_t(ChildCode::Shadowed))) | uint32_t(state == kCellLit);
+    answers[i] = float(lit);  // final unless a walk follows
+    prefetchNode(nodes + (entry >> 2));
+    w.set(started, x, y, z, entry >> 2, i);
+    started += voxel & uint32_t(code == uint32_t(ChildCode::Ref));
+  }
+  descend(dag, w, started, grid.empty() ? dag.resolution : 1u << grid.shift, VoxelAnswers{answers});
+}
+
+// K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: each
+// distinct corner tile walks from its own top-grid cell (the same descent as K = 1, ending in the tile's mask
+// at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 the
+// same in dag_walks_avx512.cpp (countCornerTilesAvx512), sixteen footprints at a time. (Walking once per
+// footprint to the node its corner tiles share, then from there, took as long: the grouping it needs cost
+// what the shared steps saved; docs/lookups.md.)
+CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
+                                                      std::vector<uint32_t>& counts) const {
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  const size_t n = pending.size();
+  if (vectorWalks(dag, 4 * n)) {
+    static_assert(offsetof(PendingPoint, f) == 0 && offsetof(PendingPoint, z) == 4 * sizeof(uint32_t) &&
+                      sizeof(PendingPoint) % sizeof(uint32_t) == 0,
+                  "CornerTileBatch reads x0, x1, y0, y1, z as five consecutive 32-bit fields");
+    counts.resize(n);
+    CornerTileBatch batch;
+    batch.start = walkStart(dag, grid);
+    batch.fields = reinterpret_cast<const uint32_t*>(pending.data());
+    batch.stride = sizeof(PendingPoint) / sizeof(uint32_t);
+    batch.count = n;
+    batch.counts = counts.data();
+    return countCornerTilesAvx512(batch);
+  }
+  const uint16_t* nodes = dag.nodes.data();
+  const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
+  const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
+  const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
+  thread_local std::vector<uint64_t> masks;
+  thread_local WalkStorage cornerStorage;
+  if (masks.size() < 4 * n) masks.resize(4 * n);
+  const WalkSet corners = cornerStorage.reserve(4 * n);
+  auto cornerAt = [](const Footprint& f, uint32_t q) {
+    return std::pair<uint32_t, uint32_t>{q & 1u ? f.x1 : f.x0, q & 2u ? f.y1 : f.y0};
+  };
+  // Corner q of footprint p: its mask in masks[4 p + q], 0 for a corner in the same tile as another.
+  size_t started = 0;
+  for (size_t p = 0; p < n; ++p) {
+    const Footprint& f = pending[p].f;
+    const uint32_t twoColumns = (f.x0 >> 3) != (f.x1 >> 3), twoRows = (f.y0 >> 3) != (f.y1 >> 3);
+    for (uint32_t q = 0; q < 4; ++q) {
+      const auto [x, y] = cornerAt(f, q);
+      const uint32_t keep = (uint32_t((q & 1u) == 0) | twoColumns) & (uint32_t((q & 2u) == 0) | twoRows);
+      const uint32_t entry = startEntry(gridCells, sh, level, rootEntry, x, y, pending[p].z);
+      const uint32_t code = entry & 3u;
+      masks[4 * p + q] = (0 - uint64_t(code == uint32_t(ChildCode::Shadowed))) & (0 - uint64_t(keep));
+      prefetchNode(nodes + (entry >> 2));
+      corners.set(started, x, y, pending[p].z, entry >> 2, uint32_t(4 * p + q));
+      started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
+    }
+  }
+  descend(dag, corners, started, startSize, TileMasks{masks.data()});
+  counts.resize(n);
+  for (size_t p = 0; p < n; ++p) {
+    const Footprint& f = pending[p].f;
+    uint32_t count = 0;
+    for (uint32_t q = 0; q < 4; ++q) {
+      const auto [x, y] = cornerAt(f, q);
+      count += popcount64(masks[4 * p + q] & tileMask(f, x & ~7u, y & ~7u));
+    }
+    counts[p] = count;
+  }
+}
+
+// K > 1: the shadowed texels of each pending footprint (all in one view), counted level by level like
+// walkVoxels: every node the footprint overlaps is one entry; each level's pass reads its entries' nodes and
+// writes the next level's entries, up to four per node (the children the footprint overlaps), with the
+// homogeneous children's overlap counted at once, so no step branches on what it finds. Leaf masks are
+// AND-ed with the kernel's mask of their tile and counted.
+CPVS_POPCNT_CLONES void LightShadow::countFootprints(uint32_t view, std::span<const PendingPoint> pending, int pcfKernel,
+                                                     std::vector<uint32_t>& counts) const {
+  struct Entry {
+    uint32_t offset;  // the node's units, then (below the leaf parents) the leaf's index
+    uint32_t point;   // index into pending
+    uint32_t ox, oy;  // the node's (or leaf's) first texel
+  };
+  const DagView& dag = dags_[view];
+  const TopGrid& grid = grids_[view];
+  const uint16_t* nodes = dag.nodes.data();
+  const uint64_t* leaves = dag.leaves.data();
+  counts.assign(pending.size(), 0);
+  // A footprint of K texels spans at most `span` nodes per axis at any level (nodes are at least 8 texels
+  // wide), so a chunk of points has at most span^2 entries each per level.
+  const size_t span = size_t(pcfKernel + 6) / 8 + 1;
+  const size_t chunk = std::max<size_t>(1, kLookupBatch / (span * span));
+  thread_local std::vector<Entry> current, next;
+  const size_t capacity = std::min(chunk, pending.size()) * span * span + 4;  // + 4: a rejected last write
+  if (current.size() < capacity) current.resize(capacity), next.resize(capacity);
+  const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
+  for (size_t begin = 0; begin < pending.size(); begin += chunk) {
+    const size_t end = std::min(pending.size(), begin + chunk);
+    size_t active = 0;
+    // Start: the root, or the top-grid cells the footprint overlaps (whose codes may answer at once).
+    for (size_t p = begin; p < end; ++p) {
+      const PendingPoint& pp = pending[p];
+      if (grid.empty()) {
+        current[active++] = {0, uint32_t(p), 0, 0};
+        continue;
+      }
+      const uint32_t sh = grid.shift, level = grid.level;
+      const size_t zRow = size_t(pp.z >> sh) << (2 * level);
+      for (uint32_t gy = pp.f.y0 >> sh; gy <= (pp.f.y1 >> sh); ++gy)
+        for (uint32_t gx = pp.f.x0 >> sh; gx <= (pp.f.x1 >> sh); ++gx) {
+          const uint32_t entry = grid.cells[zRow | (size_t(gy) << level) | gx];
+          const uint32_t code = entry & 3u;
+          counts[p] += area(pp.f, gx << sh, gy << sh, startSize) * uint32_t(code == uint32_t(ChildCode::Shadowed));
+          prefetchNode(nodes + (entry >> 2));
+          current[active] = {entry >> 2, uint32_t(p), gx << sh, gy << sh};
+          active += code == uint32_t(ChildCode::Ref);
+        }
+    }
+    // Octree levels: the children c = (z bit, y half, x half) the footprint overlaps.
+    for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+      const uint32_t half = size >> 1;
+      const uint32_t base = dag.childBase[std::countr_zero(size)];  // as DagView::child
+      size_t kept = 0;
+      for (size_t i = 0; i < active; ++i) {
+        const Entry e = current[i];
+        const PendingPoint& pp = pending[e.point];
+        const uint32_t header = nodes[e.offset];
+        const unsigned zbit = (pp.z & half) ? 4u : 0u;
+        uint32_t shadowed = 0;
+        for (unsigned q = 0; q < 4; ++q) {
+          const unsigned xb = q & 1u, yb = q >> 1;
+          const uint32_t cx = e.ox + xb * half, cy = e.oy + yb * half;
+          const uint32_t covered = area(pp.f, cx, cy, half);
+          const unsigned c = zbit | q;
+          const uint32_t code = childCodeOf(header, c);
+          shadowed += covered * uint32_t(code == uint32_t(ChildCode::Shadowed));
+          const uint32_t child = base + readRef(nodes, e.offset, header, c);
+          const uint32_t keep = uint32_t(covered != 0) & uint32_t(code == uint32_t(ChildCode::Ref));
+          prefetchNode(nodes + (keep ? child : e.offset));
+          next[kept] = {child, e.point, cx, cy};
+          kept += keep;
+        }
+        counts[e.point] += shadowed;
+      }
+      std::swap(current, next);
+      active = kept;
+    }
+    // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
+    size_t kept = 0;
+    for (size_t i = 0; i < active; ++i) {
+      const Entry e = current[i];
+      const PendingPoint& pp = pending[e.point];
+      const uint32_t header = nodes[e.offset];
+      const unsigned c = pp.z & 7u;
+      const uint32_t code = childCodeOf(header, c);
+      counts[e.point] += area(pp.f, e.ox, e.oy, 8) * uint32_t(code == uint32_t(ChildCode::Shadowed));
+      const uint32_t keep = code == uint32_t(ChildCode::Ref);
+      const uint32_t leaf = readRef(nodes, e.offset, header, c);
+      prefetch(leaves + (keep ? leaf : 0u));
+      next[kept] = {leaf, e.point, e.ox, e.oy};
+      kept += keep;
+    }
+    // Leaves: the kernel's texels of the tile.
+    for (size_t i = 0; i < kept; ++i) {
+      const Entry e = next[i];
+      counts[e.point] += popcount64(leaves[e.offset] & tileMask(pending[e.point].f, e.ox, e.oy));
+    }
+  }
+}
+
+CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
+                             std::span<float> out) const {
+  if (out.size() != points.size())
+    throw Error(ExitCode::RuntimeFailure, "LightShadow::visibility: output and point spans differ in size");
+  const int k = options.pcfKernel;
+  const int64_t h = k / 2;
+  const double kernelArea = double(k) * double(k);
+  auto value = [&](uint32_t shadowed) { return float(1.0 - double(shadowed) / kernelArea); };  // K > 1
+
+  // Where each point lands (batch_cells.h: eight or four points at a time where the CPU has AVX-512 or AVX2),
+  // view by view; then that view's walks (K = 1: walkVoxels) or footprints (K > 1: filter below).
+  const size_t count = points.size();
+  static_assert(sizeof(SurfacePoint) == 6 * sizeof(double), "mapCells reads points as 6 doubles");
+  thread_local BatchScratch scratch;
+  scratch.resize(count);
+  std::vector<PendingPoint>& pendingStore = scratch.pending;
+  CellBatchInput in;
+  in.settings = cellSettings(options);
+  in.points = reinterpret_cast<const double*>(points.data());
+  const CellBatchOutput cells{scratch.x.data(), scratch.y.data(), scratch.z.data(), scratch.state.data()};
+  // K > 1, lane j of a mapped run (point indices[j], or j): the answers that need no DAG into out[], the
+  // footprints that do counted (countCornerTiles for K <= 9, countFootprints above), then their answers.
+  auto filter = [&](uint32_t view, const uint32_t* indices, size_t lanes) {
+    const DagView& dag = dags_[view];
+    const int64_t n = dag.resolution;
+    const bool walks = dag.rootCode == ChildCode::Ref;
+    size_t pendingCount = 0;
+    for (size_t j = 0; j < lanes; ++j) {
+      const uint32_t i = indices ? indices[j] : uint32_t(j);
+      const uint32_t state = cells.state[j];
+      const int64_t x = cells.x[j], y = cells.y[j];
+      const Footprint f{uint32_t(std::max<int64_t>(0, x - h)), uint32_t(std::min<int64_t>(n - 1, x + h)),
+                        uint32_t(std::max<int64_t>(0, y - h)), uint32_t(std::min<int64_t>(n - 1, y + h))};
+      out[i] = float(uint32_t(state == kCellLit));  // final unless a walk follows
+      if (!walks && state == kCellVoxel)  // a DAG of one colour (rare): no walk
+        out[i] = dag.rootCode == ChildCode::Lit ? 1.0f : value((f.x1 - f.x0 + 1) * (f.y1 - f.y0 + 1));
+      // Written every time, kept only for a walk: no branch on the point's (unpredictable) outcome.
+      pendingStore[pendingCount] = {f, uint32_t(cells.z[j]), i};
+      pendingCount += uint32_t(state == kCellVoxel) & uint32_t(walks);
+    }
+    const std::span<const PendingPoint> pending(pendingStore.data(), pendingCount);
+    std::vector<uint32_t>& counts = scratch.counts;
+    if (k <= kCornerTileKernel) countCornerTiles(view, pending, counts);
+    else countFootprints(view, pending, k, counts);
+    for (size_t p = 0; p < pending.size(); ++p) out[pending[p].out] = value(counts[p]);
+  };
+  if (views_.size() == 1) {  // directional and spot lights: the influence test runs in mapCells
+    in.mapping = &mappings_[0];
+    in.spot = light_.type == LightType::Spot ? &spot_ : nullptr;
+    in.count = count;
+    mapCells(in, cells);
+    if (k <= 1) walkVoxels(0, cells, nullptr, count, out);
+    else filter(0, nullptr, count);
+  } else {  // point lights: the cube face of each point first, then each face's points together
+    std::vector<uint32_t>& order = scratch.indices;
+    std::vector<uint32_t>& face = scratch.face;
+    std::vector<uint32_t> starts(views_.size() + 1, 0);  // then: where each view's run begins in `order`
+    for (size_t i = 0; i < count; ++i) {
+      out[i] = 0.0f;
+      const SurfacePoint& p = points[i];
+      const int index = finite(p.position) ? viewIndex(p.position) : -1;
+      face[i] = index < 0 ? kNoView : uint32_t(index);
+      if (index >= 0) ++starts[size_t(index) + 1];
+    }
+    for (size_t v = 0; v < views_.size(); ++v) starts[v + 1] += starts[v];
+    std::vector<uint32_t> fill(starts.begin(), starts.end() - 1);
+    for (size_t i = 0; i < count; ++i)
+      if (face[i] != kNoView) order[fill[face[i]]++] = uint32_t(i);
+    in.spot = nullptr;
+    for (uint32_t v = 0; v < views_.size(); ++v) {
+      in.mapping = &mappings_[v];
+      in.indices = order.data() + starts[v];
+      in.count = starts[v + 1] - starts[v];
+      mapCells(in, cells);
+      if (k <= 1) walkVoxels(v, cells, in.indices, in.count, out);
+      else filter(v, in.indices, in.count);
+    }
+  }
+}
+
+}  // namespace cpvs

@@ -1,0 +1,156 @@
+#include "libcpvs/scene/scene.h"
+
+#include <algorithm>
+#include <cctype>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/scene/ground_sheet.h"
+
+namespace cpvs {
+
+namespace {
+
+// Vertices a mesh's triangles actually use, so unused vertices neither cost a transform nor widen the bounds.
+struct UsedVertices {
+  std::vector<uint32_t> original;  // compact id -> mesh vertex
+  std::vector<uint32_t> compact;   // mesh vertex -> compact id (valid only for used vertices)
+};
+
+UsedVertices findUsedVertices(const Mesh& mesh) {
+  constexpr uint32_t kUnused = ~0u;
+  UsedVertices used;
+  used.compact.assign(mesh.positions.size(), kUnused);
+  for (uint32_t index : mesh.indices) {
+    if (index >= mesh.positions.size())
+      throw Error(ExitCode::InputInvalid, "mesh '" + mesh.name + "': index " + std::to_string(index) +
+                                              " out of range (" + std::to_string(mesh.positions.size()) +
+                                              " vertices)");
+    if (used.compact[index] == kUnused) {
+      used.compact[index] = uint32_t(used.original.size());
+      used.original.push_back(index);
+    }
+  }
+  return used;
+}
+
+void appendInstance(const Mesh& mesh, const UsedVertices& used, const Instance& instance, bool outwardFlip,
+                    WorldGeometry& world) {
+  const size_t base = world.positions.size();
+  if (base + used.original.size() > size_t(UINT32_MAX))
+    throw Error(ExitCode::RuntimeFailure, "scene too large: more than 2^32 world-space vertices");
+  for (uint32_t v : used.original) {
+    const glm::dvec3 p = glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(mesh.positions[v]), 1.0));
+    world.positions.push_back(p);
+    world.bounds.extend(p);
+  }
+  // A mirroring transform reverses the winding (glTF: det < 0 flips the front face); undo it so the
+  // front face keeps its meaning. Inside-out closed meshes are flipped once more so they face outward.
+  const bool mirrored = glm::determinant(glm::dmat3(instance.worldFromLocal)) < 0.0;
+  const bool flip = mirrored != outwardFlip;
+  const uint32_t offset = uint32_t(base);
+  for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const uint32_t a = offset + used.compact[mesh.indices[t]];
+    const uint32_t b = offset + used.compact[mesh.indices[t + 1]];
+    const uint32_t c = offset + used.compact[mesh.indices[t + 2]];
+    if (flip)
+      world.indices.insert(world.indices.end(), {a, c, b});
+    else
+      world.indices.insert(world.indices.end(), {a, b, c});
+  }
+}
+
+// "Box#2" is primitive 2 of the glTF mesh "Box" (see formats/gltf/gltf_import.h).
+bool nameMatches(const std::string& meshName, const std::string& wanted) {
+  if (meshName == wanted) return true;
+  if (meshName.size() <= wanted.size() + 1 || meshName.compare(0, wanted.size(), wanted) != 0 ||
+      meshName[wanted.size()] != '#')
+    return false;
+  return std::all_of(meshName.begin() + long(wanted.size()) + 1, meshName.end(),
+                     [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; });
+}
+
+}  // namespace
+
+GroundSheets parseGroundSheets(const std::string& name) {
+  if (name == "auto") return GroundSheets::Auto;
+  if (name == "off") return GroundSheets::Off;
+  throw Error(ExitCode::Usage, "unknown ground mode '" + name + "' (expected auto or off)");
+}
+
+const char* groundSheetsName(GroundSheets ground) { return ground == GroundSheets::Off ? "off" : "auto"; }
+
+WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
+  std::vector<UsedVertices> used;
+  used.reserve(scene.meshes.size());
+  size_t closedTriangles = 0, totalTriangles = 0, totalVertices = 0;
+  for (const Mesh& mesh : scene.meshes) used.push_back(findUsedVertices(mesh));
+  for (const Instance& instance : scene.instances) {
+    if (instance.mesh >= scene.meshes.size())
+      throw Error(ExitCode::InputInvalid, "instance '" + instance.node + "': mesh index " +
+                                              std::to_string(instance.mesh) + " out of range");
+    const Mesh& mesh = scene.meshes[instance.mesh];
+    totalTriangles += mesh.triangleCount();
+    totalVertices += used[instance.mesh].original.size();
+    if (mesh.closed) closedTriangles += mesh.triangleCount();
+  }
+
+  WorldGeometry world;
+  world.positions.reserve(totalVertices);
+  world.indices.reserve(3 * totalTriangles);
+  std::vector<InstanceTriangles> ranges;
+  ranges.reserve(scene.instances.size());
+  for (bool closedPass : {true, false}) {
+    for (size_t i = 0; i < scene.instances.size(); ++i) {
+      const Instance& instance = scene.instances[i];
+      const Mesh& mesh = scene.meshes[instance.mesh];
+      if (mesh.closed != closedPass) continue;
+      const size_t begin = world.triangleCount();
+      appendInstance(mesh, used[instance.mesh], instance, mesh.closed && mesh.insideOut, world);
+      ranges.push_back({i, begin, world.triangleCount()});
+    }
+  }
+  world.closedTriangleCount = closedTriangles;
+  if (ground == GroundSheets::Auto) closeGroundSheets(scene, ranges, world);
+  return world;
+}
+
+void excludeMeshes(Scene& scene, const std::vector<std::string>& names) {
+  std::vector<bool> excluded(scene.meshes.size(), false);
+  for (const std::string& name : names) {
+    bool found = false;
+    for (size_t m = 0; m < scene.meshes.size(); ++m) {
+      if (nameMatches(scene.meshes[m].name, name)) {
+        excluded[m] = true;
+        found = true;
+      }
+    }
+    if (!found) {
+      std::string known;
+      for (size_t m = 0; m < scene.meshes.size() && m < 20; ++m) known += (m ? ", " : "") + scene.meshes[m].name;
+      if (scene.meshes.size() > 20) known += ", ...";
+      throw Error(ExitCode::Usage, "--exclude-mesh '" + name + "': no mesh of that name in " +
+                                       (scene.source.empty() ? std::string("the scene") : scene.source) +
+                                       " (meshes: " + known + ")");
+    }
+  }
+
+  constexpr uint32_t kRemoved = ~0u;
+  std::vector<uint32_t> newIndex(scene.meshes.size(), kRemoved);
+  std::vector<Mesh> kept;
+  for (size_t m = 0; m < scene.meshes.size(); ++m) {
+    if (excluded[m]) continue;
+    newIndex[m] = uint32_t(kept.size());
+    kept.push_back(std::move(scene.meshes[m]));
+  }
+  scene.meshes = std::move(kept);
+
+  std::vector<Instance> instances;
+  for (Instance& instance : scene.instances) {
+    if (instance.mesh >= newIndex.size() || newIndex[instance.mesh] == kRemoved) continue;
+    instance.mesh = newIndex[instance.mesh];
+    instances.push_back(std::move(instance));
+  }
+  scene.instances = std::move(instances);
+}
+
+}  // namespace cpvs

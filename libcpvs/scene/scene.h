@@ -1,0 +1,103 @@
+#pragma once
+// The scene model shared by import, depth rendering, the Embree reference and the tools.
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "libcpvs/runtime/light.h"
+
+namespace cpvs {
+
+struct Bounds {
+  glm::dvec3 min{std::numeric_limits<double>::infinity()};
+  glm::dvec3 max{-std::numeric_limits<double>::infinity()};
+  bool empty() const { return !(min.x <= max.x && min.y <= max.y && min.z <= max.z); }
+  void extend(const glm::dvec3& p) {
+    min = glm::min(min, p);
+    max = glm::max(max, p);
+  }
+  glm::dvec3 center() const { return 0.5 * (min + max); }
+  glm::dvec3 extent() const { return max - min; }
+};
+
+// A triangle mesh in its local space. Winding: counter-clockwise is the front face (glTF).
+struct Mesh {
+  std::string name;
+  std::vector<glm::vec3> positions;
+  std::vector<uint32_t> indices;  // 3 per triangle
+  // Closedness is decided by the importer from the geometry alone (DESIGN.md §4.1): after welding
+  // vertices by position every edge is shared by exactly two triangles with opposite orientation.
+  bool closed = false;
+  bool insideOut = false;  // closed but with negative signed volume: flipped when flattened
+  uint64_t boundaryEdges = 0;      // edges used by one triangle
+  uint64_t nonManifoldEdges = 0;   // edges used by more than two triangles
+  uint64_t inconsistentEdges = 0;  // edges whose two triangles run the same way
+  size_t triangleCount() const { return indices.size() / 3; }
+};
+
+// One use of a mesh by a node.
+struct Instance {
+  uint32_t mesh = 0;
+  glm::dmat4 worldFromLocal{1.0};
+  std::string node;
+};
+
+struct Scene {
+  std::string source;  // file it came from, for messages
+  std::vector<Mesh> meshes;
+  std::vector<Instance> instances;
+  std::vector<Light> lights;
+  std::vector<std::string> warnings;
+};
+
+// An instance whose world triangles form a height field spanning the scene (libcpvs/scene/ground_sheet.h), and
+// whether flatten() closed it into the top of a solid.
+struct GroundSheet {
+  std::string mesh, node;
+  int axis = 1;       // 0 x, 1 y, 2 z: the height field is over the other two
+  int sign = 1;       // the sheet faces +axis (1) or -axis (-1); the solid lies behind it
+  bool used = false;  // closed into a solid
+  std::string reason; // why not, when !used
+  size_t closingTriangles = 0;  // skirt and bottom added when used
+};
+
+// All instances flattened into one world-space triangle soup in double precision (so scenes far from the
+// origin keep their precision until a light view takes them into its own space). Triangles of closed meshes
+// come first, oriented outward; open triangles follow.
+struct WorldGeometry {
+  std::vector<glm::dvec3> positions;
+  std::vector<uint32_t> indices;  // 3 per triangle
+  size_t closedTriangleCount = 0; // triangles [0, closedTriangleCount) belong to closed solids
+  // Triangles [closingBegin, closingEnd), at the end of the closed range, are not the scene's: the skirts and
+  // bottoms that close ground sheets into solids. They shape the exit depth only: never sampled, never
+  // fitted into a view, not in `bounds`, not counted as the scene's triangles.
+  // Used ground sheets' own triangles are [groundBegin, closingBegin), just before.
+  size_t groundBegin = 0, closingBegin = 0, closingEnd = 0;
+  Bounds bounds;  // of the scene's own triangles
+  std::vector<GroundSheet> groundSheets;
+  size_t triangleCount() const { return indices.size() / 3; }
+  size_t sceneTriangleCount() const { return triangleCount() - (closingEnd - closingBegin); }
+  bool isClosed(size_t triangle) const { return triangle < closedTriangleCount; }
+  bool isClosing(size_t triangle) const { return triangle >= closingBegin && triangle < closingEnd; }
+  size_t closedMeshTriangleCount() const { return closingBegin < closingEnd ? groundBegin : closedTriangleCount; }
+};
+
+// Whether flatten() may close ground sheets into solids (cpvs-bake --ground).
+enum class GroundSheets : uint8_t { Auto = 0, Off = 1 };
+// "auto" / "off"; throws Error(Usage) for anything else.
+GroundSheets parseGroundSheets(const std::string& name);
+const char* groundSheetsName(GroundSheets ground);
+
+// Flattens the scene. Negative-determinant transforms and inside-out closed meshes get their winding
+// flipped so every closed triangle faces out of its solid. With GroundSheets::Auto, ground sheets are closed
+// into solids (libcpvs/scene/ground_sheet.h).
+WorldGeometry flatten(const Scene& scene, GroundSheets ground = GroundSheets::Auto);
+
+// Removes the meshes whose name is listed (and their instances). Throws Error(Usage) for a name that
+// matches no mesh, so a typo does not silently keep a skybox.
+void excludeMeshes(Scene& scene, const std::vector<std::string>& names);
+
+}  // namespace cpvs

@@ -1,0 +1,16 @@
+#pragma once
+// Fitting a light's views to the scene: the extent and depth range of each view come from the geometry the
+// light actually reaches (its range and cone), never from a hand-set box.
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/runtime/light_view.h"
+#include "libcpvs/scene/scene.h"
+
+namespace cpvs {
+
+// Builds the views of a light, fitted to the geometry it reaches (x/y extent and near/far), DESIGN.md §3.
+// Directional: 1 orthographic; spot: 1 perspective (field of view from the outer cone); point: 6 cube faces.
+std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& geometry, uint32_t resolution);
+
+}  // namespace cpvs

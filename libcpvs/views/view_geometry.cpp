@@ -1,0 +1,91 @@
+#include "libcpvs/views/view_geometry.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "libcpvs/views/polygon_clip.h"
+
+namespace cpvs {
+namespace {
+
+// The view's volume as half spaces in view space (d = -z).
+std::vector<Plane> viewPlanes(const LightView& view) {
+  if (view.projection == Projection::Orthographic) {
+    return {{{1, 0, 0}, -view.xMin}, {{-1, 0, 0}, view.xMax}, {{0, 1, 0}, -view.yMin},
+            {{0, -1, 0}, view.yMax}, {{0, 0, -1}, -view.near}, {{0, 0, 1}, view.far}};
+  }
+  // x >= xMin d  <=>  x + xMin z >= 0 (d = -z), and so on. Depth from a small fraction of near (geometry
+  // closer than near is clamped into slice 0 by the renderer) to far.
+  return {{{1, 0, view.xMin}, 0}, {{-1, 0, -view.xMax}, 0}, {{0, 1, view.yMin}, 0},
+          {{0, -1, -view.yMax}, 0}, {{0, 0, -1}, -0.5 * view.near}, {{0, 0, 1}, view.far}};
+}
+
+}  // namespace
+
+ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& view) {
+  ViewGeometry out;
+  if (view.empty) return out;
+  const std::vector<Plane> planes = viewPlanes(view);
+  std::vector<glm::dvec3> viewPositions(world.positions.size());
+  for (size_t i = 0; i < world.positions.size(); ++i)
+    viewPositions[i] = glm::dvec3(view.viewFromWorld * glm::dvec4(world.positions[i], 1.0));
+
+  const double n = view.resolution;
+  const double uScale = n / (view.xMax - view.xMin), vScale = n / (view.yMax - view.yMin);
+  const bool perspective = view.projection == Projection::Perspective;
+  std::vector<glm::dvec3> poly, scratch;
+  std::vector<glm::vec3> openPositions;
+  std::vector<glm::vec4> openBounds;
+
+  for (size_t t = 0; t < world.triangleCount(); ++t) {
+    const glm::dvec3 v[3] = {viewPositions[world.indices[3 * t]], viewPositions[world.indices[3 * t + 1]],
+                             viewPositions[world.indices[3 * t + 2]]};
+    if (!clipTriangle(v, planes, poly, scratch)) continue;
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::dvec3& q : poly) {
+      const double d = -q.z;
+      const glm::dvec2 ab = perspective ? glm::dvec2(q.x / d, q.y / d) : glm::dvec2(q.x, q.y);
+      lo = glm::min(lo, ab);
+      hi = glm::max(hi, ab);
+    }
+    const glm::vec4 bounds(float((lo.x - view.xMin) * uScale), float((hi.x - view.xMin) * uScale),
+                           float((lo.y - view.yMin) * vScale), float((hi.y - view.yMin) * vScale));
+    const bool closed = world.isClosed(t);
+    auto& positions = closed ? out.positions : openPositions;
+    for (int k = 0; k < 3; ++k) positions.push_back(glm::vec3(v[k]));
+    (closed ? out.gridBounds : openBounds).push_back(bounds);
+  }
+
+  // Closed triangles first, then open ones; every triangle has its own three vertices.
+  const size_t closedCount = out.positions.size() / 3;
+  out.positions.insert(out.positions.end(), openPositions.begin(), openPositions.end());
+  out.gridBounds.insert(out.gridBounds.end(), openBounds.begin(), openBounds.end());
+  out.closedIndices.resize(3 * closedCount);
+  out.openIndices.resize(out.positions.size() - 3 * closedCount);
+  for (uint32_t i = 0; i < out.closedIndices.size(); ++i) out.closedIndices[i] = i;
+  for (uint32_t i = 0; i < out.openIndices.size(); ++i) out.openIndices[i] = uint32_t(3 * closedCount) + i;
+  return out;
+}
+
+ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect) {
+  ViewGeometry out;
+  const float x0 = float(rect.x0) - 1.0f, x1 = float(rect.x0 + rect.width) + 1.0f;
+  const float y0 = float(rect.y0) - 1.0f, y1 = float(rect.y0 + rect.height) + 1.0f;
+  const size_t closedCount = geometry.closedIndices.size() / 3;
+  auto keep = [&](const std::vector<uint32_t>& indices, std::vector<uint32_t>& outIndices, size_t firstTriangle) {
+    for (size_t t = 0; t < indices.size() / 3; ++t) {
+      const glm::vec4& b = geometry.gridBounds[firstTriangle + t];
+      if (b.y < x0 || b.x > x1 || b.w < y0 || b.z > y1) continue;
+      for (int k = 0; k < 3; ++k) {
+        outIndices.push_back(uint32_t(out.positions.size()));
+        out.positions.push_back(geometry.positions[indices[3 * t + k]]);
+      }
+      out.gridBounds.push_back(b);
+    }
+  };
+  keep(geometry.closedIndices, out.closedIndices, 0);
+  keep(geometry.openIndices, out.openIndices, closedCount);
+  return out;
+}
+
+}  // namespace cpvs
