@@ -97,7 +97,7 @@ TEST(AtomicFile, AFolderThatCannotBeWrittenIsAnOutputError) {
     tools::writeFileAtomically(target.string(), "x");
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::OutputFailed);
+    EXPECT_EQ(e.category(), ErrorCategory::OutputFailed);
     EXPECT_NE(std::string(e.what()).find(target.string()), std::string::npos) << e.what();
   }
 }

@@ -20,6 +20,7 @@
 #include "formats/io/exr_image.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
+#include "tools/common/exit_codes.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -84,7 +85,7 @@ Bake bake(const Scene& scene, const BakeSettings& settings) {
   try {
     b.content = bakeScene(scene, settings, &b.report, callbacks);
   } catch (const Error& e) {
-    if (e.code() == ExitCode::NotSupported) throw;
+    if (e.category() == ErrorCategory::NotSupported) throw;
     ADD_FAILURE() << e.what();
   }
   return b;
@@ -279,7 +280,7 @@ TEST(BakeTool, SameBytesTwiceAndForAnyThreadCount) {
     const std::string out = dir + "/t" + threads + ".cpvs";
     const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + out +
                            " --resolution 256 --sun 0.3,-1,0.2 --spot 0,4,0,0,-1,0,0.6,20 --quiet --threads " + threads);
-    if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+    if (r.exitCode == int(tools::ExitCode::NotSupported)) GTEST_SKIP() << r.output;
     ASSERT_EQ(r.exitCode, 0) << r.output;
     const std::string bytes = readFile(out);
     ASSERT_GT(bytes.size(), 1000u);
@@ -294,7 +295,7 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   const std::string dir = tempDir();
   const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + dir + "/o.cpvs --resolution 128 " +
                          "--sun 0.3,-1,0.2 --point 0,3,0,30 --quiet --report " + dir + "/r.json");
-  if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+  if (r.exitCode == int(tools::ExitCode::NotSupported)) GTEST_SKIP() << r.output;
   ASSERT_EQ(r.exitCode, 0) << r.output;
   const nlohmann::json j = nlohmann::json::parse(readFile(dir + "/r.json"));
   EXPECT_TRUE(j["version"].is_string());
@@ -315,7 +316,7 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
       EXPECT_EQ(v["shadow_map_bytes"], 128 * 128 * 2);
     }
   // The file holds what the report says.
-  const auto file = CpvsFile::open(dir + "/o.cpvs");
+  const auto file = orThrow(CpvsFile::open(dir + "/o.cpvs"));
   ASSERT_EQ(file->lights().size(), 2u);
   EXPECT_EQ(file->lights()[1].views.size(), 6u);
   EXPECT_EQ(j["file_bytes"].get<uint64_t>(), file->fileSize());
@@ -339,7 +340,7 @@ TEST(BakeTool, DumpDepthWritesEnterAndExitSlices) {
   const std::string dir = tempDir();
   const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " --dump-depth " + dir +
                          "/depth --resolution 64 --sun 0.3,-1,0.2 --quiet");
-  if (r.exitCode == int(ExitCode::NotSupported)) GTEST_SKIP() << r.output;
+  if (r.exitCode == int(tools::ExitCode::NotSupported)) GTEST_SKIP() << r.output;
   ASSERT_EQ(r.exitCode, 0) << r.output;
   const ExrImage image = readExr(dir + "/depth/light0_view0_region0_0.exr", {"enter", "exit"});
   ASSERT_EQ(image.width, 64u);
@@ -368,22 +369,22 @@ TEST(BakeTool, ExitCodesAndMessages) {
   for (const char* text : {"--resolution", "--undefined", "--no-node-reuse", "--report", "Exit codes"})
     EXPECT_NE(help.output.find(text), std::string::npos) << text;
   EXPECT_EQ(runTool(bake + "--version").exitCode, 0);
-  EXPECT_EQ(runTool(bake).exitCode, int(ExitCode::Usage));
+  EXPECT_EQ(runTool(bake).exitCode, int(tools::ExitCode::Usage));
   EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --resolution 3000 --sun 0,-1,0").exitCode,
-            int(ExitCode::Usage));
+            int(tools::ExitCode::Usage));
   EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --undefined maybe --sun 0,-1,0").exitCode,
-            int(ExitCode::Usage));
+            int(tools::ExitCode::Usage));
   const auto missing = runTool(bake + dir + "/missing.gltf -o " + dir + "/a.cpvs --sun 0,-1,0");
-  EXPECT_EQ(missing.exitCode, int(ExitCode::InputInvalid));
+  EXPECT_EQ(missing.exitCode, int(tools::ExitCode::InputInvalid));
   EXPECT_NE(missing.output.find("missing.gltf"), std::string::npos) << missing.output;
   const auto malformed = runTool(bake + "/usr/share/assimp/models/glTF2/IndexOutOfRange/IndexOutOfRange.gltf -o " +
                                  dir + "/a.cpvs --sun 0,-1,0");
   if (std::filesystem::exists("/usr/share/assimp/models/glTF2/IndexOutOfRange/IndexOutOfRange.gltf")) {
-    EXPECT_EQ(malformed.exitCode, int(ExitCode::InputInvalid)) << malformed.output;
+    EXPECT_EQ(malformed.exitCode, int(tools::ExitCode::InputInvalid)) << malformed.output;
   }
   const auto unwritable = runTool(bake + scenePath() + " -o " + dir + "/no/such/dir/a.cpvs --resolution 64 --sun 0,-1,0 -q");
-  if (unwritable.exitCode != int(ExitCode::NotSupported)) {
-    EXPECT_EQ(unwritable.exitCode, int(ExitCode::OutputFailed)) << unwritable.output;
+  if (unwritable.exitCode != int(tools::ExitCode::NotSupported)) {
+    EXPECT_EQ(unwritable.exitCode, int(tools::ExitCode::OutputFailed)) << unwritable.output;
   }
   EXPECT_FALSE(std::filesystem::exists(dir + "/a.cpvs")) << "a failed run left an output file";
 }
@@ -394,7 +395,7 @@ TEST(BakeTool, FailedOrInterruptedBakeLeavesNoPartialFile) {
   { std::ofstream(out) << "previous contents"; }
   // A failing bake keeps the previous file untouched.
   EXPECT_EQ(runTool(toolPath("cpvs-bake") + " " + dir + "/missing.gltf -o " + out + " --sun 0,-1,0").exitCode,
-            int(ExitCode::InputInvalid));
+            int(tools::ExitCode::InputInvalid));
   EXPECT_EQ(readFile(out), "previous contents");
   // Killed in the middle of a bake: the output path still holds the previous file, nothing half-written.
   const std::string fresh = dir + "/fresh.cpvs";

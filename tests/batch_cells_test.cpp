@@ -7,6 +7,7 @@
 #include <limits>
 #include <random>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/views/view_fitting.h"
@@ -91,7 +92,7 @@ TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
   size_t voxels = 0, lit = 0, zero = 0;
   for (const Light& light : testLights()) {
     const std::vector<LightView> views = makeLightViews(light, world, 1024);
-    const LightShadow shadow(light, views, std::vector<DagView>(views.size()));  // for viewIndex
+    const LightShadow shadow = orThrow(LightShadow::create(light, views, std::vector<DagView>(views.size())));  // for viewIndex
     for (const LightView& view : views) {
       const ViewMapping mapping(view);
       const std::vector<SurfacePoint> points = hardPoints(view, light, 5);

@@ -203,9 +203,9 @@ void writeFile(const std::string& path, const Bytes& bytes) {
 // Opens bytes and returns the Error's message; fails the test when it opens or throws anything else.
 std::string openError(const Bytes& bytes, const std::string& name = "t.cpvs") {
   try {
-    CpvsFile::fromBytes(bytes, name);
+    orThrow(CpvsFile::fromBytes(bytes, name));
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput) << e.what();
     return e.what();
   }
   ADD_FAILURE() << "opened although invalid";
@@ -382,10 +382,10 @@ TEST(Format, BakedDagsRoundTripThroughAMappedFile) {
   const std::string bytes = writeCpvs(content);
   const std::string path = test::tempDir() + "/baked.cpvs";
   writeFile(path, toBytes(bytes));
-  const auto mapped = CpvsFile::open(path);
+  const auto mapped = orThrow(CpvsFile::open(path));
   expectSameContent(content, *mapped);
   EXPECT_EQ(mapped->fileSize(), bytes.size());
-  const auto copied = CpvsFile::fromBytes(toBytes(bytes), "baked.cpvs");
+  const auto copied = orThrow(CpvsFile::fromBytes(toBytes(bytes), "baked.cpvs"));
   expectSameContent(content, *copied);
   // Node words and leaf masks are used in place, not copied.
   const auto span = mapped->bytes();
@@ -397,8 +397,20 @@ TEST(Format, BakedDagsRoundTripThroughAMappedFile) {
   EXPECT_GT(mapped->lights()[0].views[0].dag.leaves.size(), 10u);
 }
 
+// Opening never throws: a failure comes back as an Outcome naming the file.
+TEST(Format, OpenFailuresAreOutcomes) {
+  const Result<std::unique_ptr<CpvsFile>> missing = CpvsFile::open("/nonexistent/dir/shadows.cpvs");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_EQ(missing.outcome().category(), ErrorCategory::InvalidInput);
+  EXPECT_NE(missing.outcome().message().find("/nonexistent/dir/shadows.cpvs: cannot open"), std::string::npos);
+  const std::vector<uint8_t> text = {'h', 'e', 'l', 'l', 'o'};
+  const auto notCpvs = CpvsFile::fromBytes(text, "hello.txt");
+  ASSERT_FALSE(notCpvs.ok());
+  EXPECT_EQ(notCpvs.outcome().message().rfind("hello.txt: ", 0), 0u) << notCpvs.outcome().message();
+}
+
 TEST(Format, SectionsAreAlignedAndNamed) {
-  const auto file = CpvsFile::fromBytes(toBytes(writeCpvs(bakedContent())), "baked.cpvs");
+  const auto file = orThrow(CpvsFile::fromBytes(toBytes(writeCpvs(bakedContent())), "baked.cpvs"));
   ASSERT_EQ(file->sections().size(), 4u + 2u * 8u);
   EXPECT_EQ(file->sections()[0].type, "BAKE");
   EXPECT_EQ(file->sections()[1].type, "STRS");
@@ -416,7 +428,7 @@ TEST(Format, WritingIsDeterministic) {
   const std::string b = writeCpvs(bakedContent());
   EXPECT_EQ(a, b);
   // Writing what was read gives the same bytes again.
-  const auto file = CpvsFile::fromBytes(toBytes(a), "a.cpvs");
+  const auto file = orThrow(CpvsFile::fromBytes(toBytes(a), "a.cpvs"));
   CpvsContent again;
   again.settingsJson = file->settingsJson();
   for (const auto& l : file->lights()) {
@@ -449,7 +461,7 @@ TEST(Format, GoldenBytesPinVersion2_0) {
 }
 
 TEST(Format, GoldenFileReadsBack) {
-  const auto file = CpvsFile::open(goldenPath());
+  const auto file = orThrow(CpvsFile::open(goldenPath()));
   EXPECT_EQ(file->majorVersion(), 2);
   EXPECT_EQ(file->minorVersion(), 0);
   expectSameContent(tinyContent(), *file);
@@ -484,7 +496,7 @@ const std::string& format1GoldenPath() {
 }
 
 TEST(Format, Format1FilesOpenConvertedAndDecodeTheSame) {
-  const auto file = CpvsFile::open(format1GoldenPath());
+  const auto file = orThrow(CpvsFile::open(format1GoldenPath()));
   EXPECT_EQ(file->majorVersion(), 1);
   EXPECT_EQ(file->minorVersion(), 0);
   expectSameContent(tinyContent(), *file, /*sameUnits=*/false);
@@ -524,10 +536,10 @@ TEST(Format, EveryFlippedByteOfTheGoldenFileIsRejected) {
       Bytes bad = golden;
       bad[i] ^= flip;
       try {
-        CpvsFile::fromBytes(bad, "golden");
+        orThrow(CpvsFile::fromBytes(bad, "golden"));
         ADD_FAILURE() << "byte " << i << " ^ " << int(flip) << " was not detected";
       } catch (const Error& e) {
-        ASSERT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+        ASSERT_EQ(e.category(), ErrorCategory::InvalidInput) << e.what();
         ASSERT_EQ(std::string(e.what()).rfind("golden: ", 0), 0u) << e.what();
       }
     }
@@ -535,7 +547,7 @@ TEST(Format, EveryFlippedByteOfTheGoldenFileIsRejected) {
 
 TEST(Format, ChecksumMismatchNamesTheSection) {
   const Bytes golden = goldenBytes();
-  const auto file = CpvsFile::fromBytes(golden, "g.cpvs");
+  const auto file = orThrow(CpvsFile::fromBytes(golden, "g.cpvs"));
   const auto& node = file->sections()[4];
   ASSERT_EQ(node.type, "NODE");
   Bytes bad = golden;
@@ -553,7 +565,7 @@ TEST(Format, EveryTruncationIsRejected) {
   }
   // And a bigger file at every section boundary and just around it.
   const Bytes baked = toBytes(writeCpvs(bakedContent()));
-  const auto file = CpvsFile::fromBytes(baked, "baked");
+  const auto file = orThrow(CpvsFile::fromBytes(baked, "baked"));
   std::set<uint64_t> cuts;
   for (const auto& s : file->sections())
     for (uint64_t at : {s.offset, s.offset + s.size})
@@ -614,7 +626,7 @@ TEST(Format, ALaterMinorVersionOpensAndSkipsWhatItAdds) {
   const Bytes golden = goldenBytes();
   RawFile raw = unpack(golden);
   // The packer's layout (table last) differs from the writer's: still a valid 2.0 file.
-  expectSameContent(tinyContent(), *CpvsFile::fromBytes(pack(raw), "repacked"));
+  expectSameContent(tinyContent(), *orThrow(CpvsFile::fromBytes(pack(raw), "repacked")));
 
   raw.minor = 1;
   // A new section type, and 16 more bytes at the end of every light and view record.
@@ -642,7 +654,7 @@ TEST(Format, ALaterMinorVersionOpensAndSkipsWhatItAdds) {
   // Reserved fields may be used by a later minor version.
   putLE(views.bytes, 10, 0x7777, 2);
   const Bytes future = pack(raw);
-  const auto file = CpvsFile::fromBytes(future, "future.cpvs");
+  const auto file = orThrow(CpvsFile::fromBytes(future, "future.cpvs"));
   EXPECT_EQ(file->minorVersion(), 1);
   expectSameContent(tinyContent(), *file);
   EXPECT_EQ(file->sections().size(), unpack(golden).sections.size() + 2);
@@ -755,9 +767,9 @@ TEST(Format, RandomDamageBehindValidChecksumsNeverBreaksTraversal) {
     }
     std::unique_ptr<CpvsFile> file;
     try {
-      file = CpvsFile::fromBytes(pack(raw), "fuzz");
+      file = orThrow(CpvsFile::fromBytes(pack(raw), "fuzz"));
     } catch (const Error& e) {
-      ASSERT_EQ(e.code(), ExitCode::InputInvalid);
+      ASSERT_EQ(e.category(), ErrorCategory::InvalidInput);
       ++rejected;
       continue;
     }
@@ -792,7 +804,7 @@ TEST(Format, LayoutErrorsInTheTableAreRejected) {
     putLE(b, 56, XXH3_64bits(b.data(), 56), 8);
     return b;
   };
-  const auto file = CpvsFile::fromBytes(golden, "g");
+  const auto file = orThrow(CpvsFile::fromBytes(golden, "g"));
   const auto& s = file->sections();
   EXPECT_NE(openError(withEntry(4, 8, s[4].offset + 8, 8)).find("aligned"), std::string::npos);
   EXPECT_NE(openError(withEntry(4, 8, 1ull << 40, 8)).find("past the end"), std::string::npos);
@@ -832,7 +844,7 @@ TEST(Format, TheWriterRefusesContentThatWouldNotReadBack) {
       writeCpvs(c);
       ADD_FAILURE() << "written: " << expected;
     } catch (const Error& e) {
-      EXPECT_EQ(e.code(), ExitCode::RuntimeFailure);
+      EXPECT_EQ(e.category(), ErrorCategory::RuntimeFailure);
       EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
     }
   };
@@ -853,16 +865,16 @@ TEST(Format, TheWriterRefusesContentThatWouldNotReadBack) {
 TEST(Format, OpenNamesTheFile) {
   const std::string dir = test::tempDir();
   try {
-    CpvsFile::open(dir + "/missing.cpvs");
+    orThrow(CpvsFile::open(dir + "/missing.cpvs"));
     ADD_FAILURE();
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::InputInvalid);
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput);
     EXPECT_EQ(std::string(e.what()).rfind(dir + "/missing.cpvs: cannot open", 0), 0u) << e.what();
   }
-  EXPECT_THROW(CpvsFile::open(dir), Error);
+  EXPECT_THROW(orThrow(CpvsFile::open(dir)), Error);
   writeFile(dir + "/empty.cpvs", {});
   try {
-    CpvsFile::open(dir + "/empty.cpvs");
+    orThrow(CpvsFile::open(dir + "/empty.cpvs"));
     ADD_FAILURE();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("not a .cpvs file"), std::string::npos);

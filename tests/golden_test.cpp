@@ -66,7 +66,7 @@ std::string firstDifference(const Bytes& golden, const Bytes& baked) {
   std::string where = "sizes " + std::to_string(golden.size()) + " (golden) and " + std::to_string(baked.size()) +
                       " (baked); first difference at byte " + std::to_string(at);
   try {
-    const auto file = CpvsFile::fromBytes(golden, "golden");
+    const auto file = orThrow(CpvsFile::fromBytes(golden, "golden"));
     if (at < 64) return where + ", in the header";
     for (size_t i = 0; i < file->sections().size(); ++i) {
       const auto& s = file->sections()[i];
@@ -99,8 +99,8 @@ TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) {
 }
 
 TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
-  const auto current = CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs"));
-  const auto old = CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs"));
+  const auto current = orThrow(CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs")));
+  const auto old = orThrow(CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v1.cpvs")));
   EXPECT_EQ(old->majorVersion(), 1);
   ASSERT_EQ(old->lights().size(), current->lights().size());
   uint64_t shadowed = 0;
@@ -126,7 +126,7 @@ TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
 }
 
 TEST(GoldenBake, ThePinnedFileIsWhatItClaims) {
-  const auto file = CpvsFile::open(goldenPath());
+  const auto file = orThrow(CpvsFile::open(goldenPath()));
   EXPECT_EQ(file->majorVersion(), 2);
   EXPECT_EQ(file->minorVersion(), 0);
   // The BAKE block records what the bake depended on, and nothing about when or where it ran.

@@ -84,7 +84,7 @@ void expectInvalid(const std::string& path, const std::string& detail = "") {
     importGltf(path);
     ADD_FAILURE() << path << ": imported without an error";
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput) << e.what();
     const std::string message = e.what();
     EXPECT_NE(message.find(std::filesystem::path(path).filename().string()), std::string::npos) << message;
     EXPECT_NE(message.find(detail), std::string::npos) << "expected '" << detail << "' in: " << message;
@@ -341,7 +341,7 @@ TEST(ImportExclude, SinglePrimitiveAndUnknownName) {
     excludeMeshes(scene, {"Circ"});
     ADD_FAILURE() << "an unknown mesh name was accepted";
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::Usage);
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidArgument);
     EXPECT_NE(std::string(e.what()).find("Circ"), std::string::npos);
   }
   EXPECT_EQ(scene.meshes.size(), 1u);
@@ -803,7 +803,7 @@ TEST(ImportMalformed, MutationsNeverCrash) {
       importGltf(path);
     } catch (const Error& e) {
       ++failures;
-      EXPECT_EQ(e.code(), ExitCode::InputInvalid) << e.what();
+      EXPECT_EQ(e.category(), ErrorCategory::InvalidInput) << e.what();
     }
   }
   EXPECT_GT(failures, 0);

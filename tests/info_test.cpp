@@ -72,7 +72,7 @@ protected:
     ASSERT_EQ(bakeExit_, 0) << *bakeOutput_;
     bytes_ = readFile(*path_);
     ASSERT_GT(bytes_.size(), 1000u);
-    file_ = CpvsFile::open(*path_);
+    file_ = orThrow(CpvsFile::open(*path_));
   }
 
   // Writes `bytes` as a new file in a fresh directory and runs cpvs-info on it.
@@ -312,7 +312,7 @@ TEST_F(CpvsInfo, ALaterMinorVersionIsShownAsSuch) {
 // words (u32) and the NODE section's bytes in the file; the JSON gives the converted units and the file's bytes.
 TEST_F(CpvsInfo, AFormat1FileIsShownInWords) {
   const std::string v1 = sourcePath("tests/golden/tiny_v1.cpvs");
-  const auto old = CpvsFile::open(v1);
+  const auto old = orThrow(CpvsFile::open(v1));
   ASSERT_EQ(old->majorVersion(), 1);
   const auto r = runTool(info() + " " + v1);
   ASSERT_EQ(r.exitCode, 0) << r.output;

@@ -223,11 +223,11 @@ TEST(Lookup, BatchEqualsSinglePointLookups) {
     points.push_back(p);
   }
   for (uint32_t gridLevels : {0u, 2u}) {
-    const LightShadow shadow(sun(), {view}, {dag.view()}, gridLevels);
+    const LightShadow shadow = orThrow(LightShadow::create(sun(), {view}, {dag.view()}, gridLevels));
     for (int k : {1, 3, 9, 17, 33}) {
       for (NormalOrientation o : {NormalOrientation::AsGiven, NormalOrientation::TowardLight}) {
         std::vector<float> batch(points.size());
-        shadow.visibility(points, {k, o}, batch);
+        ASSERT_TRUE(shadow.visibility(points, {k, o}, batch).ok());
         for (size_t i = 0; i < points.size(); ++i)
           ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k, o}))
               << "K=" << k << " grid " << gridLevels << " point " << i;
@@ -285,7 +285,7 @@ ShadowDag wideReferenceDag() {
   }
   const std::span<const uint32_t> levels[2] = {root, parents};
   const uint64_t counts[2] = {1, 8};
-  return encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves));
+  return orThrow(encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves)));
 }
 
 // Every voxel of the DAG walked from the root (in groups, as the lookups do) with the vector walks: its
@@ -346,13 +346,13 @@ TEST(DagWalks, BatchOnAGuardedDagEqualsSinglePointLookups) {
     for (uint32_t y = 0; y < n; ++y)
       for (uint32_t x = 0; x < n; ++x) points.push_back({{x + 0.5, y + 0.5, -(z + 0.5)}, glm::dvec3(0.0)});
   for (uint32_t gridLevels : {0u, 1u, 2u}) {
-    const LightShadow shadow(sun(), {identityView(n)}, {view}, int(gridLevels));
+    const LightShadow shadow = orThrow(LightShadow::create(sun(), {identityView(n)}, {view}, int(gridLevels)));
     for (int k : {1, 3, 9}) {
       std::vector<float> batch(points.size());
       for (size_t b = 0; b < points.size(); b += kLookupBatch) {
         const size_t e = std::min(points.size(), b + kLookupBatch);
-        shadow.visibility(std::span<const SurfacePoint>(points.data() + b, e - b), {k},
-                          std::span<float>(batch.data() + b, e - b));
+        orThrow(shadow.visibility(std::span<const SurfacePoint>(points.data() + b, e - b), {k},
+                          std::span<float>(batch.data() + b, e - b)));
       }
       for (size_t i = 0; i < points.size(); ++i)
         ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k}))
@@ -383,9 +383,30 @@ TEST(Lookup, SpecialCases) {
   // Depth beyond the grid clamps to the last slice (behind everything: shadowed here).
   view.empty = false;
   EXPECT_EQ(visibility(view, allShadow.view(), light, glm::dvec3(3, 3, -1000), none, 1), 0.0f);
-  EXPECT_THROW(checkPcfKernel(4), Error);
-  EXPECT_THROW(checkPcfKernel(0), Error);
-  EXPECT_NO_THROW(checkPcfKernel(9));
+  EXPECT_EQ(checkPcfKernel(4).category(), ErrorCategory::InvalidArgument);
+  EXPECT_FALSE(checkPcfKernel(0).ok());
+  EXPECT_FALSE(checkPcfKernel(257).ok());
+  EXPECT_TRUE(checkPcfKernel(9).ok());
+}
+
+// The runtime's API reports misuse as an Outcome and never throws.
+TEST(Lookup, MisuseIsReportedNotThrown) {
+  const ShadowDag lit = orThrow(encodeDag(16, ChildCode::Lit, {}, {}, {}));
+  const Result<LightShadow> mismatched = LightShadow::create(sun(), {identityView(16), identityView(16)}, {lit.view()});
+  ASSERT_FALSE(mismatched.ok());
+  EXPECT_EQ(mismatched.outcome().category(), ErrorCategory::InvalidInput);
+  EXPECT_NE(mismatched.outcome().message().find("2 views but 1 DAGs"), std::string::npos) << mismatched.outcome().message();
+
+  const LightShadow shadow = orThrow(LightShadow::create(sun(), {identityView(16)}, {lit.view()}));
+  const std::vector<SurfacePoint> points(3, SurfacePoint{glm::dvec3(1, 1, -1), glm::dvec3(0, 0, 1)});
+  std::vector<float> out(2, -1.0f);
+  const Outcome sizes = shadow.visibility(points, {1}, out);
+  EXPECT_EQ(sizes.category(), ErrorCategory::InvalidArgument);
+  EXPECT_EQ(out, std::vector<float>(2, -1.0f));  // nothing written
+  out.assign(3, -1.0f);
+  EXPECT_FALSE(shadow.visibility(points, {4}, out).ok());  // even K
+  EXPECT_TRUE(shadow.visibility(points, {3}, out).ok());
+  EXPECT_EQ(out, std::vector<float>(3, 1.0f));
 }
 
 TEST(Lookup, JacobianMatchesFiniteDifferences) {
@@ -581,7 +602,7 @@ TEST(Influence, OutsideRangeOrConeIsZero) {
   auto views = makeLightViews(spot, world, 64);
   ShadowDag lit;
   lit.resolution = 64;
-  const LightShadow shadow(spot, views, {lit.view()});
+  const LightShadow shadow = orThrow(LightShadow::create(spot, views, {lit.view()}));
   const glm::dvec3 up(0, 1, 0);
   EXPECT_EQ(shadow.visibility({0, 3, 0}, up, {}), 1.0f);
   EXPECT_EQ(shadow.visibility({0, -5, 0}, up, {}), 0.0f);   // beyond range (15 > 14)
@@ -606,7 +627,7 @@ TEST(Influence, OutsideRangeOrConeIsZero) {
     dags.push_back(faces[dags.size() % 2].view());
   }
   views[5].empty = false;  // -Z face sees the box
-  const LightShadow pointShadow(point, views, dags);
+  const LightShadow pointShadow = orThrow(LightShadow::create(point, views, dags));
   EXPECT_EQ(pointShadow.viewIndex({0, 0, 0}), 5);
   EXPECT_EQ(pointShadow.viewIndex({5, 0, 9}), 0);
   EXPECT_EQ(pointShadow.viewIndex({0, 0, -11}), -1);  // beyond range
@@ -634,10 +655,10 @@ TEST(Influence, PointLightBatchEqualsSinglePointLookups) {
   std::vector<SurfacePoint> points;
   for (int i = 0; i < 4000; ++i) points.push_back({{pos(rng), pos(rng), pos(rng)}, {dir(rng), dir(rng), dir(rng)}});
   for (int gridLevels : {0, 2}) {
-    const LightShadow shadow(point, views, dags, gridLevels);
+    const LightShadow shadow = orThrow(LightShadow::create(point, views, dags, gridLevels));
     for (int k : {1, 5}) {
       std::vector<float> batch(points.size());
-      shadow.visibility(points, {k}, batch);
+      ASSERT_TRUE(shadow.visibility(points, {k}, batch).ok());
       size_t shadowed = 0, lit = 0;
       for (size_t i = 0; i < points.size(); ++i) {
         ASSERT_EQ(batch[i], shadow.visibility(points[i].position, points[i].normal, {k}))
@@ -723,7 +744,7 @@ TEST(Baked, GroundUnderSlantedSunIsLitWithBiasAndShadowedBehindTheBox) {
   const BakedScene& baked = groundAndBox();
   if (!baked.available) GTEST_SKIP() << "no depth renderer here: " << baked.why;
   const BakedLight& bl = baked.content.lights[0];
-  const LightShadow shadow(bl.light, {bl.views[0].view}, {bl.views[0].dag.view()});
+  const LightShadow shadow = orThrow(LightShadow::create(bl.light, {bl.views[0].view}, {bl.views[0].dag.view()}));
   const EmbreeScene rt(flatten(baked.scene));
   const glm::dvec3 up(0, 1, 0), toLight = -bl.light.direction;
   const double texel = (bl.views[0].view.xMax - bl.views[0].view.xMin) / bl.views[0].view.resolution;

@@ -878,7 +878,7 @@ TEST(QueryHardCases, PointsExactlyOnVoxelTileAndRegionBoundaries) {
   // texel boundaries. Regions of 128 texels, tiles of 8.
   bake(scene, dir / "b.cpvs", n, sunArg({0, -1, 0}) + spotArg({1, 14, -2}, {0.1, -1, 0.05}, 0.8, 40),
        " --region " + std::to_string(region));
-  const auto file = CpvsFile::open(dir / "b.cpvs");
+  const auto file = orThrow(CpvsFile::open(dir / "b.cpvs"));
   // Ground under a box is inside a closed solid (free voxels, either answer allowed): left out, as in
   // sampleSurface.
   const EmbreeScene rt(worldOf(scene));

@@ -669,7 +669,7 @@ TEST(Backends, NamesAndDescriptions) {
     parseRasterBackend("vulkan");
     FAIL() << "no error";
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::Usage);
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidArgument);
   }
   EXPECT_STREQ(rasterBackendName(RasterBackend::EGL), "egl");
   REQUIRE_RENDERER(r, RasterBackend::OSMesa);
@@ -716,7 +716,7 @@ TEST(ExrImage, ErrorsNameTheFile) {
     readExr(dir + "/missing.exr");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::InputInvalid);
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput);
     EXPECT_NE(std::string(e.what()).find("missing.exr"), std::string::npos);
   }
   {
@@ -733,7 +733,7 @@ TEST(ExrImage, ErrorsNameTheFile) {
     writeExr(dir + "/no/such/dir/out.exr", image);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::OutputFailed);
+    EXPECT_EQ(e.category(), ErrorCategory::OutputFailed);
     EXPECT_NE(std::string(e.what()).find("out.exr"), std::string::npos);
   }
   writeExr(dir + "/ok.exr", image);
@@ -741,7 +741,7 @@ TEST(ExrImage, ErrorsNameTheFile) {
     readExr(dir + "/ok.exr", {"Y", "Q"});
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(e.code(), ExitCode::InputInvalid);
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput);
     EXPECT_NE(std::string(e.what()).find("'Q'"), std::string::npos);
   }
   image.pixels.pop_back();

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
@@ -46,7 +47,7 @@ TEST(ShadowReference, UniformMeansTheSameWithinTwoVoxelsAlongTheSurfaceAndTheNor
   const Fixture f;
   ASSERT_EQ(f.views.size(), 1u);
   const ShadowReference reference(f.world);
-  const LightShadow shadow(f.sun, f.views, {f.lit.view()});
+  const LightShadow shadow = orThrow(LightShadow::create(f.sun, f.views, {f.lit.view()}));
   const glm::dvec3 up(0, 1, 0);
   auto check = [&](const glm::dvec3& p, uint8_t expected, bool expectUniform, const char* what) {
     bool uniform = !expectUniform;

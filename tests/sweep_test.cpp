@@ -273,7 +273,7 @@ TEST(SweepTool, QuietWithAnOutputFolderWritesOnlyTheFiles) {
   for (const char* bad : {" --reference-epsilon 0", " --reference-epsilon 0.5"}) {
     const auto r = test::runTool(base + " -q" + bad);
     EXPECT_EQ(r.exitCode, 1) << bad;
-    EXPECT_NE(r.output.find("--reference-epsilon must be in"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("--reference-epsilon: reference ray offset"), std::string::npos) << r.output;
   }
 }
 

@@ -15,6 +15,7 @@
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/light.h"
+#include "libcpvs/runtime/outcome.h"
 
 namespace cpvs {
 
@@ -41,15 +42,15 @@ public:
     bool checksumOk = false;  // always true once open() has succeeded
   };
 
-  // Opens and validates a file (memory-mapped, read-only). Throws Error(InputInvalid) naming the file and
-  // what is wrong: not a .cpvs file, text-mode damage, unknown major version (with what to do), truncated,
-  // bad section table, checksum mismatch in a named section, a malformed record or DAG.
+  // Opens and validates a file (memory-mapped, read-only). Fails (InvalidInput) with a message naming the file
+  // and what is wrong: not a .cpvs file, text-mode damage, unknown major version (with what to do), truncated,
+  // bad section table, checksum mismatch in a named section, a malformed record or DAG. Never throws.
   // The file must not be truncated by another process while it is open (SIGBUS, as with any mapping).
-  static std::unique_ptr<CpvsFile> open(const std::string& path);
+  static Result<std::unique_ptr<CpvsFile>> open(const std::string& path);
   // Same from bytes in memory (copied); `name` is used in messages.
-  static std::unique_ptr<CpvsFile> fromBytes(std::span<const uint8_t> bytes, const std::string& name);
+  static Result<std::unique_ptr<CpvsFile>> fromBytes(std::span<const uint8_t> bytes, const std::string& name);
   // Same without a copy: `bytes` must be 8-byte aligned and outlive the returned object.
-  static std::unique_ptr<CpvsFile> fromBorrowedBytes(std::span<const uint8_t> bytes, const std::string& name);
+  static Result<std::unique_ptr<CpvsFile>> fromBorrowedBytes(std::span<const uint8_t> bytes, const std::string& name);
   ~CpvsFile();
   CpvsFile(const CpvsFile&) = delete;
   CpvsFile& operator=(const CpvsFile&) = delete;
@@ -64,6 +65,10 @@ public:
 
 private:
   CpvsFile() = default;
+  // The same, reporting a failure by throwing the reader's own exception (caught by the three above).
+  static std::unique_ptr<CpvsFile> openOrThrow(const std::string& path);
+  static std::unique_ptr<CpvsFile> fromBytesOrThrow(std::span<const uint8_t> bytes, const std::string& name);
+  static std::unique_ptr<CpvsFile> fromBorrowedBytesOrThrow(std::span<const uint8_t> bytes, const std::string& name);
   void parse(const std::string& name);
 
   const uint8_t* data_ = nullptr;

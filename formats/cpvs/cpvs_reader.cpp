@@ -17,7 +17,6 @@
 #include <xxhash.h>
 
 #include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/base/error.h"
 
 static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
                                                           "big-endian hosts are not supported");
@@ -27,6 +26,12 @@ namespace cpvs {
 using namespace cpvsformat;
 
 namespace {
+
+// What every check below throws; the public entry points catch it and return it as an Outcome, so nothing
+// is thrown across the runtime's API.
+struct ReadFailure {
+  std::string message;
+};
 
 std::string hex(uint64_t v) {
   char buf[24];
@@ -58,7 +63,7 @@ class Reader {
 public:
   Reader(const uint8_t* data, uint64_t size, const std::string& name) : d_(data), size_(size), name_(name) {}
 
-  [[noreturn]] void fail(const std::string& what) const { throw Error(ExitCode::InputInvalid, name_ + ": " + what); }
+  [[noreturn]] void fail(const std::string& what) const { throw ReadFailure{name_ + ": " + what}; }
 
   // Loads at absolute offsets the caller has already bounds-checked.
   uint8_t u8(uint64_t at) const { return d_[at]; }
@@ -191,7 +196,7 @@ std::vector<uint64_t> validateDag(const Reader& r, const std::string& what, Chil
 
 // A format-1 DAG (validated) in the stored form of format 2: references made relative to their level, then
 // encoded as the baker does.
-std::unique_ptr<ShadowDag> convertFormat1Dag(uint32_t resolution, ChildCode rootCode, std::span<const uint32_t> words,
+Result<ShadowDag> convertFormat1Dag(uint32_t resolution, ChildCode rootCode, std::span<const uint32_t> words,
                                              std::span<const uint64_t> levelStart, std::span<const uint64_t> leaves,
                                              std::span<const uint64_t> nodesPerLevel) {
   const size_t levels = nodesPerLevel.size();
@@ -206,8 +211,7 @@ std::unique_ptr<ShadowDag> convertFormat1Dag(uint32_t resolution, ChildCode root
     }
   }
   const std::vector<std::span<const uint32_t>> spans(local.begin(), local.end());
-  return std::make_unique<ShadowDag>(encodeDag(resolution, rootCode, spans, nodesPerLevel,
-                                               std::vector<uint64_t>(leaves.begin(), leaves.end())));
+  return encodeDag(resolution, rootCode, spans, nodesPerLevel, std::vector<uint64_t>(leaves.begin(), leaves.end()));
 }
 
 }  // namespace
@@ -216,18 +220,45 @@ CpvsFile::~CpvsFile() {
   if (mapping_) ::munmap(mapping_, size_t(size_));
 }
 
-std::unique_ptr<CpvsFile> CpvsFile::open(const std::string& path) {
+namespace {
+
+template <class Fn>
+Result<std::unique_ptr<CpvsFile>> catchReadFailure(Fn&& open) {
+  try {
+    return open();
+  } catch (const ReadFailure& f) {
+    return Outcome(ErrorCategory::InvalidInput, f.message);
+  } catch (const std::bad_alloc&) {
+    return Outcome(ErrorCategory::RuntimeFailure, "out of memory while reading a .cpvs file");
+  }
+}
+
+}  // namespace
+
+Result<std::unique_ptr<CpvsFile>> CpvsFile::open(const std::string& path) {
+  return catchReadFailure([&] { return openOrThrow(path); });
+}
+
+Result<std::unique_ptr<CpvsFile>> CpvsFile::fromBytes(std::span<const uint8_t> bytes, const std::string& name) {
+  return catchReadFailure([&] { return fromBytesOrThrow(bytes, name); });
+}
+
+Result<std::unique_ptr<CpvsFile>> CpvsFile::fromBorrowedBytes(std::span<const uint8_t> bytes, const std::string& name) {
+  return catchReadFailure([&] { return fromBorrowedBytesOrThrow(bytes, name); });
+}
+
+std::unique_ptr<CpvsFile> CpvsFile::openOrThrow(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw Error(ExitCode::InputInvalid, path + ": cannot open: " + std::strerror(errno));
+  if (fd < 0) throw ReadFailure{path + ": cannot open: " + std::strerror(errno)};
   struct stat st {};
   if (::fstat(fd, &st) != 0) {
     const int e = errno;
     ::close(fd);
-    throw Error(ExitCode::InputInvalid, path + ": cannot stat: " + std::strerror(e));
+    throw ReadFailure{path + ": cannot stat: " + std::strerror(e)};
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
-    throw Error(ExitCode::InputInvalid, path + ": not a regular file");
+    throw ReadFailure{path + ": not a regular file"};
   }
   std::unique_ptr<CpvsFile> file(new CpvsFile());
   file->size_ = uint64_t(st.st_size);
@@ -236,7 +267,7 @@ std::unique_ptr<CpvsFile> CpvsFile::open(const std::string& path) {
     if (m == MAP_FAILED) {
       const int e = errno;
       ::close(fd);
-      throw Error(ExitCode::InputInvalid, path + ": cannot map: " + std::strerror(e));
+      throw ReadFailure{path + ": cannot map: " + std::strerror(e)};
     }
     file->mapping_ = m;
     file->data_ = static_cast<const uint8_t*>(m);
@@ -246,7 +277,7 @@ std::unique_ptr<CpvsFile> CpvsFile::open(const std::string& path) {
   return file;
 }
 
-std::unique_ptr<CpvsFile> CpvsFile::fromBytes(std::span<const uint8_t> bytes, const std::string& name) {
+std::unique_ptr<CpvsFile> CpvsFile::fromBytesOrThrow(std::span<const uint8_t> bytes, const std::string& name) {
   std::unique_ptr<CpvsFile> file(new CpvsFile());
   file->owned_.resize((bytes.size() + 7) / 8);
   if (!bytes.empty()) std::memcpy(file->owned_.data(), bytes.data(), bytes.size());
@@ -256,9 +287,9 @@ std::unique_ptr<CpvsFile> CpvsFile::fromBytes(std::span<const uint8_t> bytes, co
   return file;
 }
 
-std::unique_ptr<CpvsFile> CpvsFile::fromBorrowedBytes(std::span<const uint8_t> bytes, const std::string& name) {
+std::unique_ptr<CpvsFile> CpvsFile::fromBorrowedBytesOrThrow(std::span<const uint8_t> bytes, const std::string& name) {
   if (reinterpret_cast<uintptr_t>(bytes.data()) % 8 != 0)
-    throw Error(ExitCode::InputInvalid, name + ": bytes are not 8-byte aligned (use fromBytes)");
+    throw ReadFailure{name + ": bytes are not 8-byte aligned (use fromBytes)"};
   std::unique_ptr<CpvsFile> file(new CpvsFile());
   file->data_ = bytes.data();
   file->size_ = bytes.size();
@@ -510,12 +541,10 @@ void CpvsFile::parse(const std::string& name) {
         const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data_ + nodeS.offset), size_t(words));
         const std::vector<uint64_t> levelStart =
             validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-        try {
-          converted_.push_back(
-              convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel));
-        } catch (const Error& e) {
-          r.fail(vwhat + ": cannot convert the format-1 DAG: " + e.what());
-        }
+        Result<ShadowDag> dag =
+            convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel);
+        if (!dag) r.fail(vwhat + ": cannot convert the format-1 DAG: " + dag.outcome().message());
+        converted_.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
         out.dag = converted_.back()->view();
       } else {
         const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data_ + nodeS.offset), size_t(words));

@@ -241,7 +241,7 @@ public:
 
 private:
   [[noreturn]] void fail(const std::string& message) const {
-    throw Error(ExitCode::InputInvalid, path_ + ": " + message);
+    throw Error(ErrorCategory::InvalidInput, path_ + ": " + message);
   }
   void warn(const std::string& message) { scene_.warnings.push_back(path_ + ": " + message); }
   void warnOnce(const std::string& message) {

@@ -27,7 +27,7 @@ namespace cpvs {
 //   node's, else "light<i>". A light used by several nodes gives several lights.
 // * Anything that cannot be imported correctly (unreadable file, index or accessor out of range, NaN/Inf
 //   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
-//   triangle) throws Error(ExitCode::InputInvalid) naming the file and the element. Things that are
+//   triangle) throws Error(ErrorCategory::InvalidInput) naming the file and the element. Things that are
 //   ignored without harm (images, skins, morph targets, non-triangle primitives) go to scene.warnings.
 // Safe on untrusted input: every offset and size is checked before it is read.
 Scene importGltf(const std::string& path);

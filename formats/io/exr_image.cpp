@@ -25,18 +25,18 @@ int ExrImage::channelIndex(const std::string& name) const {
 
 void writeExr(const std::string& path, const ExrImage& image) {
   if (image.width == 0 || image.height == 0 || image.channels.empty())
-    throw Error(ExitCode::Usage, path + ": an EXR image needs a width, a height and at least one channel");
+    throw Error(ErrorCategory::InvalidArgument, path + ": an EXR image needs a width, a height and at least one channel");
   if (image.width > uint32_t(INT32_MAX) || image.height > uint32_t(INT32_MAX))
-    throw Error(ExitCode::Usage, path + ": image too large for EXR");
+    throw Error(ErrorCategory::InvalidArgument, path + ": image too large for EXR");
   const size_t nc = image.channels.size();
   if (image.pixels.size() != size_t(image.width) * image.height * nc)
-    throw Error(ExitCode::Usage, path + ": pixel count " + std::to_string(image.pixels.size()) + " does not match " +
+    throw Error(ErrorCategory::InvalidArgument, path + ": pixel count " + std::to_string(image.pixels.size()) + " does not match " +
                                      std::to_string(image.width) + "x" + std::to_string(image.height) + "x" +
                                      std::to_string(nc));
   std::set<std::string> names;
   for (const std::string& c : image.channels)
     if (c.empty() || !names.insert(c).second)
-      throw Error(ExitCode::Usage, path + ": EXR channel names must be non-empty and distinct ('" + c + "')");
+      throw Error(ErrorCategory::InvalidArgument, path + ": EXR channel names must be non-empty and distinct ('" + c + "')");
 
   const std::filesystem::path target(path);
   // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on "." + std::string.
@@ -65,7 +65,7 @@ void writeExr(const std::string& path, const ExrImage& image) {
   } catch (const std::exception& e) {
     std::error_code ignored;
     std::filesystem::remove(temp, ignored);
-    throw Error(ExitCode::OutputFailed, "cannot write EXR image " + path + ": " + e.what());
+    throw Error(ErrorCategory::OutputFailed, "cannot write EXR image " + path + ": " + e.what());
   }
 }
 
@@ -73,13 +73,13 @@ ExrImage readExr(const std::string& path, const std::vector<std::string>& wanted
   ExrImage image;
   try {
     if (!std::filesystem::is_regular_file(path))
-      throw Error(ExitCode::InputInvalid, "cannot read EXR image " + path + ": no such file");
+      throw Error(ErrorCategory::InvalidInput, "cannot read EXR image " + path + ": no such file");
     Imf::InputFile file(path.c_str());
     const Imf::Header& header = file.header();
     const Imath::Box2i dw = header.dataWindow();
     const int64_t w = int64_t(dw.max.x) - dw.min.x + 1, h = int64_t(dw.max.y) - dw.min.y + 1;
     if (w <= 0 || h <= 0 || w * h > (int64_t(1) << 31))
-      throw Error(ExitCode::InputInvalid, "EXR image " + path + ": unsupported data window " + std::to_string(w) +
+      throw Error(ErrorCategory::InvalidInput, "EXR image " + path + ": unsupported data window " + std::to_string(w) +
                                               "x" + std::to_string(h));
     if (wanted.empty()) {
       for (auto it = header.channels().begin(); it != header.channels().end(); ++it)
@@ -87,15 +87,15 @@ ExrImage readExr(const std::string& path, const std::vector<std::string>& wanted
     } else {
       for (const std::string& name : wanted) {
         if (!header.channels().findChannel(name))
-          throw Error(ExitCode::InputInvalid, "EXR image " + path + " has no channel '" + name + "'");
+          throw Error(ErrorCategory::InvalidInput, "EXR image " + path + " has no channel '" + name + "'");
         image.channels.push_back(name);
       }
     }
-    if (image.channels.empty()) throw Error(ExitCode::InputInvalid, "EXR image " + path + " has no channels");
+    if (image.channels.empty()) throw Error(ErrorCategory::InvalidInput, "EXR image " + path + " has no channels");
     for (const std::string& name : image.channels) {
       const Imf::Channel* ch = header.channels().findChannel(name);
       if (ch->xSampling != 1 || ch->ySampling != 1)
-        throw Error(ExitCode::InputInvalid, "EXR image " + path + ": channel '" + name + "' is subsampled");
+        throw Error(ErrorCategory::InvalidInput, "EXR image " + path + ": channel '" + name + "' is subsampled");
     }
     image.width = uint32_t(w);
     image.height = uint32_t(h);
@@ -114,7 +114,7 @@ ExrImage readExr(const std::string& path, const std::vector<std::string>& wanted
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
-    throw Error(ExitCode::InputInvalid, "cannot read EXR image " + path + ": " + e.what());
+    throw Error(ErrorCategory::InvalidInput, "cannot read EXR image " + path + ": " + e.what());
   }
   return image;
 }

@@ -15,7 +15,7 @@
 namespace cpvs {
 namespace {
 
-[[noreturn]] void fail(const std::string& message) { throw Error(ExitCode::InputInvalid, message); }
+[[noreturn]] void fail(const std::string& message) { throw Error(ErrorCategory::InvalidInput, message); }
 
 std::string lower(std::string_view s) {
   std::string out(s);
@@ -313,7 +313,7 @@ public:
         } else if (format == "binary_little_endian") {
           binary_ = true;
         } else if (format == "binary_big_endian") {
-          throw Error(ExitCode::InputInvalid, where + ": binary_big_endian PLY is not supported; convert it to "
+          throw Error(ErrorCategory::InvalidInput, where + ": binary_big_endian PLY is not supported; convert it to "
                                                       "binary_little_endian or ascii");
         } else {
           fail(where + ": unknown PLY format '" + format + "'");
@@ -474,7 +474,7 @@ private:
 
 PointFormat detectPointFormat(const std::string& path) {
   FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw Error(ExitCode::InputInvalid, path + ": cannot open: " + std::strerror(errno));
+  if (!f) throw Error(ErrorCategory::InvalidInput, path + ": cannot open: " + std::strerror(errno));
   unsigned char magic[4] = {0, 0, 0, 0};
   const size_t n = std::fread(magic, 1, 4, f);
   std::fclose(f);
@@ -498,7 +498,7 @@ std::unique_ptr<PointReader> PointReader::open(const std::string& path) {
     case PointFormat::Csv: return std::make_unique<CsvReader>(path);
     case PointFormat::Exr: break;
   }
-  throw Error(ExitCode::InputInvalid, path + ": an EXR image is not a point list (read it with readExr)");
+  throw Error(ErrorCategory::InvalidInput, path + ": an EXR image is not a point list (read it with readExr)");
 }
 
 }  // namespace cpvs

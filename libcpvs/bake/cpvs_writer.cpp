@@ -20,7 +20,7 @@ using namespace cpvsformat;
 
 namespace {
 
-[[noreturn]] void fail(const std::string& what) { throw Error(ExitCode::RuntimeFailure, "writeCpvs: " + what); }
+[[noreturn]] void fail(const std::string& what) { throw Error(ErrorCategory::RuntimeFailure, "writeCpvs: " + what); }
 
 uint64_t alignUp(uint64_t v) { return (v + kAlignment - 1) / kAlignment * kAlignment; }
 
@@ -194,11 +194,8 @@ std::string writeCpvs(const CpvsContent& content) {
   out.u64(56, XXH3_64bits(bytes.data(), 56));
 
   // Never hand out a file that a reader would reject: validate it exactly as CpvsFile::open does.
-  try {
-    CpvsFile::fromBorrowedBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the written .cpvs");
-  } catch (const Error& e) {
-    fail(std::string("the content does not form a valid .cpvs (a bug in the baker): ") + e.what());
-  }
+  const auto check = CpvsFile::fromBorrowedBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the written .cpvs");
+  if (!check) fail("the content does not form a valid .cpvs (a bug in the baker): " + check.outcome().message());
   return bytes;
 }
 

@@ -1,27 +1,33 @@
 #pragma once
-// Errors that carry the exit code a tool should return (DESIGN.md §7).
+// The baker's errors: an exception that carries the runtime's ErrorCategory and a message naming the file and
+// the element. The library never speaks of exit codes or command-line flags; tools map the category to their
+// exit code (tools/common/exit_codes.h) and add their own flag names.
 #include <stdexcept>
 #include <string>
+#include <utility>
+
+#include "libcpvs/runtime/outcome.h"
 
 namespace cpvs {
 
-enum class ExitCode : int {
-  Ok = 0,
-  Usage = 1,          // bad command line
-  InputInvalid = 2,   // input unreadable or invalid (glTF, .cpvs, points)
-  OutputFailed = 3,   // output cannot be written
-  RuntimeFailure = 4, // e.g. out of memory budget, GL failure
-  NotSupported = 5,   // not supported in this build / on this machine (e.g. EGL missing)
-};
-
-// Thrown by the library; tools map it to the exit code. The message names the file and the element.
 class Error : public std::runtime_error {
 public:
-  Error(ExitCode code, const std::string& message) : std::runtime_error(message), code_(code) {}
-  ExitCode code() const { return code_; }
+  Error(ErrorCategory category, const std::string& message) : std::runtime_error(message), category_(category) {}
+  explicit Error(const Outcome& failure) : Error(failure.category(), failure.message()) {}
+  ErrorCategory category() const { return category_; }
 
 private:
-  ExitCode code_;
+  ErrorCategory category_;
 };
+
+// Throws Error for a failed Outcome (where the baker meets the runtime's non-throwing API).
+inline void orThrow(const Outcome& status) {
+  if (!status.ok()) throw Error(status);
+}
+template <class T>
+T orThrow(Result<T>&& result) {
+  if (!result.ok()) throw Error(result.outcome());
+  return std::move(result).value();
+}
 
 }  // namespace cpvs

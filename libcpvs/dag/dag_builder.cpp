@@ -14,7 +14,7 @@ uint32_t log2u(uint32_t v) { return uint32_t(std::countr_zero(v)); }
 DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse)
     : resolution_(resolution), regionSize_(std::min(regionSize, resolution)), nodeReuse_(nodeReuse) {
   if (resolution < 8 || !std::has_single_bit(resolution) || !std::has_single_bit(regionSize_) || regionSize_ < 8)
-    throw Error(ExitCode::RuntimeFailure, "DAG resolution and region size must be powers of two of at least 8");
+    throw Error(ErrorCategory::RuntimeFailure, "DAG resolution and region size must be powers of two of at least 8");
   leafLevel_ = log2u(resolution) - 3;
   regionLevel_ = log2u(resolution / regionSize_);
   regionsPerSide_ = resolution / regionSize_;
@@ -138,7 +138,7 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
 void DagBuilder::addRegion(const TileChains& chains) {
   if (chains.resolution != resolution_ || chains.rect.width != regionSize_ || chains.rect.height != regionSize_ ||
       chains.rect.x0 % regionSize_ != 0 || chains.rect.y0 % regionSize_ != 0)
-    throw Error(ExitCode::RuntimeFailure, "DAG builder: region does not match the builder's region grid");
+    throw Error(ErrorCategory::RuntimeFailure, "DAG builder: region does not match the builder's region grid");
   const uint32_t rx = chains.rect.x0 / regionSize_, ry = chains.rect.y0 / regionSize_;
   chains_ = &chains;
   hierarchy_ = std::make_unique<TileHierarchy>(chains);
@@ -163,20 +163,20 @@ DagBuilder::Result DagBuilder::buildTop(uint32_t level, uint32_t rx, uint32_t ry
 
 ShadowDag DagBuilder::finish() {
   for (bool added : regionAdded_)
-    if (!added) throw Error(ExitCode::RuntimeFailure, "DAG builder: finish() before every region was added");
+    if (!added) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);
 
   // The root must sit at offset 0: level 0 holds exactly the root when it is a node.
   if (root.code == ChildCode::Ref && root.ref != 0)
-    throw Error(ExitCode::RuntimeFailure, "DAG builder: root is not the first node");
+    throw Error(ErrorCategory::RuntimeFailure, "DAG builder: root is not the first node");
   std::vector<std::span<const uint32_t>> levelWords;
   std::vector<uint64_t> nodesPerLevel;
   for (const NodeTable& table : tables_) {
     levelWords.emplace_back(table.words());
     nodesPerLevel.push_back(table.size());
   }
-  return encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),
-                   NodeOrder::MostReferencedFirst);
+  return orThrow(encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),
+                   NodeOrder::MostReferencedFirst));
 }
 
 ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {

@@ -28,7 +28,7 @@ uint16_t quantizeSlice(double slice, uint32_t resolution) {
 }
 
 LightView shadowMapView(const LightView& view, uint32_t size) {
-  if (size < 1) throw Error(ExitCode::Usage, "shadow map size must be at least 1");
+  if (size < 1) throw Error(ErrorCategory::InvalidArgument, "shadow map size must be at least 1");
   LightView v = view;
   v.resolution = size;
   return v;

@@ -80,7 +80,7 @@ void parallelFor(size_t count, Fn&& fn) {
 BaselineDepth parseBaselineDepth(const std::string& name) {
   if (name == "embree") return BaselineDepth::Embree;
   if (name == "raster" || name == "gl") return BaselineDepth::Raster;
-  throw Error(ExitCode::Usage, "--baseline-depth '" + name + "': expected embree or raster");
+  throw Error(ErrorCategory::InvalidArgument, "baseline depth '" + name + "': expected embree or raster");
 }
 
 const char* baselineDepthName(BaselineDepth depth) { return depth == BaselineDepth::Embree ? "embree" : "raster"; }
@@ -109,7 +109,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
   auto log = [&](const std::string& line) {
     if (callbacks.log) callbacks.log(line);
   };
-  checkPcfKernel(settings.pcfKernel);
+  orThrow(checkPcfKernel(settings.pcfKernel));
   const WorldGeometry world = flatten(scene, settings.bake.ground);  // the solids the bakes take
   const ShadowReference referenceRays(world, NormalOrientation::AsGiven, settings.referenceEpsilon);
   const EmbreeScene& embree = referenceRays.scene();
@@ -181,7 +181,7 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
         dags.push_back(v.dag.view());
         row.bytes += v.dag.bytes();
       }
-      const LightShadow shadow(light, views, dags);
+      const LightShadow shadow = orThrow(LightShadow::create(light, views, dags));
       const std::vector<SurfaceSample>& pts = points[l];
       const size_t count = pts.size();
       row.points = count;
@@ -212,8 +212,8 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
           float sum = 0;
           for (size_t b = 0; b < count; b += kLookupBatch) {
             const size_t e = std::min(count, b + kLookupBatch);
-            shadow.visibility(std::span<const SurfacePoint>(batchPoints.data() + b, e - b), lookup,
-                              std::span<float>(batchOut.data(), e - b));
+            orThrow(shadow.visibility(std::span<const SurfacePoint>(batchPoints.data() + b, e - b), lookup,
+                              std::span<float>(batchOut.data(), e - b)));
             sum += batchOut[0];
           }
           gSink = sum;

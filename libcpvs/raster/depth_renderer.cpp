@@ -33,7 +33,7 @@ namespace cpvs {
 RasterBackend parseRasterBackend(const std::string& name) {
   if (name == "osmesa") return RasterBackend::OSMesa;
   if (name == "egl") return RasterBackend::EGL;
-  throw Error(ExitCode::Usage, "unknown raster backend '" + name + "' (expected osmesa or egl)");
+  throw Error(ErrorCategory::InvalidArgument, "unknown raster backend '" + name + "' (expected osmesa or egl)");
 }
 
 const char* rasterBackendName(RasterBackend backend) {
@@ -458,7 +458,7 @@ private:
     const std::string message = std::string("OpenGL error ") + code +
                                 (e == GL_OUT_OF_MEMORY ? " (out of memory)" : "") + " while " + what + " on " +
                                 context_->description();
-    throw Error(ExitCode::RuntimeFailure, message);
+    throw Error(ErrorCategory::RuntimeFailure, message);
   }
 
   GLuint compile(GLenum type, const std::string& source, const char* name) const {
@@ -473,7 +473,7 @@ private:
       char log[4096] = {};
       g.GetShaderInfoLog(shader, sizeof log, nullptr, log);
       g.DeleteShader(shader);
-      throw Error(ExitCode::RuntimeFailure, std::string("cannot compile the ") + name + " shader: " + log);
+      throw Error(ErrorCategory::RuntimeFailure, std::string("cannot compile the ") + name + " shader: " + log);
     }
     return shader;
   }
@@ -494,7 +494,7 @@ private:
       char log[4096] = {};
       g.GetProgramInfoLog(program, sizeof log, nullptr, log);
       g.DeleteProgram(program);
-      throw Error(ExitCode::RuntimeFailure, std::string("cannot link the ") + name + " program: " + log);
+      throw Error(ErrorCategory::RuntimeFailure, std::string("cannot link the ") + name + " program: " + log);
     }
     return program;
   }
@@ -541,7 +541,7 @@ private:
     if (status != GL_FRAMEBUFFER_COMPLETE) {
       char code[16];
       std::snprintf(code, sizeof code, "0x%04X", unsigned(status));
-      throw Error(ExitCode::RuntimeFailure, std::string("incomplete framebuffer (") + code + ") on " +
+      throw Error(ErrorCategory::RuntimeFailure, std::string("incomplete framebuffer (") + code + ") on " +
                                                 context_->description());
     }
     return fbo;
@@ -625,15 +625,15 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   const uint32_t n = view.resolution;
   if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
       uint64_t(rect.y0) + rect.height > n)
-    throw Error(ExitCode::Usage, "depth renderer: region " + std::to_string(rect.x0) + "," + std::to_string(rect.y0) +
+    throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.x0) + "," + std::to_string(rect.y0) +
                                      " " + std::to_string(rect.width) + "x" + std::to_string(rect.height) +
                                      " is empty or outside the " + std::to_string(n) + "^2 view");
   if (rect.width > maxRegion_ || rect.height > maxRegion_)
-    throw Error(ExitCode::Usage, "depth renderer: region " + std::to_string(rect.width) + "x" +
+    throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.width) + "x" +
                                      std::to_string(rect.height) + " exceeds the largest this context renders (" +
                                      std::to_string(maxRegion_) + ")");
   if (n > (1u << 24))
-    throw Error(ExitCode::NotSupported, "depth renderer: resolutions above 2^24 are not supported");
+    throw Error(ErrorCategory::NotSupported, "depth renderer: resolutions above 2^24 are not supported");
 
   DepthRegion region;
   region.rect = rect;

@@ -27,7 +27,7 @@ void* openLibrary(const char* name, const char* purpose) {
   void* handle = dlopen(name, RTLD_NOW | RTLD_LOCAL);
   if (!handle) {
     const char* why = dlerror();
-    throw Error(ExitCode::NotSupported, std::string("cannot load ") + name + " (" + purpose +
+    throw Error(ErrorCategory::NotSupported, std::string("cannot load ") + name + " (" + purpose +
                                             "): " + (why ? why : "unknown dlopen error"));
   }
   handles.emplace(name, handle);
@@ -38,7 +38,7 @@ template <typename T>
 T librarySymbol(void* library, const char* libraryName, const char* symbol) {
   void* p = dlsym(library, symbol);
   if (!p)
-    throw Error(ExitCode::NotSupported, std::string(libraryName) + " lacks the symbol " + symbol);
+    throw Error(ErrorCategory::NotSupported, std::string(libraryName) + " lacks the symbol " + symbol);
   return reinterpret_cast<T>(p);
 }
 
@@ -60,7 +60,7 @@ void fillTable(Functions& f, const GetProc& getProc, const char* backendName) {
 #define CPVS_GL_LOAD(type, name)                                                                        \
   f.name = reinterpret_cast<type>(getProc("gl" #name));                                                 \
   if (!f.name)                                                                                          \
-    throw Error(ExitCode::NotSupported,                                                                 \
+    throw Error(ErrorCategory::NotSupported,                                                                 \
                 std::string(backendName) + ": the GL context does not provide gl" #name);
   CPVS_GL_FUNCTIONS(CPVS_GL_LOAD)
 #undef CPVS_GL_LOAD
@@ -108,7 +108,7 @@ struct OSMesaApi {
         failure = e.what();
       }
     });
-    if (!failure.empty()) throw Error(ExitCode::NotSupported, failure);
+    if (!failure.empty()) throw Error(ErrorCategory::NotSupported, failure);
     return api;
   }
 };
@@ -126,7 +126,7 @@ public:
       if (context_) break;
     }
     if (!context_)
-      throw Error(ExitCode::NotSupported, "OSMesa: cannot create an OpenGL 4.5 or 3.3 core context");
+      throw Error(ErrorCategory::NotSupported, "OSMesa: cannot create an OpenGL 4.5 or 3.3 core context");
     backend_ = RasterBackend::OSMesa;
     buffer_.assign(kDummySize * kDummySize * 4, 0);
     makeCurrent();
@@ -147,7 +147,7 @@ public:
   }
   void makeCurrent() override {
     if (!OSMesaApi::get().makeCurrent(context_, buffer_.data(), GL_UNSIGNED_BYTE, kDummySize, kDummySize))
-      throw Error(ExitCode::RuntimeFailure, "OSMesa: OSMesaMakeCurrent failed");
+      throw Error(ErrorCategory::RuntimeFailure, "OSMesa: OSMesaMakeCurrent failed");
   }
   void release() override { OSMesaApi::get().makeCurrent(nullptr, nullptr, 0, 0, 0); }
 
@@ -208,7 +208,7 @@ struct EGLApi {
         failure = e.what();
       }
     });
-    if (!failure.empty()) throw Error(ExitCode::NotSupported, failure);
+    if (!failure.empty()) throw Error(ErrorCategory::NotSupported, failure);
     return api;
   }
 };
@@ -289,7 +289,7 @@ public:
         reasons = "\n  no EGL device (EGL_EXT_platform_device) or surfaceless platform "
                   "(EGL_MESA_platform_surfaceless) is offered; client extensions: " +
                   std::string(ce ? ce : "(none)");
-      throw Error(ExitCode::NotSupported, "EGL: cannot create an OpenGL core context:" + reasons);
+      throw Error(ErrorCategory::NotSupported, "EGL: cannot create an OpenGL core context:" + reasons);
     }
   }
   ~EGLContextImpl() override {
@@ -300,7 +300,7 @@ public:
     const EGLApi& api = EGLApi::get();
     api.bindAPI(EGL_OPENGL_API);
     if (!api.makeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
-      throw Error(ExitCode::RuntimeFailure, "EGL: eglMakeCurrent failed (" + eglErrorName(api.getError()) + ")");
+      throw Error(ErrorCategory::RuntimeFailure, "EGL: eglMakeCurrent failed (" + eglErrorName(api.getError()) + ")");
   }
   void release() override {
     EGLApi::get().makeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);

@@ -65,7 +65,7 @@ EmbreeScene::EmbreeScene(const WorldGeometry& geometry) : impl_(std::make_unique
 
   impl_->device = rtcNewDevice(nullptr);
   if (!impl_->device)
-    throw Error(ExitCode::RuntimeFailure,
+    throw Error(ErrorCategory::RuntimeFailure,
                 "Embree: cannot create a device (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
   rtcSetDeviceErrorFunction(impl_->device, &Impl::onError, impl_.get());
   impl_->scene = rtcNewScene(impl_->device);
@@ -86,7 +86,7 @@ EmbreeScene::EmbreeScene(const WorldGeometry& geometry) : impl_(std::make_unique
     }
     for (size_t i = 0; i < indices_.size(); ++i) {
       if (indices_[i] >= positions_.size())
-        throw Error(ExitCode::InputInvalid, "Embree scene: vertex index " + std::to_string(indices_[i]) +
+        throw Error(ErrorCategory::InvalidInput, "Embree scene: vertex index " + std::to_string(indices_[i]) +
                                                 " out of range at index " + std::to_string(i));
       idx[i] = indices_[i];
     }
@@ -109,7 +109,7 @@ void EmbreeScene::throwIfFailed(const char* what) const {
     std::lock_guard<std::mutex> lock(impl_->errorMutex);
     message.swap(impl_->error);
   }
-  if (!message.empty()) throw Error(ExitCode::RuntimeFailure, message + " (while " + what + ")");
+  if (!message.empty()) throw Error(ErrorCategory::RuntimeFailure, message + " (while " + what + ")");
 }
 
 RayHit EmbreeScene::makeHit(const glm::dvec3& origin, const glm::dvec3& direction, uint32_t prim,
@@ -290,7 +290,7 @@ std::vector<std::optional<RayHit>> EmbreeScene::firstHits(std::span<const Ray> r
 std::vector<uint8_t> EmbreeScene::occludedBatch(std::span<const Ray> rays, std::span<const double> tmax,
                                                 bool parallel) const {
   if (tmax.size() > 1 && tmax.size() != rays.size())
-    throw Error(ExitCode::Usage, "occludedBatch: tmax must be empty, one value, or one per ray");
+    throw Error(ErrorCategory::InvalidArgument, "occludedBatch: tmax must be empty, one value, or one per ray");
   std::vector<uint8_t> out(rays.size(), 0);
   const size_t packets = (rays.size() + 15) / 16;
   auto limit = [&](size_t r) { return tmax.empty() ? kInfinity : tmax[tmax.size() == 1 ? 0 : r]; };

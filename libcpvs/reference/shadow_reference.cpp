@@ -1,5 +1,7 @@
 #include "libcpvs/reference/shadow_reference.h"
 
+#include <cstdio>
+
 #include <cmath>
 
 #include "libcpvs/base/error.h"
@@ -32,7 +34,12 @@ ShadowReference::~ShadowReference() = default;
 
 void ShadowReference::checkRelativeEpsilon(double relativeEpsilon) {
   if (!(relativeEpsilon >= 1e-9 && relativeEpsilon <= 1e-2))
-    throw Error(ExitCode::Usage, "--reference-epsilon must be in [1e-9, 1e-2]");
+  {
+    char value[32];
+    std::snprintf(value, sizeof value, "%g", relativeEpsilon);
+    throw Error(ErrorCategory::InvalidArgument,
+                std::string("reference ray offset ") + value + " of the scene diagonal: expected 1e-9 to 1e-2");
+  }
 }
 
 bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, Ray& ray, double& tmax,

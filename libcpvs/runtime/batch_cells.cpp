@@ -1,7 +1,8 @@
 #include "libcpvs/runtime/batch_cells.h"
 
 #include <algorithm>
-#include <cstdlib>
+#include <atomic>
+#include <optional>
 #include <string>
 
 #include "libcpvs/runtime/lane_loop.h"
@@ -20,20 +21,24 @@ CellIsa detectCellIsa() {
 
 }  // namespace
 
+namespace {
+std::atomic<uint8_t> gCellIsaLimit{uint8_t(CellIsa::Avx512)};
+}  // namespace
+
+std::optional<CellIsa> parseCellIsa(const char* name) {
+  if (!name) return std::nullopt;
+  const std::string n(name);
+  if (n == "scalar") return CellIsa::Scalar;
+  if (n == "avx2") return CellIsa::Avx2;
+  if (n == "avx512") return CellIsa::Avx512;
+  return std::nullopt;
+}
+
+void setCellIsaLimit(CellIsa limit) { gCellIsaLimit.store(uint8_t(limit), std::memory_order_relaxed); }
+
 CellIsa bestCellIsa() {
-  static const CellIsa best = [] {
-    const CellIsa detected = detectCellIsa();
-    // CPVS_LOOKUP_ISA=scalar|avx2|avx512 lowers it (to compare the paths, or to rule one out); a path the CPU
-    // lacks, or any other value, is ignored.
-    const char* wanted = std::getenv("CPVS_LOOKUP_ISA");
-    if (!wanted) return detected;
-    const std::string name(wanted);
-    const CellIsa limit = name == "scalar" ? CellIsa::Scalar
-                          : name == "avx2" ? CellIsa::Avx2
-                                           : CellIsa::Avx512;
-    return std::min(limit, detected);
-  }();
-  return best;
+  static const CellIsa detected = detectCellIsa();
+  return std::min(detected, CellIsa(gCellIsaLimit.load(std::memory_order_relaxed)));
 }
 
 namespace {

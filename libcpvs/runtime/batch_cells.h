@@ -6,6 +6,7 @@
 // Same rule as view_mapping.h: standard headers only (included under `#pragma GCC target("avx2")`).
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 
 #include "libcpvs/runtime/cell_lanes.h"
 
@@ -39,9 +40,13 @@ struct CellBatchOutput {
 
 enum class CellIsa : uint8_t { Scalar, Avx2, Avx512 };
 
-// The fastest path this CPU runs (or the one the environment variable CPVS_LOOKUP_ISA = scalar, avx2 or
-// avx512 asks for, when the CPU has it; read once).
+// The fastest path this CPU runs, lowered to the limit set by setCellIsaLimit (default: no limit).
 CellIsa bestCellIsa();
+// Caps the paths every later batch lookup may use, process-wide (to compare the paths, or to rule one out; the
+// tools take it from the environment variable CPVS_LOOKUP_ISA). A path the CPU lacks is never used.
+void setCellIsaLimit(CellIsa limit);
+// "scalar", "avx2", "avx512"; nullopt for anything else (or null).
+std::optional<CellIsa> parseCellIsa(const char* name);
 // Maps the batch with the given path, or the best one below it that this CPU runs.
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
 inline void mapCells(const CellBatchInput& in, const CellBatchOutput& out) { mapCells(in, out, bestCellIsa()); }

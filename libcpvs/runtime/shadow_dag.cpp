@@ -4,7 +4,6 @@
 #include <bit>
 #include <string>
 
-#include "libcpvs/base/error.h"
 
 namespace cpvs {
 
@@ -76,7 +75,7 @@ std::vector<uint32_t> mostReferencedFirst(const std::vector<uint32_t>& items, co
 
 }  // namespace
 
-ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
+Result<ShadowDag> encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
                     std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves, NodeOrder order) {
   ShadowDag dag;
   dag.resolution = resolution;
@@ -115,7 +114,7 @@ ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std
     for (const uint32_t i : nodeOrder) {
       const uint32_t header = words[i];
       if (out.size() > UINT32_MAX)
-        throw Error(ExitCode::RuntimeFailure, "DAG level " + std::to_string(l) + " too large for 32-bit references");
+        return Outcome(ErrorCategory::RuntimeFailure, "DAG level " + std::to_string(l) + " too large for 32-bit references");
       position[i] = uint32_t(out.size());
       const size_t headerAt = out.size();
       out.push_back(0);
@@ -144,7 +143,7 @@ ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std
   }
   // Level starts and the file's unit count are 32-bit.
   if (total > UINT32_MAX)
-    throw Error(ExitCode::RuntimeFailure, "DAG of " + std::to_string(total) + " node units: too large for a .cpvs view");
+    return Outcome(ErrorCategory::RuntimeFailure, "DAG of " + std::to_string(total) + " node units: too large for a .cpvs view");
   dag.nodes.reserve(total);
   for (const auto& level : units) dag.nodes.insert(dag.nodes.end(), level.begin(), level.end());
   return dag;

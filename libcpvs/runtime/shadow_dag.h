@@ -21,6 +21,8 @@
 #include <span>
 #include <vector>
 
+#include "libcpvs/runtime/outcome.h"
+
 namespace cpvs {
 
 enum class ChildCode : uint8_t { Lit = 0, Shadowed = 1, Ref = 2 };
@@ -122,9 +124,9 @@ enum class NodeOrder : uint8_t {
 };
 
 // Encodes a DAG given in build form, one word array per level (root level first) whose references are word
-// offsets into the next level's array (leaf indices at the last level), into the stored form. Throws
-// Error(RuntimeFailure) if a level would not fit 32-bit references.
-ShadowDag encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
+// offsets into the next level's array (leaf indices at the last level), into the stored form. Fails
+// (RuntimeFailure) if a level would not fit 32-bit references.
+Result<ShadowDag> encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
                     std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves,
                     NodeOrder order = NodeOrder::AsGiven);
 

@@ -7,7 +7,6 @@
 #include <limits>
 #include <string>
 
-#include "libcpvs/base/error.h"
 #include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/runtime/dag_walks.h"
 
@@ -104,9 +103,10 @@ inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t si
 
 }  // namespace
 
-void checkPcfKernel(int pcfKernel) {
+Outcome checkPcfKernel(int pcfKernel) {
   if (pcfKernel < 1 || pcfKernel > 255 || pcfKernel % 2 == 0)
-    throw Error(ExitCode::Usage, "PCF kernel " + std::to_string(pcfKernel) + ": expected an odd size from 1 to 255");
+    return {ErrorCategory::InvalidArgument, "PCF kernel " + std::to_string(pcfKernel) + ": expected an odd size from 1 to 255"};
+  return {};
 }
 
 glm::dmat3 gridJacobian(const LightView& view, const glm::dvec3& world) {
@@ -317,10 +317,19 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
   return cellVisibility(ViewMapping(view), dag, none, point, normal, {pcfKernel, orientation});
 }
 
+Result<LightShadow> LightShadow::create(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
+                                        int topGridLevels) {
+  if (views.size() != dags.size())
+    return Outcome(ErrorCategory::InvalidInput, "light '" + light.name + "': " + std::to_string(views.size()) +
+                                                    " views but " + std::to_string(dags.size()) + " DAGs");
+  if (topGridLevels < kAutomaticTopGrid)
+    return Outcome(ErrorCategory::InvalidArgument, "top grid of " + std::to_string(topGridLevels) + " levels");
+  return LightShadow(light, std::move(views), std::move(dags), topGridLevels);
+}
+
 LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
                          int topGridLevels)
     : light_(light), views_(std::move(views)), dags_(std::move(dags)) {
-  if (views_.size() != dags_.size()) throw Error(ExitCode::InputInvalid, "light '" + light.name + "': views and DAGs differ in number");
   for (const DagView& dag : dags_)
     grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
   for (const LightView& view : views_) mappings_.emplace_back(view);
@@ -698,10 +707,12 @@ CPVS_POPCNT_CLONES void LightShadow::countFootprints(uint32_t view, std::span<co
   }
 }
 
-CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
-                             std::span<float> out) const {
+CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
+                                                std::span<float> out) const {
   if (out.size() != points.size())
-    throw Error(ExitCode::RuntimeFailure, "LightShadow::visibility: output and point spans differ in size");
+    return {ErrorCategory::InvalidArgument, "LightShadow::visibility: " + std::to_string(out.size()) +
+                                                " outputs for " + std::to_string(points.size()) + " points"};
+  if (Outcome kernel = checkPcfKernel(options.pcfKernel); !kernel) return kernel;
   const int k = options.pcfKernel;
   const int64_t h = k / 2;
   const double kernelArea = double(k) * double(k);
@@ -776,6 +787,7 @@ CPVS_POPCNT_CLONES void LightShadow::visibility(std::span<const SurfacePoint> po
       else filter(v, in.indices, in.count);
     }
   }
+  return {};
 }
 
 }  // namespace cpvs

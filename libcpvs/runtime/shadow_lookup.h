@@ -44,7 +44,8 @@
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/batch_cells.h"
-#include "libcpvs/scene/scene.h"
+#include "libcpvs/runtime/outcome.h"
+#include "libcpvs/runtime/light.h"
 
 namespace cpvs {
 
@@ -67,8 +68,8 @@ struct LookupOptions {
   double biasMargin = kDefaultBiasMargin;  // voxels added to the bias (step 2 above), >= 0
 };
 
-// Validates K (odd, 1..255). Throws Error(Usage).
-void checkPcfKernel(int pcfKernel);
+// Validates K (odd, 1..255).
+Outcome checkPcfKernel(int pcfKernel);
 
 // d(u, v, s)/d(world) at a world point (glm column-major: column j = derivative along world axis j).
 // For a perspective view the point must be in front of the eye (d > 0).
@@ -152,8 +153,9 @@ public:
   LightShadow() = default;
   // topGridLevels > 0 builds a top-level pointer grid of that many levels per view, 0 none, kAutomaticTopGrid
   // TopGrid::automaticLevel per view (see TopGrid; docs/query.md has the measurement behind the default).
-  LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
-              int topGridLevels = kAutomaticTopGrid);
+  // Fails (InvalidInput) when views and DAGs differ in number.
+  static Result<LightShadow> create(const Light& light, std::vector<LightView> views, std::vector<DagView> dags,
+                                    int topGridLevels = kAutomaticTopGrid);
 
   // Visibility of a point (0 outside the light's influence; see the rules above).
   float visibility(const glm::dvec3& point, const glm::dvec3& normal, const LookupOptions& options) const;
@@ -165,7 +167,8 @@ public:
   // read one pass later, so cache misses overlap instead of adding up. PCF with K <= 9 walks the footprint's
   // (at most four) corner tiles the same way and counts their masks AND-ed with the kernel's; larger K go
   // level by level over every node the footprint overlaps (homogeneous children counted at once).
-  void visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
+  // Fails (InvalidArgument, nothing written) when the spans differ in size or K is not valid (checkPcfKernel).
+  Outcome visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
 
   const Light& light() const { return light_; }
   const std::vector<LightView>& views() const { return views_; }
@@ -176,6 +179,7 @@ public:
   struct PendingPoint;  // a point of a batch whose answer needs the DAG (shadow_lookup.cpp)
 
 private:
+  LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags, int topGridLevels);
   // K <= 9: the same, one walk per corner tile of each footprint.
   void countCornerTiles(uint32_t view, std::span<const PendingPoint> pending, std::vector<uint32_t>& counts) const;
   // K > 1: shadowed texels of each pending footprint of one view (counts[i] for pending[i]).

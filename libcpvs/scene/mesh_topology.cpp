@@ -69,7 +69,7 @@ void classifyMesh(Mesh& mesh) {
   mesh.boundaryEdges = mesh.nonManifoldEdges = mesh.inconsistentEdges = 0;
   for (uint32_t index : mesh.indices)
     if (index >= mesh.positions.size())
-      throw Error(ExitCode::InputInvalid, "mesh '" + mesh.name + "': index " + std::to_string(index) +
+      throw Error(ErrorCategory::InvalidInput, "mesh '" + mesh.name + "': index " + std::to_string(index) +
                                               " out of range (" + std::to_string(mesh.positions.size()) +
                                               " vertices)");
 

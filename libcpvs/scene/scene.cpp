@@ -22,7 +22,7 @@ UsedVertices findUsedVertices(const Mesh& mesh) {
   used.compact.assign(mesh.positions.size(), kUnused);
   for (uint32_t index : mesh.indices) {
     if (index >= mesh.positions.size())
-      throw Error(ExitCode::InputInvalid, "mesh '" + mesh.name + "': index " + std::to_string(index) +
+      throw Error(ErrorCategory::InvalidInput, "mesh '" + mesh.name + "': index " + std::to_string(index) +
                                               " out of range (" + std::to_string(mesh.positions.size()) +
                                               " vertices)");
     if (used.compact[index] == kUnused) {
@@ -37,7 +37,7 @@ void appendInstance(const Mesh& mesh, const UsedVertices& used, const Instance& 
                     WorldGeometry& world) {
   const size_t base = world.positions.size();
   if (base + used.original.size() > size_t(UINT32_MAX))
-    throw Error(ExitCode::RuntimeFailure, "scene too large: more than 2^32 world-space vertices");
+    throw Error(ErrorCategory::RuntimeFailure, "scene too large: more than 2^32 world-space vertices");
   for (uint32_t v : used.original) {
     const glm::dvec3 p = glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(mesh.positions[v]), 1.0));
     world.positions.push_back(p);
@@ -74,7 +74,7 @@ bool nameMatches(const std::string& meshName, const std::string& wanted) {
 GroundSheets parseGroundSheets(const std::string& name) {
   if (name == "auto") return GroundSheets::Auto;
   if (name == "off") return GroundSheets::Off;
-  throw Error(ExitCode::Usage, "unknown ground mode '" + name + "' (expected auto or off)");
+  throw Error(ErrorCategory::InvalidArgument, "unknown ground mode '" + name + "' (expected auto or off)");
 }
 
 const char* groundSheetsName(GroundSheets ground) { return ground == GroundSheets::Off ? "off" : "auto"; }
@@ -86,7 +86,7 @@ WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   for (const Mesh& mesh : scene.meshes) used.push_back(findUsedVertices(mesh));
   for (const Instance& instance : scene.instances) {
     if (instance.mesh >= scene.meshes.size())
-      throw Error(ExitCode::InputInvalid, "instance '" + instance.node + "': mesh index " +
+      throw Error(ErrorCategory::InvalidInput, "instance '" + instance.node + "': mesh index " +
                                               std::to_string(instance.mesh) + " out of range");
     const Mesh& mesh = scene.meshes[instance.mesh];
     totalTriangles += mesh.triangleCount();
@@ -128,7 +128,7 @@ void excludeMeshes(Scene& scene, const std::vector<std::string>& names) {
       std::string known;
       for (size_t m = 0; m < scene.meshes.size() && m < 20; ++m) known += (m ? ", " : "") + scene.meshes[m].name;
       if (scene.meshes.size() > 20) known += ", ...";
-      throw Error(ExitCode::Usage, "--exclude-mesh '" + name + "': no mesh of that name in " +
+      throw Error(ErrorCategory::InvalidArgument, "no mesh named '" + name + "' in " +
                                        (scene.source.empty() ? std::string("the scene") : scene.source) +
                                        " (meshes: " + known + ")");
     }

@@ -13,7 +13,7 @@ UndefinedMode parseUndefinedMode(const std::string& name) {
   if (name == "kampe") return UndefinedMode::Kampe;
   if (name == "sintorn") return UndefinedMode::Sintorn;
   if (name == "none") return UndefinedMode::None;
-  throw Error(ExitCode::Usage, "--undefined '" + name + "': expected kampe, sintorn or none");
+  throw Error(ErrorCategory::InvalidArgument, "undefined-voxel mode '" + name + "': expected kampe, sintorn or none");
 }
 
 const char* undefinedModeName(UndefinedMode mode) {
@@ -147,7 +147,7 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
 TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads) {
   const RegionRect& rect = depth.rect;
   if (rect.width % 8 != 0 || rect.height % 8 != 0)
-    throw Error(ExitCode::RuntimeFailure, "region size must be a multiple of 8 texels");
+    throw Error(ErrorCategory::RuntimeFailure, "region size must be a multiple of 8 texels");
   TileChains chains;
   chains.rect = rect;
   chains.resolution = depth.resolution;
@@ -165,7 +165,7 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   // Bands hold consecutive rows in order: the region's chains are their concatenation.
   size_t total = 0;
   for (const ChainBand& band : bands) total += band.start.size();
-  if (total > UINT32_MAX) throw Error(ExitCode::RuntimeFailure, "too many tile-chain entries in one region");
+  if (total > UINT32_MAX) throw Error(ErrorCategory::RuntimeFailure, "too many tile-chain entries in one region");
   chains.start.reserve(total);
   chains.mask.reserve(total);
   chains.first.reserve(tileCount + 1);
@@ -188,7 +188,7 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
 
 TileHierarchy::TileHierarchy(const TileChains& chains) {
   if (chains.tilesX != chains.tilesY || (chains.tilesX & (chains.tilesX - 1)) != 0)
-    throw Error(ExitCode::RuntimeFailure, "tile hierarchy needs a square power-of-two region");
+    throw Error(ErrorCategory::RuntimeFailure, "tile hierarchy needs a square power-of-two region");
   size.push_back(chains.tilesX);
   minLitUntil.push_back(chains.litUntil);
   std::vector<uint32_t> lastChange(chains.litUntil.size());

@@ -8,7 +8,7 @@ namespace cpvs {
 
 std::vector<RegionRect> splitIntoRegions(uint32_t resolution, uint32_t regionSize) {
   if (resolution == 0) return {};
-  if (regionSize == 0) throw Error(ExitCode::Usage, "splitIntoRegions: region size must be positive");
+  if (regionSize == 0) throw Error(ErrorCategory::InvalidArgument, "splitIntoRegions: region size must be positive");
   std::vector<RegionRect> regions;
   for (uint64_t y0 = 0; y0 < resolution; y0 += regionSize) {
     for (uint64_t x0 = 0; x0 < resolution; x0 += regionSize) {

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/scene/mesh_topology.h"
 
 namespace cpvs::test {
@@ -21,6 +22,13 @@ std::string sourcePath(const std::string& relative) { return std::string(CPVS_SO
 std::string toolPath(const std::string& tool) { return std::string(CPVS_BINARY_DIR) + "/bin/" + tool; }
 
 namespace {
+// CPVS_LOOKUP_ISA caps the batch lookups in the tests as it does in the tools (CTest runs the lookup tests a
+// second time with avx2, so the scalar walks are tested on AVX-512 machines too).
+const bool gLookupIsaFromEnvironment = [] {
+  if (const auto isa = parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) setCellIsaLimit(*isa);
+  return true;
+}();
+
 // The folders tempDir made in this process. They are removed when the process ends if every test in it passed,
 // and kept (and named on stderr) when one failed, or when CPVS_KEEP_TEST_DIRS=1, to look into.
 class TempDirs {

@@ -13,7 +13,7 @@
   try {                                                                                                \
     expr;                                                                                              \
   } catch (const ::cpvs::Error& e) {                                                                   \
-    if (e.code() == ::cpvs::ExitCode::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what(); \
+    if (e.category() == ::cpvs::ErrorCategory::NotSupported) GTEST_SKIP() << "no OSMesa here: " << e.what(); \
     throw;                                                                                             \
   }
 

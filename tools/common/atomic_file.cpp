@@ -70,7 +70,7 @@ AtomicFile::AtomicFile(const std::string& path) : path_(path) {
   temp_ = (dir / name).string();
   fd_ = ::mkstemp(temp_.data());
   if (fd_ < 0)
-    throw Error(ExitCode::OutputFailed, path + ": cannot create a temporary file beside it: " + std::strerror(errno));
+    throw Error(ErrorCategory::OutputFailed, path + ": cannot create a temporary file beside it: " + std::strerror(errno));
   exists_ = true;
   slot_ = registerTemporary(temp_);
 }
@@ -87,7 +87,7 @@ void AtomicFile::discard() {
 }
 
 void AtomicFile::write(std::string_view bytes) {
-  if (fd_ < 0) throw Error(ExitCode::OutputFailed, path_ + ": write after the file was closed");
+  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": write after the file was closed");
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd_, bytes.data() + written, bytes.size() - written);
@@ -95,14 +95,14 @@ void AtomicFile::write(std::string_view bytes) {
       if (errno == EINTR) continue;
       const std::string reason = std::strerror(errno);
       discard();
-      throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + reason);
+      throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
     }
     written += size_t(n);
   }
 }
 
 void AtomicFile::commit() {
-  if (fd_ < 0) throw Error(ExitCode::OutputFailed, path_ + ": commit after the file was closed");
+  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": commit after the file was closed");
   ::fchmod(fd_, 0644);
   const bool flushed = ::fsync(fd_) == 0;
   const int closed = ::close(fd_);
@@ -110,12 +110,12 @@ void AtomicFile::commit() {
   if (!flushed || closed != 0) {
     const std::string reason = std::strerror(errno);
     discard();
-    throw Error(ExitCode::OutputFailed, path_ + ": write failed: " + reason);
+    throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
   }
   if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     discard();
-    throw Error(ExitCode::OutputFailed, path_ + ": cannot rename the finished file into place: " + reason);
+    throw Error(ErrorCategory::OutputFailed, path_ + ": cannot rename the finished file into place: " + reason);
   }
   exists_ = false;
   unregisterTemporary(slot_);

@@ -3,10 +3,12 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <new>
 #include <sstream>
 
+#include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/version.h"
 
 namespace cpvs::tools {
@@ -21,11 +23,11 @@ std::vector<double> parseNumbers(const std::string& option, const std::string& t
     errno = 0;
     const double value = std::strtod(item.c_str(), &end);
     if (item.empty() || end != item.c_str() + item.size() || errno != 0 || !std::isfinite(value))
-      throw Error(ExitCode::Usage, option + " '" + text + "': '" + item + "' is not a finite number");
+      throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': '" + item + "' is not a finite number");
     values.push_back(value);
   }
   if (values.size() != expected)
-    throw Error(ExitCode::Usage, option + " '" + text + "': expected " + std::to_string(expected) +
+    throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': expected " + std::to_string(expected) +
                                      " comma-separated numbers, got " + std::to_string(values.size()));
   return values;
 }
@@ -33,7 +35,7 @@ std::vector<double> parseNumbers(const std::string& option, const std::string& t
 glm::dvec3 unitDirection(const std::string& option, const std::string& text, double x, double y, double z) {
   const glm::dvec3 d(x, y, z);
   const double length = glm::length(d);
-  if (!(length > 0)) throw Error(ExitCode::Usage, option + " '" + text + "': the direction must not be zero");
+  if (!(length > 0)) throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': the direction must not be zero");
   return d / length;
 }
 
@@ -62,7 +64,7 @@ void LightOptions::addTo(CLI::App& app) {
 }
 
 void LightOptions::applyTo(Scene& scene) const {
-  if (!excludedMeshes.empty()) excludeMeshes(scene, excludedMeshes);
+  if (!excludedMeshes.empty()) forFlag("--exclude-mesh", [&] { excludeMeshes(scene, excludedMeshes); });
   if (!any()) return;
   scene.lights.clear();
   for (size_t i = 0; i < suns.size(); ++i) {
@@ -81,9 +83,9 @@ void LightOptions::applyTo(Scene& scene) const {
     light.position = {v[0], v[1], v[2]};
     light.direction = unitDirection("--spot", spots[i], v[3], v[4], v[5]);
     if (!(v[6] > 0 && v[6] <= M_PI / 2))
-      throw Error(ExitCode::Usage, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
+      throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
     light.outerConeAngle = v[6];
-    if (v[7] < 0) throw Error(ExitCode::Usage, "--spot '" + spots[i] + "': RANGE must not be negative");
+    if (v[7] < 0) throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': RANGE must not be negative");
     light.range = v[7] == 0 ? std::numeric_limits<double>::infinity() : v[7];
     scene.lights.push_back(light);
   }
@@ -93,18 +95,20 @@ void LightOptions::applyTo(Scene& scene) const {
     light.name = "point" + std::to_string(i);
     light.type = LightType::Point;
     light.position = {v[0], v[1], v[2]};
-    if (v[3] < 0) throw Error(ExitCode::Usage, "--point '" + points[i] + "': RANGE must not be negative");
+    if (v[3] < 0) throw Error(ErrorCategory::InvalidArgument, "--point '" + points[i] + "': RANGE must not be negative");
     light.range = v[3] == 0 ? std::numeric_limits<double>::infinity() : v[3];
     scene.lights.push_back(light);
   }
 }
 
 int runMain(const char* toolName, const std::function<int()>& body) {
+  // CPVS_LOOKUP_ISA=scalar|avx2|avx512 caps the batch lookups' instruction set (docs/cli.md).
+  if (const auto isa = parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) setCellIsaLimit(*isa);
   try {
     return body();
   } catch (const Error& e) {
     std::cerr << toolName << ": error: " << e.what() << "\n";
-    return int(e.code());
+    return int(exitCodeFor(e.category()));
   } catch (const std::bad_alloc&) {
     std::cerr << toolName << ": error: out of memory\n";
     return int(ExitCode::RuntimeFailure);
@@ -128,7 +132,7 @@ uint32_t parseResolution(const std::string& text) {
   const bool numeric = !digits.empty() && digits.size() <= 7 && std::all_of(digits.begin(), digits.end(), ::isdigit);
   const uint64_t value = numeric ? std::stoull(digits) * multiplier : 0;
   if (value < 8 || value > 262144 || (value & (value - 1)) != 0)
-    throw Error(ExitCode::Usage, "resolution '" + text + "': expected a power of two from 8 to 256k (e.g. 512, 4k, 16k, 64k)");
+    throw Error(ErrorCategory::InvalidArgument, "'" + text + "': expected a power of two from 8 to 256k (e.g. 512, 4k, 16k, 64k)");
   return uint32_t(value);
 }
 

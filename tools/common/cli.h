@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "libcpvs/base/error.h"
+#include "tools/common/exit_codes.h"
 #include "libcpvs/scene/scene.h"
 
 namespace cpvs::tools {
@@ -29,6 +30,18 @@ struct LightOptions {
 
 // Parses "4k", "16k", "512", "65536": a power of two from 8 to 256k. Throws Error(Usage).
 uint32_t parseResolution(const std::string& text);
+
+// Runs parse() and puts the command-line flag in front of an InvalidArgument error's message: the library's
+// messages name the value and what was expected, the tool names where the user typed it.
+template <class Fn>
+auto forFlag(const std::string& flag, Fn&& parse) -> decltype(parse()) {
+  try {
+    return parse();
+  } catch (const Error& e) {
+    if (e.category() != ErrorCategory::InvalidArgument) throw;
+    throw Error(e.category(), flag + ": " + e.what());
+  }
+}
 
 // Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
 int runMain(const char* toolName, const std::function<int()>& body);

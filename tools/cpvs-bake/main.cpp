@@ -164,22 +164,22 @@ int run(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
   }
   if (o.output.empty() && o.dumpDepth.empty())
-    throw Error(ExitCode::Usage, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
-  if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
-  if (o.maxPeels < 1 || o.maxPeels > 1024) throw Error(ExitCode::Usage, "--max-peels must be in 1..1024");
+    throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
+  if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");
+  if (o.maxPeels < 1 || o.maxPeels > 1024) throw Error(ErrorCategory::InvalidArgument, "--max-peels must be in 1..1024");
 
   BakeSettings settings;
-  settings.resolution = tools::parseResolution(o.resolution);
-  settings.undefinedMode = parseUndefinedMode(o.undefinedMode);
+  settings.resolution = tools::forFlag("--resolution", [&] { return tools::parseResolution(o.resolution); });
+  settings.undefinedMode = tools::forFlag("--undefined", [&] { return parseUndefinedMode(o.undefinedMode); });
   settings.nodeReuse = !o.noNodeReuse;
   settings.threads = o.threads;
-  settings.backend = parseRasterBackend(o.backend);
-  settings.regionSize = tools::parseResolution(o.regionSize);
+  settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
+  settings.regionSize = tools::forFlag("--region", [&] { return tools::parseResolution(o.regionSize); });
   settings.peel.maxPeels = o.maxPeels;
-  settings.ground = parseGroundSheets(o.ground);
+  settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
   const auto start = std::chrono::steady_clock::now();
   Scene scene = importGltf(o.scene);
@@ -187,11 +187,11 @@ int run(int argc, char** argv) {
   for (const std::string& w : scene.warnings)
     if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";
   if (scene.lights.empty())
-    throw Error(ExitCode::Usage, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
+    throw Error(ErrorCategory::InvalidArgument, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
   if (!o.dumpDepth.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.dumpDepth, ec);
-    if (ec) throw Error(ExitCode::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
+    if (ec) throw Error(ErrorCategory::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
   }
 
   tools::ProgressBar progress("baking", o.quiet);

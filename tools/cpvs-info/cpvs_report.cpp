@@ -19,6 +19,7 @@
 
 #include "formats/cpvs/cpvs_file.h"
 #include "libcpvs/base/error.h"
+#include "tools/common/exit_codes.h"
 #include "tools/cpvs-info/info_common.h"
 
 namespace cpvs::info {
@@ -400,7 +401,7 @@ ordered_json scanJson(const ChecksumScan& scan) {
 int printCpvs(const std::string& path, bool json) {
   std::unique_ptr<CpvsFile> file;
   try {
-    file = CpvsFile::open(path);
+    file = orThrow(CpvsFile::open(path));
   } catch (const Error& e) {
     std::string message = e.what();
     if (message.find("not a .cpvs file") != std::string::npos) message += "; not a glTF scene (.gltf or .glb) either";
@@ -412,13 +413,13 @@ int printCpvs(const std::string& path, bool json) {
                                    {"kind", "cpvs"},
                                    {"valid", false},
                                    {"error", message},
-                                   {"exitCode", int(e.code())},
+                                   {"exitCode", int(cpvs::tools::exitCodeFor(e.category()))},
                                    {"checksums", located ? scanJson(scan) : ordered_json(nullptr)}};
       std::cout << report.dump(2, ' ', false, nlohmann::detail::error_handler_t::replace) << "\n";
     } else if (located) {
       printScanText(path, scan);
     }
-    return int(e.code());
+    return int(cpvs::tools::exitCodeFor(e.category()));
   }
   if (json)
     printJson(path, *file);

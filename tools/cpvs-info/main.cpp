@@ -134,7 +134,7 @@ enum class InputKind { Scene, Cpvs, Unknown };
 // .gltf. Everything else (an empty file included) goes to the .cpvs reader, whose message says what it is not.
 InputKind sniff(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw cpvs::Error(cpvs::ExitCode::InputInvalid, path + ": cannot open: " + std::strerror(errno));
+  if (!in) throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, path + ": cannot open: " + std::strerror(errno));
   char head[64] = {};
   in.read(head, sizeof head);
   const size_t n = size_t(in.gcount());
@@ -174,13 +174,13 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);  // prints help/version (code 0) or the usage error
-    return code == 0 ? 0 : int(cpvs::ExitCode::Usage);
+    return code == 0 ? 0 : int(cpvs::tools::ExitCode::Usage);
   }
   return cpvs::tools::runMain(kTool, [&] {
     const InputKind kind = sniff(input);
     if (kind == InputKind::Scene) return printScene(input, lightOptions, json);
     if (lightOptions.any() || !lightOptions.excludedMeshes.empty())
-      throw cpvs::Error(cpvs::ExitCode::Usage, input + ": --sun, --spot, --point and --exclude-mesh apply to "
+      throw cpvs::Error(cpvs::ErrorCategory::InvalidArgument, input + ": --sun, --spot, --point and --exclude-mesh apply to "
                                                "scenes; a .cpvs file holds the lights it was baked with");
     return cpvs::info::printCpvs(input, json);
   });

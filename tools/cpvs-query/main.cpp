@@ -171,13 +171,13 @@ std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<
         std::string names;
         for (size_t i = 0; i < lights.size(); ++i)
           names += (i ? ", " : "") + std::to_string(i) + " '" + lights[i].light.name + "'";
-        throw Error(ExitCode::Usage, "--light '" + w + "': no such light (the file has " +
+        throw Error(ErrorCategory::InvalidArgument, "--light '" + w + "': no such light (the file has " +
                                          (names.empty() ? std::string("none") : names) + ")");
       }
       indices.push_back(found);
     }
   }
-  if (indices.empty()) throw Error(ExitCode::InputInvalid, "the .cpvs file holds no lights");
+  if (indices.empty()) throw Error(ErrorCategory::InvalidInput, "the .cpvs file holds no lights");
   std::vector<SelectedLight> selected;
   for (size_t i : indices) {
     SelectedLight s;
@@ -191,7 +191,7 @@ std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<
       views.push_back(v.view);
       dags.push_back(v.dag);
     }
-    s.shadow = LightShadow(lights[i].light, std::move(views), std::move(dags), topGrid);
+    s.shadow = orThrow(LightShadow::create(lights[i].light, std::move(views), std::move(dags), topGrid));
     selected.push_back(std::move(s));
   }
   return selected;
@@ -218,7 +218,7 @@ void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end
     const size_t e = std::min(end, b + kLookupBatch);
     scratch.resize(e - b);
     for (size_t l = 0; l < nl; ++l) {
-      lights[l].shadow.visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch);
+      orThrow(lights[l].shadow.visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch));
       for (size_t i = b; i < e; ++i) values[i * nl + l] = scratch[i - b];
     }
   }
@@ -358,8 +358,8 @@ double lookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<
     for (const SelectedLight* light : lights)
       for (size_t b = 0; b < valid.size(); b += kLookupBatch) {
         const size_t e = std::min(valid.size(), b + kLookupBatch);
-        light->shadow.visibility(std::span<const QueryPoint>(valid.data() + b, e - b), lookup,
-                                 std::span<float>(out.data(), e - b));
+        orThrow(light->shadow.visibility(std::span<const QueryPoint>(valid.data() + b, e - b), lookup,
+                                 std::span<float>(out.data(), e - b)));
         sum += out[0];
       }
     gSink = sum;
@@ -432,7 +432,7 @@ std::vector<QueryPoint> readGBuffer(const std::string& path, const std::string& 
   if (p[0] < 0 || p[1] < 0 || p[2] < 0) {
     std::string have;
     for (const auto& c : image.channels) have += (have.empty() ? "" : ", ") + c;
-    throw Error(ExitCode::InputInvalid, path + ": no position channels (expected P.X, P.Y, P.Z or R, G, B; the image has " +
+    throw Error(ErrorCategory::InvalidInput, path + ": no position channels (expected P.X, P.Y, P.Z or R, G, B; the image has " +
                                             (have.empty() ? std::string("none") : have) + ")");
   }
   const ExrImage* normalImage = &image;
@@ -441,7 +441,7 @@ std::vector<QueryPoint> readGBuffer(const std::string& path, const std::string& 
   if (!normalsPath.empty()) {
     other = readExr(normalsPath);
     if (other.width != image.width || other.height != image.height)
-      throw Error(ExitCode::InputInvalid, normalsPath + ": " + std::to_string(other.width) + "x" +
+      throw Error(ErrorCategory::InvalidInput, normalsPath + ": " + std::to_string(other.width) + "x" +
                                               std::to_string(other.height) + " pixels, but " + path + " has " +
                                               std::to_string(image.width) + "x" + std::to_string(image.height));
     normalImage = &other;
@@ -454,7 +454,7 @@ std::vector<QueryPoint> readGBuffer(const std::string& path, const std::string& 
       n[2] = findChannel(other, {"B"});
     }
     if (n[0] < 0 || n[1] < 0 || n[2] < 0)
-      throw Error(ExitCode::InputInvalid, normalsPath + ": no normal channels (expected N.X, N.Y, N.Z or R, G, B)");
+      throw Error(ErrorCategory::InvalidInput, normalsPath + ": no normal channels (expected N.X, N.Y, N.Z or R, G, B)");
   } else {
     n[0] = findChannel(image, {"N.X", "normal.X", "N.R"});
     n[1] = findChannel(image, {"N.Y", "normal.Y", "N.G"});
@@ -493,36 +493,37 @@ nlohmann::json errorJson(const ErrorStats& e) {
 
 int run(const Options& options) {
   const auto start = Clock::now();
-  checkPcfKernel(options.pcf);
+  tools::forFlag("--pcf", [&] { orThrow(checkPcfKernel(options.pcf)); });
   if (!options.excludedMeshes.empty() && options.reference.empty())
-    throw Error(ExitCode::Usage, "--exclude-mesh only applies to the --reference scene");
-  if (options.threads == 0) throw Error(ExitCode::Usage, "--threads must be at least 1");
-  ShadowReference::checkRelativeEpsilon(options.referenceEpsilon);
-  if (options.topGrid < -1 || options.topGrid > 8) throw Error(ExitCode::Usage, "--top-grid must be -1 to 8");
-  if (options.timingRounds < 0) throw Error(ExitCode::Usage, "--timing-rounds must be 0 or more");
+    throw Error(ErrorCategory::InvalidArgument, "--exclude-mesh only applies to the --reference scene");
+  if (options.threads == 0) throw Error(ErrorCategory::InvalidArgument, "--threads must be at least 1");
+  tools::forFlag("--reference-epsilon", [&] { ShadowReference::checkRelativeEpsilon(options.referenceEpsilon); });
+  if (options.topGrid < -1 || options.topGrid > 8) throw Error(ErrorCategory::InvalidArgument, "--top-grid must be -1 to 8");
+  if (options.timingRounds < 0) throw Error(ErrorCategory::InvalidArgument, "--timing-rounds must be 0 or more");
   if (!(options.biasMargin >= 0 && options.biasMargin <= 64))
-    throw Error(ExitCode::Usage, "--bias-margin must be between 0 and 64 voxels");
+    throw Error(ErrorCategory::InvalidArgument, "--bias-margin must be between 0 and 64 voxels");
   const LookupOptions lookup{options.pcf,
                              options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven,
                              options.biasMargin};
 
-  const std::unique_ptr<CpvsFile> file = CpvsFile::open(options.cpvs);
+  const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(options.cpvs));
   const std::vector<SelectedLight> lights = selectLights(*file, options.lights, options.topGrid);
   const size_t nl = lights.size();
 
   const PointFormat format = detectPointFormat(options.points);
   if (!options.normals.empty() && format != PointFormat::Exr)
-    throw Error(ExitCode::Usage, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
+    throw Error(ErrorCategory::InvalidArgument, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
   const bool exrOutput = endsWith(options.output, ".exr");
   if (exrOutput && format != PointFormat::Exr)
-    throw Error(ExitCode::Usage, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
+    throw Error(ErrorCategory::InvalidArgument, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
 
   std::unique_ptr<ShadowReference> reference;
   double referenceLoadMs = 0;
   if (!options.reference.empty()) {
     const auto t = Clock::now();
     Scene scene = importGltf(options.reference);
-    if (!options.excludedMeshes.empty()) excludeMeshes(scene, options.excludedMeshes);
+    if (!options.excludedMeshes.empty())
+      tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
     reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation, options.referenceEpsilon);
     referenceLoadMs = msSince(t);
     if (!options.quiet)
@@ -782,7 +783,7 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
   }
   return tools::runMain("cpvs-query", [&] { return run(options); });
 }

@@ -29,13 +29,13 @@ int run(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
   }
   Scene scene = importGltf(scenePath);
   options.applyTo(scene);
   const WorldGeometry world = flatten(scene);
   const std::vector<SurfaceSample> samples = sampleSurfaces(world, count, seed);
-  if (samples.empty()) throw Error(ExitCode::InputInvalid, scenePath + ": the scene has no surface area to sample");
+  if (samples.empty()) throw Error(ErrorCategory::InvalidInput, scenePath + ": the scene has no surface area to sample");
   std::string text = "x,y,z,nx,ny,nz\n";
   text.reserve(samples.size() * 96);
   char line[256];

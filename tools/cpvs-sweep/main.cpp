@@ -51,7 +51,7 @@ std::vector<uint32_t> parseResolutions(const std::string& text) {
   std::string item;
   while (std::getline(stream, item, ','))
     if (!item.empty()) out.push_back(tools::parseResolution(item));
-  if (out.empty()) throw Error(ExitCode::Usage, "--resolutions '" + text + "': no resolution given");
+  if (out.empty()) throw Error(ErrorCategory::InvalidArgument, "--resolutions '" + text + "': no resolution given");
   return out;
 }
 
@@ -295,16 +295,16 @@ int run(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);
+    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
   }
-  if (o.samples < 1 || o.samples > 100000000) throw Error(ExitCode::Usage, "--points must be in 1..1e8");
-  ShadowReference::checkRelativeEpsilon(o.referenceEpsilon);
-  if (o.minLightPoints > 100000000) throw Error(ExitCode::Usage, "--min-light-points must be in 0..1e8");
-  if (o.threads < 1 || o.threads > 256) throw Error(ExitCode::Usage, "--threads must be in 1..256");
-  if (!(o.timing > 0 && o.timing <= 60)) throw Error(ExitCode::Usage, "--timing must be in (0, 60] seconds");
+  if (o.samples < 1 || o.samples > 100000000) throw Error(ErrorCategory::InvalidArgument, "--points must be in 1..1e8");
+  tools::forFlag("--reference-epsilon", [&] { ShadowReference::checkRelativeEpsilon(o.referenceEpsilon); });
+  if (o.minLightPoints > 100000000) throw Error(ErrorCategory::InvalidArgument, "--min-light-points must be in 0..1e8");
+  if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");
+  if (!(o.timing > 0 && o.timing <= 60)) throw Error(ErrorCategory::InvalidArgument, "--timing must be in (0, 60] seconds");
 
   SweepSettings settings;
-  settings.resolutions = parseResolutions(o.resolutions);
+  settings.resolutions = tools::forFlag("--resolutions", [&] { return parseResolutions(o.resolutions); });
   settings.samples = o.samples;
   settings.minLightPoints = o.minLightPoints;
   settings.referenceEpsilon = o.referenceEpsilon;
@@ -312,17 +312,17 @@ int run(int argc, char** argv) {
   settings.allPoints = o.allPoints;
   settings.interiorPoints = o.interiorPoints;
   settings.pcfKernel = o.pcf;
-  checkPcfKernel(o.pcf);
-  settings.baselineDepth = parseBaselineDepth(o.baselineDepth);
-  settings.bake.undefinedMode = parseUndefinedMode(o.undefinedMode);
-  settings.bake.backend = parseRasterBackend(o.backend);
+  tools::forFlag("--pcf", [&] { orThrow(checkPcfKernel(o.pcf)); });
+  settings.baselineDepth = tools::forFlag("--baseline-depth", [&] { return parseBaselineDepth(o.baselineDepth); });
+  settings.bake.undefinedMode = tools::forFlag("--undefined", [&] { return parseUndefinedMode(o.undefinedMode); });
+  settings.bake.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   settings.bake.threads = o.threads;
   settings.timingSeconds = o.timing;
 
   Scene scene = importGltf(o.scene);
   o.lights.applyTo(scene);
   if (scene.lights.empty())
-    throw Error(ExitCode::Usage, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
+    throw Error(ErrorCategory::InvalidArgument, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
   const std::string name = o.name.empty() ? std::filesystem::path(o.scene).stem().string() : o.name;
   const size_t triangles = flatten(scene).sceneTriangleCount();
 
@@ -337,7 +337,7 @@ int run(int argc, char** argv) {
   if (!o.outDir.empty()) {
     std::error_code ec;
     std::filesystem::create_directories(o.outDir, ec);
-    if (ec) throw Error(ExitCode::OutputFailed, o.outDir + ": cannot create folder: " + ec.message());
+    if (ec) throw Error(ErrorCategory::OutputFailed, o.outDir + ": cannot create folder: " + ec.message());
     const std::filesystem::path dir(o.outDir);
     tools::writeFileAtomically((dir / (name + ".md")).string(), md);
     tools::writeFileAtomically((dir / (name + ".svg")).string(), plot(name, scene, rows));
