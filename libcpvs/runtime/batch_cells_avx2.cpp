@@ -1,5 +1,5 @@
 // The AVX2 path of batch_cells.h: cell_lanes.h's templates on four doubles. Only this file is compiled for
-// AVX2 (by the pragma below, after the standard headers, so that nothing they define is); mapCells calls it
+// AVX2 (by CPVS_TARGET_BEGIN_AVX2 below, after the standard headers, so that nothing they define is); mapCells calls it
 // only on CPUs that have AVX2. No FMA: the target is plain "avx2", and -ffp-contract=off keeps every multiply
 // and add separate, as in the scalar path.
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -12,8 +12,9 @@
 
 #include <immintrin.h>
 
-#pragma GCC push_options
-#pragma GCC target("avx2")
+#include "libcpvs/runtime/isa_target.h"
+
+CPVS_TARGET_BEGIN_AVX2
 
 #include "libcpvs/runtime/batch_cells.h"
 
@@ -104,6 +105,6 @@ void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
 }  // namespace detail
 }  // namespace cpvs
 
-#pragma GCC pop_options
+CPVS_TARGET_END
 
 #endif

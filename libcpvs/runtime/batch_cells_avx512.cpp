@@ -8,7 +8,9 @@
 // GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() (`__m512d __Y = __Y;`) as the unused merge operand,
 // which -Wmaybe-uninitialized reports wherever they are inlined (a known false positive of GCC 12.0-12.2):
 // silence that one warning for this file only.
+#if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #include <cmath>
 #include <cstddef>
@@ -18,8 +20,9 @@
 
 #include <immintrin.h>
 
-#pragma GCC push_options
-#pragma GCC target("avx512f")
+#include "libcpvs/runtime/isa_target.h"
+
+CPVS_TARGET_BEGIN_AVX512F
 
 #include "libcpvs/runtime/batch_cells.h"
 
@@ -112,6 +115,6 @@ void mapCellsAvx512(const CellBatchInput& in, const CellBatchOutput& out) {
 }  // namespace detail
 }  // namespace cpvs
 
-#pragma GCC pop_options
+CPVS_TARGET_END
 
 #endif

@@ -12,7 +12,7 @@
 // time even with the DAG in L2; sixteen lanes made unfiltered lookups 1.5-2.0x faster (docs/lookups.md).
 //
 // Same rule as view_mapping.h: standard headers only (dag_walks_avx512.cpp includes it before its
-// `#pragma GCC target`).
+// CPVS_TARGET_BEGIN_* (isa_target.h)).
 #include <cstddef>
 #include <cstdint>
 #include <vector>

@@ -6,7 +6,9 @@
 
 // GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() as the unused merge operand, which
 // -Wmaybe-uninitialized reports wherever they are inlined (as in batch_cells_avx512.cpp).
+#if !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #include <algorithm>
 #include <bit>
@@ -16,6 +18,8 @@
 
 #include <immintrin.h>
 
+#include "libcpvs/runtime/isa_target.h"
+
 #include "libcpvs/runtime/dag_walks.h"
 
 namespace cpvs {
@@ -24,8 +28,7 @@ bool vectorWalksAvailable() { return bestCellIsa() == CellIsa::Avx512; }
 
 }  // namespace cpvs
 
-#pragma GCC push_options
-#pragma GCC target("avx512f")
+CPVS_TARGET_BEGIN_AVX512F
 
 namespace cpvs {
 namespace {
@@ -350,7 +353,7 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
 
 }  // namespace cpvs
 
-#pragma GCC pop_options
+CPVS_TARGET_END
 
 #else
 

@@ -1,7 +1,7 @@
 #pragma once
 // The light-view mapping of light_view.h (DESIGN.md §3) in the form every hot path evaluates it: constants
 // derived once per view (ViewMapping) and mapToGrid, a template over the lane type. toGrid runs it on one
-// double, the batch lookups on four at once (lookup/batch_cells_avx2.cpp): the same IEEE operations in the
+// double, the batch lookups on four at once (runtime/batch_cells_avx2.cpp): the same IEEE operations in the
 // same order, so a point gets the same bits whichever path maps it (CMake sets -ffp-contract=off so that no
 // path fuses a multiply and an add the others do not).
 //
@@ -11,7 +11,7 @@
 // and a vector libm's rounds differently).
 //
 // This header must include nothing but the C/C++ standard headers below: the AVX2 translation unit includes
-// it under `#pragma GCC target("avx2")`, and the scalar helpers are `static` so that no copy compiled for
+// it under CPVS_TARGET_BEGIN_AVX2 (isa_target.h), and the scalar helpers are `static` so that no copy compiled for
 // AVX2 can stand in for a scalar one at link time.
 #include <bit>
 #include <cmath>
