@@ -1,8 +1,26 @@
 #include "libcpvs/eval/error_stats.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace cpvs {
+
+void ErrorStats::record(float value, uint8_t reference, bool isUniform, uint64_t row) {
+  const bool lit = value >= 0.5f;
+  const bool wrong = lit != (reference != 0);
+  const double diff = std::abs(double(value) - double(reference));
+  ++samples;
+  misclassified += wrong;
+  if (wrong && firstMisclassified.size() < kExamples) firstMisclassified.push_back(row);
+  absDiffSum += diff;
+  referenceLit += reference != 0;
+  cpvsLit += lit;
+  if (!isUniform) return;
+  ++uniform;
+  misclassifiedUniform += wrong;
+  if (wrong && firstMisclassifiedUniform.size() < kExamples) firstMisclassifiedUniform.push_back(row);
+  absDiffSumUniform += diff;
+}
 
 void ErrorStats::add(const ErrorStats& o) {
   samples += o.samples;

@@ -1,17 +1,17 @@
 #include "libcpvs/eval/sweep.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <memory>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
-#include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/bake/cpvs_writer.h"
-#include "libcpvs/eval/shadow_map.h"
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
+#include "libcpvs/bake/cpvs_writer.h"
+#include "libcpvs/eval/cpvs_method.h"
+#include "libcpvs/eval/error_stats.h"
+#include "libcpvs/eval/reference_rays.h"
+#include "libcpvs/eval/throughput.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/reference/shadow_reference.h"
@@ -20,30 +20,6 @@ namespace cpvs {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double msSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
-// Work items per second of `pass` (which does `workPerPass` items), repeated for at least `seconds`.
-template <class Fn>
-double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
-  if (workPerPass == 0) return 0.0;
-  uint64_t work = 0;
-  const auto start = Clock::now();
-  double elapsed = 0;
-  do {
-    pass();
-    work += workPerPass;
-    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-  } while (elapsed < seconds);
-  return double(work) / elapsed;
-}
-
-volatile float gSink;  // keeps the timed loops from being optimised away
-volatile int gIntSink;
-
 glm::dvec3 toLightDirection(const Light& light, const glm::dvec3& point) {
   if (light.type == LightType::Directional) return -light.direction;
   const glm::dvec3 d = light.position - point;
@@ -51,39 +27,7 @@ glm::dvec3 toLightDirection(const Light& light, const glm::dvec3& point) {
   return length > 0 ? d / length : glm::dvec3(0.0);
 }
 
-struct Errors {
-  uint64_t misclassified = 0, misclassifiedUniform = 0;
-  double absDiff = 0;
-};
-
-Errors compare(const std::vector<float>& values, const std::vector<uint8_t>& reference,
-               const std::vector<uint8_t>& uniform) {
-  Errors e;
-  for (size_t i = 0; i < values.size(); ++i) {
-    const bool wrong = (values[i] >= 0.5f) != (reference[i] != 0);
-    e.misclassified += wrong;
-    e.misclassifiedUniform += wrong && uniform[i];
-    e.absDiff += std::abs(double(values[i]) - double(reference[i]));
-  }
-  return e;
-}
-
-template <class Fn>
-void parallelFor(size_t count, Fn&& fn) {
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 256), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i != r.end(); ++i) fn(i);
-  });
-}
-
 }  // namespace
-
-BaselineDepth parseBaselineDepth(const std::string& name) {
-  if (name == "embree") return BaselineDepth::Embree;
-  if (name == "raster" || name == "gl") return BaselineDepth::Raster;
-  throw Error(ErrorCategory::InvalidArgument, "baseline depth '" + name + "': expected embree or raster");
-}
-
-const char* baselineDepthName(BaselineDepth depth) { return depth == BaselineDepth::Embree ? "embree" : "raster"; }
 
 std::vector<SurfaceSample> sweepPoints(const Light& light, const std::vector<SurfaceSample>& samples, bool allPoints) {
   std::vector<SurfaceSample> points;
@@ -155,9 +99,9 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
     BakeSettings bake = settings.bake;
     bake.resolution = resolution;
     BakeReport report;
-    const auto t0 = Clock::now();
+    const Stopwatch bakeClock;
     const CpvsContent content = bakeScene(scene, bake, &report);
-    const double bakeWallMs = msSince(t0);
+    const double bakeWallMs = bakeClock.ms();
     if (renderer && !report.renderer.empty()) *renderer = report.renderer;
     const uint64_t fileBytes = writeCpvs(content).size();
     log("N = " + std::to_string(resolution) + ": baked in " + std::to_string(int(bakeWallMs)) + " ms, " +
@@ -174,83 +118,53 @@ std::vector<SweepRow> runSweep(const Scene& scene, const SweepSettings& settings
       row.bakeWallMs = bakeWallMs;
       row.fileBytes = fileBytes;
       for (const ViewReport& v : report.lights[l].views) row.bakeMs += v.depthMs + v.peelMs + v.masksMs + v.dagMs;
-      std::vector<LightView> views;
-      std::vector<DagView> dags;
-      for (const BakedView& v : baked.views) {
-        views.push_back(v.view);
-        dags.push_back(v.dag.view());
-        row.bytes += v.dag.bytes();
-      }
-      const LightShadow shadow = orThrow(LightShadow::create(light, views, dags));
+      const CpvsMethod cpvs = CpvsMethod::fromBake(baked);
+      row.bytes = cpvs.bytes();
+      const LightShadow& shadow = cpvs.shadow();
       const std::vector<SurfaceSample>& pts = points[l];
       const size_t count = pts.size();
       row.points = count;
       row.interiorSamples = interior;
       for (uint8_t r : reference[l]) row.referenceLit += r;
+      std::vector<SurfacePoint> queries(count);
+      for (size_t i = 0; i < count; ++i) queries[i] = {pts[i].position, pts[i].normal};
 
       // Uniformity at this resolution (voxel size of the view the point falls in).
       std::vector<uint8_t> uniform(count);
-      parallelFor(count, [&](size_t i) {
-        uniform[i] = referenceRays.uniformAround(shadow, {pts[i].position, pts[i].normal}, reference[l][i]);
-      });
+      parallelFor(count, [&](size_t i) { uniform[i] = referenceRays.uniformAround(shadow, queries[i], reference[l][i]); });
       for (uint8_t u : uniform) row.uniform += u;
-
-      std::vector<float> values(count);
-      parallelFor(count, [&](size_t i) { values[i] = shadow.visibility(pts[i].position, pts[i].normal, lookup); });
-      const Errors e = compare(values, reference[l], uniform);
+      const ErrorStats e = scoreMethod(cpvs, queries, lookup, reference[l], uniform);
       row.misclassified = e.misclassified;
       row.misclassifiedUniform = e.misclassifiedUniform;
-      row.meanAbsDiff = count ? e.absDiff / double(count) : 0.0;
-      // Lookups as cpvs-query makes them (batches of 4096 points) and Embree rays on the same points, one
-      // thread each, interleaved over three rounds so that a change in machine load hits both alike; each
-      // figure is the best of its rounds.
-      std::vector<SurfacePoint> batchPoints(count);
-      for (size_t i = 0; i < count; ++i) batchPoints[i] = {pts[i].position, pts[i].normal};
-      std::vector<float> batchOut(std::min<size_t>(count, kLookupBatch));
-      for (int round = 0; round < 3; ++round) {
-        row.lookupsPerS = std::max(row.lookupsPerS, perSecond(count, settings.timingSeconds, [&] {
-          float sum = 0;
-          for (size_t b = 0; b < count; b += kLookupBatch) {
-            const size_t e = std::min(count, b + kLookupBatch);
-            orThrow(shadow.visibility(std::span<const SurfacePoint>(batchPoints.data() + b, e - b), lookup,
-                              std::span<float>(batchOut.data(), e - b)));
-            sum += batchOut[0];
-          }
-          gSink = sum;
-        }));
-        row.raysPerS = std::max(row.raysPerS, perSecond(count, settings.timingSeconds, [&] {
-          int sum = 0;
-          for (const SurfaceSample& p : pts) sum += referenceRays.visibility(light, {p.position, p.normal});
-          gIntSink = sum;
-        }));
-      }
+      row.meanAbsDiff = e.meanAbsDiff();
+      // Lookups as cpvs-query makes them and Embree rays on the same points, one thread each, interleaved over
+      // three rounds.
+      Throughput throughput;
+      throughput.add("lookups", [&] { return lookupsPerSecond(cpvs, queries, lookup, settings.timingSeconds); });
+      throughput.add("rays", [&] { return raysPerSecond(referenceRays, {&light, 1}, queries, settings.timingSeconds); });
+      throughput.run(3);
+      row.lookupsPerS = throughput.best("lookups");
+      row.raysPerS = throughput.best("rays");
 
       // The shadow map of equal bytes, view by view.
-      const auto s0 = Clock::now();
-      std::vector<ShadowMap16> maps;
+      const Stopwatch smClock;
+      std::vector<LightView> views;
+      std::vector<uint64_t> budgets;
       for (const BakedView& v : baked.views) {
-        const uint32_t size = equalBytesShadowMapSize(v.dag.bytes());
-        if (settings.baselineDepth == BaselineDepth::Embree) {
-          maps.push_back(buildShadowMapEmbree(embree, v.view, size));
-        } else {
-          if (!raster) raster = DepthRenderer::create(bake.backend);
-          maps.push_back(buildShadowMapRaster(*raster, world, v.view, size));
-        }
+        views.push_back(v.view);
+        budgets.push_back(v.dag.bytes());
       }
-      row.smBuildMs = msSince(s0);
-      const ShadowMapLight sm(light, std::move(maps));
-      row.smSize = sm.maps().empty() ? 0 : sm.maps()[0].size();
+      if (settings.baselineDepth == BaselineDepth::Raster && !raster) raster = DepthRenderer::create(bake.backend);
+      const ShadowMapMethod sm =
+          ShadowMapMethod::build(light, views, budgets, settings.baselineDepth, embree, world, raster.get());
+      row.smBuildMs = smClock.ms();
+      row.smSize = sm.maps().maps().empty() ? 0 : sm.maps().maps()[0].size();
       row.smBytes = sm.bytes();
-      parallelFor(count, [&](size_t i) { values[i] = sm.visibility(pts[i].position, pts[i].normal, lookup); });
-      const Errors se = compare(values, reference[l], uniform);
+      const ErrorStats se = scoreMethod(sm, queries, lookup, reference[l], uniform);
       row.smMisclassified = se.misclassified;
       row.smMisclassifiedUniform = se.misclassifiedUniform;
-      row.smMeanAbsDiff = count ? se.absDiff / double(count) : 0.0;
-      row.smLookupsPerS = perSecond(count, settings.timingSeconds, [&] {
-        float sum = 0;
-        for (const SurfaceSample& p : pts) sum += sm.visibility(p.position, p.normal, lookup);
-        gSink = sum;
-      });
+      row.smMeanAbsDiff = se.meanAbsDiff();
+      row.smLookupsPerS = lookupsPerSecond(sm, queries, lookup, settings.timingSeconds);
       char line[256];
       std::snprintf(line, sizeof line,
                     "  light '%s': %llu bytes, misclassified %.4f%% (uniform %.4f%%); shadow map %ux%u: %.4f%%",

@@ -1,7 +1,7 @@
 #pragma once
 // Speed against error (issue 4): for a scene and its lights, bake a CPVS at each resolution of a sweep, answer
 // sampled surface points with the CPVS lookups, and measure the error against Embree shadow rays, beside a
-// plain 16-bit shadow map of equal bytes (libcpvs/eval/shadow_map.h). tools/cpvs-sweep prints and plots
+// plain 16-bit shadow map of equal bytes (libcpvs/eval/shadow_map_method.h); both answer through the ShadowMethod interface (shadow_method.h). tools/cpvs-sweep prints and plots
 // the rows.
 //
 // Points: area-weighted surface samples with their geometric normals (sampleSurfaces, deterministic seed),
@@ -25,17 +25,13 @@
 #include <vector>
 
 #include "libcpvs/bake/bake.h"
+#include "libcpvs/eval/shadow_map_method.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/scene/scene.h"
 #include "libcpvs/scene/surface_samples.h"
 
 namespace cpvs {
-
-enum class BaselineDepth : uint8_t { Embree = 0, Raster = 1 };
-// "embree" / "raster"; throws Error(Usage) for anything else.
-BaselineDepth parseBaselineDepth(const std::string& name);
-const char* baselineDepthName(BaselineDepth depth);
 
 struct SweepSettings {
   std::vector<uint32_t> resolutions{1024, 2048, 4096, 8192, 16384};

@@ -13,7 +13,6 @@
 #include "libcpvs/raster/depth_renderer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cstddef>
 #include <limits>
 #include <cmath>
@@ -22,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
 #include "libcpvs/raster/gl_context.h"
 
 namespace cpvs {
@@ -42,10 +41,6 @@ const char* rasterBackendName(RasterBackend backend) {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double msSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 // Kinds of the nearest surface (enter pass colour attachment).
 constexpr unsigned kKindNone = 0, kKindClosedFront = 1, kKindClosedBack = 2, kKindOpen = 3;
@@ -362,9 +357,7 @@ void buildVertices(const ViewGeometry& geometry, const LightView& view, const Vi
     }
   };
   if (count >= 16384) {
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096), [&](const tbb::blocked_range<size_t>& r) {
-      for (size_t t = r.begin(); t != r.end(); ++t) one(t);
-    });
+    parallelFor(count, one, 4096);
   } else {
     for (size_t t = 0; t < count; ++t) one(t);
   }
@@ -658,7 +651,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   const Targets& t = targets_;
 
   g.Finish();
-  auto start = Clock::now();
+  Stopwatch phase;
 
   // The viewport covers the aligned block of viewportSize_ texels that holds the region, so vertices and GL's
   // clipping are the same for every region of the block (the whole view when N <= viewportSize_); only the
@@ -719,8 +712,8 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   drawClosed();
   g.Finish();
   checkError("rendering enter depth");
-  local.enterMs = msSince(start);
-  start = Clock::now();
+  local.enterMs = phase.ms();
+  phase.restart();
 
   // 2. Init state.
   auto fullscreen = [&](GLuint program) {
@@ -859,7 +852,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       region.exit[i] = uint32_t(x);
     }
   }
-  local.peelMs = msSince(start);
+  local.peelMs = phase.ms();
   if (stats) *stats = local;
   return region;
 }

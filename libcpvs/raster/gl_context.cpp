@@ -64,6 +64,9 @@ void fillTable(Functions& f, const GetProc& getProc, const char* backendName) {
                 std::string(backendName) + ": the GL context does not provide gl" #name);
   CPVS_GL_FUNCTIONS(CPVS_GL_LOAD)
 #undef CPVS_GL_LOAD
+#define CPVS_GL_LOAD_OPTIONAL(type, name) f.name = reinterpret_cast<type>(getProc("gl" #name));
+  CPVS_GL_OPTIONAL_FUNCTIONS(CPVS_GL_LOAD_OPTIONAL)
+#undef CPVS_GL_LOAD_OPTIONAL
 }
 
 std::string describe(const Functions& f, const std::string& prefix, int& major, int& minor) {

@@ -79,11 +79,20 @@ namespace cpvs::gl {
   X(PFNGLDELETEQUERIESPROC, DeleteQueries)                                            \
   X(PFNGLBEGINQUERYPROC, BeginQuery)                                                  \
   X(PFNGLENDQUERYPROC, EndQuery)                                                      \
-  X(PFNGLGETQUERYOBJECTUIVPROC, GetQueryObjectuiv)
+  X(PFNGLGETQUERYOBJECTUIVPROC, GetQueryObjectuiv)                                    \
+  X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                          \
+  X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)
+
+// Entry points beyond GL 3.3 (compute shaders, tests/glsl_walk_test.cpp): left null where the context lacks
+// them, so that a 3.3 context still opens for the depth renderer.
+#define CPVS_GL_OPTIONAL_FUNCTIONS(X)                                                 \
+  X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                        \
+  X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)
 
 struct Functions {
 #define CPVS_GL_MEMBER(type, name) type name = nullptr;
   CPVS_GL_FUNCTIONS(CPVS_GL_MEMBER)
+  CPVS_GL_OPTIONAL_FUNCTIONS(CPVS_GL_MEMBER)
 #undef CPVS_GL_MEMBER
 };
 

@@ -1,18 +1,18 @@
 // cpvs-bake: scene (glTF) -> one .cpvs with a shadow DAG per light view (DESIGN.md §1, §4).
-#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <thread>
 
-#include <sys/resource.h>
 
 #include <nlohmann/json.hpp>
 
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/exr_image.h"
 #include "libcpvs/bake/bake.h"
+#include "libcpvs/base/peak_memory.h"
+#include "libcpvs/base/stopwatch.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
@@ -38,12 +38,6 @@ struct Options {
   bool quiet = false;
   tools::LightOptions lights;
 };
-
-uint64_t peakRssBytes() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return uint64_t(usage.ru_maxrss) * 1024;
-}
 
 void dumpDepthRegion(const std::string& dir, size_t light, size_t view, const DepthRegion& depth) {
   const size_t count = size_t(depth.rect.width) * depth.rect.height;
@@ -181,7 +175,7 @@ int run(int argc, char** argv) {
   settings.peel.maxPeels = o.maxPeels;
   settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch total;
   Scene scene = importGltf(o.scene);
   o.lights.applyTo(scene);
   for (const std::string& w : scene.warnings)
@@ -213,13 +207,13 @@ int run(int argc, char** argv) {
   double writeMs = 0;
   uint64_t fileBytes = 0;
   if (!o.output.empty()) {
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch write;
     const std::string bytes = writeCpvs(content);
     tools::writeFileAtomically(o.output, bytes);
-    writeMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    writeMs = write.ms();
     fileBytes = bytes.size();
   }
-  const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  const double totalMs = total.ms();
 
   if (!o.report.empty()) {
     const nlohmann::json j = reportJson(o, settings, report, totalMs, writeMs, fileBytes);

@@ -2,10 +2,8 @@
 // PCF-filtered; with --reference SCENE also Embree shadow rays and the error figures (DESIGN.md §1, §5).
 // Manual: docs/query.md.
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <charconv>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -15,7 +13,6 @@
 #include <thread>
 
 #include <fcntl.h>
-#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -25,6 +22,13 @@
 #include "formats/io/exr_image.h"
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/points.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/peak_memory.h"
+#include "libcpvs/base/stopwatch.h"
+#include "libcpvs/eval/cpvs_method.h"
+#include "libcpvs/eval/error_stats.h"
+#include "libcpvs/eval/reference_rays.h"
+#include "libcpvs/eval/throughput.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"
@@ -36,7 +40,6 @@
 namespace {
 
 using namespace cpvs;
-using Clock = std::chrono::steady_clock;
 
 constexpr size_t kChunk = 1 << 16;  // points per streamed chunk (also the timing set)
 constexpr double kRoundSeconds = 0.04;    // per method and round
@@ -61,44 +64,9 @@ struct Options {
   double referenceEpsilon = ShadowReference::kDefaultRelativeEpsilon;
 };
 
-uint64_t peakRssBytes() {
-  struct rusage usage {};
-  if (::getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return uint64_t(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
-}
-
-double msSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
-
 bool isFinite(const QueryPoint& p) {
   return std::isfinite(p.position.x) && std::isfinite(p.position.y) && std::isfinite(p.position.z) &&
          std::isfinite(p.normal.x) && std::isfinite(p.normal.y) && std::isfinite(p.normal.z);
-}
-
-// Runs fn(begin, end) over [0, count) split into contiguous ranges, one per thread.
-template <class Fn>
-void parallelRanges(size_t count, unsigned threads, Fn&& fn) {
-  threads = unsigned(std::min<size_t>(threads, std::max<size_t>(1, count / 1024)));
-  if (threads <= 1) {
-    fn(size_t(0), count);
-    return;
-  }
-  std::vector<std::thread> pool;
-  std::exception_ptr error;
-  std::atomic<bool> failed{false};
-  for (unsigned t = 0; t < threads; ++t) {
-    const size_t begin = count * t / threads, end = count * (t + 1) / threads;
-    pool.emplace_back([&, begin, end] {
-      try {
-        fn(begin, end);
-      } catch (...) {
-        if (!failed.exchange(true)) error = std::current_exception();
-      }
-    });
-  }
-  for (auto& thread : pool) thread.join();
-  if (error) std::rethrow_exception(error);
 }
 
 // The CSV output, streamed through a 1 MiB buffer into an AtomicFile (renamed into place by commit()).
@@ -149,7 +117,8 @@ bool endsWith(const std::string& s, const std::string& suffix) {
 struct SelectedLight {
   size_t index = 0;       // in the file
   std::string column;     // output column / channel name
-  LightShadow shadow;
+  std::unique_ptr<CpvsMethod> method;
+  const LightShadow& shadow() const { return method->shadow(); }
 };
 
 std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<std::string>& wanted,
@@ -185,13 +154,7 @@ std::vector<SelectedLight> selectLights(const CpvsFile& file, const std::vector<
     s.column = lights[i].light.name.empty() ? "light" + std::to_string(i) : lights[i].light.name;
     for (const SelectedLight& other : selected)
       if (other.column == s.column) s.column += "#" + std::to_string(i);
-    std::vector<LightView> views;
-    std::vector<DagView> dags;
-    for (const CpvsFile::View& v : lights[i].views) {
-      views.push_back(v.view);
-      dags.push_back(v.dag);
-    }
-    s.shadow = orThrow(LightShadow::create(lights[i].light, std::move(views), std::move(dags), topGrid));
+    s.method = std::make_unique<CpvsMethod>(CpvsMethod::fromFile(lights[i], topGrid));
     selected.push_back(std::move(s));
   }
   return selected;
@@ -218,7 +181,7 @@ void lookupRange(const std::vector<QueryPoint>& points, size_t begin, size_t end
     const size_t e = std::min(end, b + kLookupBatch);
     scratch.resize(e - b);
     for (size_t l = 0; l < nl; ++l) {
-      orThrow(lights[l].shadow.visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch));
+      lights[l].method->visibility(std::span<const QueryPoint>(points.data() + b, e - b), lookup, scratch);
       for (size_t i = b; i < e; ++i) values[i * nl + l] = scratch[i - b];
     }
   }
@@ -232,7 +195,8 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
   values.assign(count * nl, 0.0f);
   std::vector<uint8_t> valid(count);
   std::vector<uint8_t> refValues(reference ? count * nl : 0), uniform(reference ? count * nl : 0);
-  parallelRanges(count, threads, [&](size_t begin, size_t end) {
+  const unsigned parts = unsigned(std::min<size_t>(threads, std::max<size_t>(1, count / 1024)));
+  parallelParts(count, parts, [&](unsigned, size_t begin, size_t end) {
     std::vector<float> scratch;
     lookupRange(points, begin, end, lights, lookup, scratch, values.data());
     for (size_t i = begin; i < end; ++i) {
@@ -244,7 +208,7 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       }
       for (size_t l = 0; l < nl; ++l) {
         bool isUniform = false;
-        refValues[i * nl + l] = reference->visibility(lights[l].shadow, points[i], isUniform);
+        refValues[i * nl + l] = reference->visibility(lights[l].shadow(), points[i], isUniform);
         uniform[i * nl + l] = isUniform;
       }
     }
@@ -260,146 +224,17 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       const float v = values[i * nl + l];
       totals.visibilitySum[l] += v;
       if (!reference || valid[i] == 2) continue;
-      ErrorStats& e = totals.errors[l];
-      const uint8_t ref = refValues[i * nl + l];
-      const bool cpvsLit = v >= 0.5f;
-      const bool wrong = cpvsLit != (ref != 0);
-      ++e.samples;
-      e.misclassified += wrong;
-      if (wrong && e.firstMisclassified.size() < ErrorStats::kExamples)
-        e.firstMisclassified.push_back(totals.points + i);
-      e.absDiffSum += std::abs(double(v) - double(ref));
-      e.referenceLit += ref;
-      e.cpvsLit += cpvsLit;
-      if (uniform[i * nl + l]) {
-        ++e.uniform;
-        e.misclassifiedUniform += wrong;
-        if (wrong && e.firstMisclassifiedUniform.size() < ErrorStats::kExamples)
-          e.firstMisclassifiedUniform.push_back(totals.points + i);
-        e.absDiffSumUniform += std::abs(double(v) - double(ref));
-      }
+      totals.errors[l].record(v, refValues[i * nl + l], uniform[i * nl + l] != 0, totals.points + i);
     }
   }
   totals.points += count;
 }
-
-// Single-threaded throughput of one round: `pass` does `workPerPass` units; repeated until at least
-// `seconds` have passed.
-template <class Fn>
-double perSecond(size_t workPerPass, double seconds, Fn&& pass) {
-  if (workPerPass == 0) return 0.0;
-  uint64_t work = 0;
-  const auto start = Clock::now();
-  double elapsed = 0;
-  do {
-    pass();
-    work += workPerPass;
-    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-  } while (elapsed < seconds);
-  return double(work) / elapsed;
-}
-
-// Throughput figures measured together: every round runs each method once (in the same order), so a change
-// in machine load hits all of them alike; each figure is the best of its rounds (the least disturbed one)
-// and the median is kept beside it.
-class Throughput {
-public:
-  using Method = std::function<double()>;  // one round: units per second
-  void add(const std::string& name, Method method) { methods_.push_back({name, std::move(method), {}}); }
-  void run(int rounds) {
-    if (rounds <= 0) return;
-    for (auto& m : methods_) m.method();  // warm caches, page in the file
-    for (int r = 0; r < rounds; ++r)
-      for (auto& m : methods_) m.samples.push_back(m.method());
-  }
-  double best(const std::string& name) const {
-    const auto& s = find(name).samples;
-    return s.empty() ? 0.0 : *std::max_element(s.begin(), s.end());
-  }
-  double median(const std::string& name) const {
-    std::vector<double> s = find(name).samples;
-    if (s.empty()) return 0.0;
-    std::nth_element(s.begin(), s.begin() + ptrdiff_t(s.size() / 2), s.end());
-    return s[s.size() / 2];
-  }
-  bool has(const std::string& name) const {
-    return std::any_of(methods_.begin(), methods_.end(), [&](const Entry& e) { return e.name == name; });
-  }
-
-private:
-  struct Entry {
-    std::string name;
-    Method method;
-    std::vector<double> samples;
-  };
-  const Entry& find(const std::string& name) const {
-    for (const Entry& e : methods_)
-      if (e.name == name) return e;
-    throw std::logic_error("no throughput method " + name);
-  }
-  std::vector<Entry> methods_;
-};
-
-volatile float gSink;  // keeps the timed loops from being optimised away
 
 std::vector<QueryPoint> validPoints(const std::vector<QueryPoint>& points) {
   std::vector<QueryPoint> valid;
   for (const QueryPoint& p : points)
     if (isFinite(p)) valid.push_back(p);
   return valid;
-}
-
-// Lookups per second, one thread, the way the query itself does them (batches of kLookupBatch points).
-double lookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<const SelectedLight*>& lights,
-                        const LookupOptions& lookup, double seconds) {
-  std::vector<float> out(std::min(valid.size(), kLookupBatch));
-  return perSecond(valid.size() * lights.size(), seconds, [&] {
-    float sum = 0;
-    for (const SelectedLight* light : lights)
-      for (size_t b = 0; b < valid.size(); b += kLookupBatch) {
-        const size_t e = std::min(valid.size(), b + kLookupBatch);
-        orThrow(light->shadow.visibility(std::span<const QueryPoint>(valid.data() + b, e - b), lookup,
-                                 std::span<float>(out.data(), e - b)));
-        sum += out[0];
-      }
-    gSink = sum;
-  });
-}
-
-// The same, one point at a time (LightShadow::visibility of a single point: what a shader-style caller does).
-double singleLookupsPerSecond(const std::vector<QueryPoint>& valid, const std::vector<const SelectedLight*>& lights,
-                              const LookupOptions& lookup, double seconds) {
-  return perSecond(valid.size() * lights.size(), seconds, [&] {
-    float sum = 0;
-    for (const SelectedLight* light : lights)
-      for (const QueryPoint& p : valid) sum += light->shadow.visibility(p.position, p.normal, lookup);
-    gSink = sum;
-  });
-}
-
-// Embree shadow rays per second, one thread: one rtcOccluded1 ray per point and light.
-double raysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
-                     const ShadowReference& reference, double seconds) {
-  return perSecond(valid.size() * lights.size(), seconds, [&] {
-    unsigned sum = 0;
-    for (const SelectedLight& light : lights)
-      for (const QueryPoint& p : valid) sum += reference.visibility(light.shadow.light(), p);
-    gSink = float(sum);
-  });
-}
-
-// The same rays in 16-wide packets (rtcOccluded16), one thread.
-double packetRaysPerSecond(const std::vector<QueryPoint>& valid, const std::vector<SelectedLight>& lights,
-                           const ShadowReference& reference, double seconds) {
-  std::vector<uint8_t> out;
-  return perSecond(valid.size() * lights.size(), seconds, [&] {
-    unsigned sum = 0;
-    for (const SelectedLight& light : lights) {
-      reference.visibilityPackets(light.shadow.light(), valid, out);
-      sum += out.empty() ? 0 : out[0];
-    }
-    gSink = float(sum);
-  });
 }
 
 // ---- EXR G-buffers -----------------------------------------------------------------------------------
@@ -492,7 +327,7 @@ nlohmann::json errorJson(const ErrorStats& e) {
 }
 
 int run(const Options& options) {
-  const auto start = Clock::now();
+  const Stopwatch total;
   tools::forFlag("--pcf", [&] { orThrow(checkPcfKernel(options.pcf)); });
   if (!options.excludedMeshes.empty() && options.reference.empty())
     throw Error(ErrorCategory::InvalidArgument, "--exclude-mesh only applies to the --reference scene");
@@ -520,12 +355,12 @@ int run(const Options& options) {
   std::unique_ptr<ShadowReference> reference;
   double referenceLoadMs = 0;
   if (!options.reference.empty()) {
-    const auto t = Clock::now();
+    const Stopwatch load;
     Scene scene = importGltf(options.reference);
     if (!options.excludedMeshes.empty())
       tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
     reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation, options.referenceEpsilon);
-    referenceLoadMs = msSince(t);
+    referenceLoadMs = load.ms();
     if (!options.quiet)
       for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
   }
@@ -547,9 +382,9 @@ int run(const Options& options) {
     for (size_t begin = 0; begin < points.size(); begin += kChunk) {
       const size_t end = std::min(points.size(), begin + kChunk);
       chunk.assign(points.begin() + ptrdiff_t(begin), points.begin() + ptrdiff_t(end));
-      const auto t = Clock::now();
+      const Stopwatch chunkClock;
       evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, chunkValues, totals);
-      evalMs += msSince(t);
+      evalMs += chunkClock.ms();
       std::copy(chunkValues.begin(), chunkValues.end(), values.begin() + ptrdiff_t(begin * nl));
       if (timingSet.empty()) timingSet = chunk;
       progress.update(double(end) / double(points.size()));
@@ -584,9 +419,9 @@ int run(const Options& options) {
     std::vector<QueryPoint> chunk;
     std::vector<float> values;
     while (reader->next(chunk, kChunk)) {
-      const auto t = Clock::now();
+      const Stopwatch chunkClock;
       evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, values, totals);
-      evalMs += msSince(t);
+      evalMs += chunkClock.ms();
       if (timingSet.empty()) timingSet = chunk;
       std::string& out = csv.buffer();
       for (size_t i = 0; i < chunk.size(); ++i) {
@@ -627,30 +462,42 @@ int run(const Options& options) {
 
   // Throughput, one thread each, over the first chunk of points (the whole set when it fits in one).
   const std::vector<QueryPoint> timing = validPoints(timingSet);
-  std::vector<const SelectedLight*> all;
-  for (const SelectedLight& l : lights) all.push_back(&l);
   LookupOptions unfiltered = lookup;
   unfiltered.pcfKernel = 1;
+  std::vector<const ShadowMethod*> all;
+  std::vector<Light> lightList;
+  for (const SelectedLight& l : lights) {
+    all.push_back(l.method.get());
+    lightList.push_back(l.method->light());
+  }
   Throughput throughput;
-  throughput.add("lookups", [&] { return lookupsPerSecond(timing, all, lookup, kRoundSeconds); });
+  throughput.add("lookups", [&] { return lookupsPerSecond(all, timing, lookup, kRoundSeconds); });
   if (options.pcf > 1)
-    throughput.add("unfiltered", [&] { return lookupsPerSecond(timing, all, unfiltered, kRoundSeconds); });
-  throughput.add("single", [&] { return singleLookupsPerSecond(timing, all, lookup, kRoundSeconds); });
+    throughput.add("unfiltered", [&] { return lookupsPerSecond(all, timing, unfiltered, kRoundSeconds); });
+  // One point at a time (LightShadow::visibility of a single point: what a shader-style caller does).
+  throughput.add("single", [&] {
+    return perSecond(timing.size() * nl, kRoundSeconds, [&] {
+      float sum = 0;
+      for (const SelectedLight& light : lights)
+        for (const QueryPoint& p : timing) sum += light.shadow().visibility(p.position, p.normal, lookup);
+      consume(sum);
+    });
+  });
   if (reference) {
-    throughput.add("rays", [&] { return raysPerSecond(timing, lights, *reference, kRoundSeconds); });
-    throughput.add("packets", [&] { return packetRaysPerSecond(timing, lights, *reference, kRoundSeconds); });
+    throughput.add("rays", [&] { return raysPerSecond(*reference, lightList, timing, kRoundSeconds); });
+    throughput.add("packets", [&] { return packetRaysPerSecond(*reference, lightList, timing, kRoundSeconds); });
   }
   if (nl > 1)
     for (size_t l = 0; l < nl; ++l)
       throughput.add("light" + std::to_string(l),
-                     [&, l] { return lookupsPerSecond(timing, {&lights[l]}, lookup, kRoundSeconds / 2); });
+                     [&, l] { return lookupsPerSecond(*lights[l].method, timing, lookup, kRoundSeconds / 2); });
   throughput.run(options.timingRounds);
   const double lookupsPerS = throughput.best("lookups");
   const double unfilteredPerS = options.pcf > 1 ? throughput.best("unfiltered") : lookupsPerS;
   const double singlePerS = throughput.best("single");
 
   size_t topGridBytes = 0;
-  for (const SelectedLight& l : lights) topGridBytes += l.shadow.topGridBytes();
+  for (const SelectedLight& l : lights) topGridBytes += l.shadow().topGridBytes();
   nlohmann::json lightsJson = nlohmann::json::array();
   const uint64_t valid = totals.points - totals.invalid;
   for (size_t l = 0; l < nl; ++l) {
@@ -697,7 +544,7 @@ int run(const Options& options) {
       {"top_grid_levels", options.topGrid < 0 ? nlohmann::json("automatic") : nlohmann::json(options.topGrid)},
       {"top_grid_bytes", topGridBytes},
       {"peak_rss_bytes", peakRssBytes()},
-      {"timings_ms", {{"evaluate", evalMs}, {"reference_load", referenceLoadMs}, {"total", msSince(start)}}},
+      {"timings_ms", {{"evaluate", evalMs}, {"reference_load", referenceLoadMs}, {"total", total.ms()}}},
       {"lights", lightsJson}};
   if (reference) {
     nlohmann::json r = errorJson(pooled);
