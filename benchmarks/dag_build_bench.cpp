@@ -1,5 +1,5 @@
 // The DAG phase alone, on the depth maps of a real bake, without rendering: the builder with and without node
-// reuse (seed 004 §3.2) and the parts that do not depend on reuse (the min-max hierarchies, the final
+// reuse (Kämpe et al. 2015, §3.2) and the parts that do not depend on reuse (the min-max hierarchies, the final
 // relocation). docs/benchmarks.md quotes it to show where the reuse build's time goes.
 //
 //   build-bench/bin/cpvs-bake out/bench/scenes/city-t100000-s1.glb --resolution 16k --sun 0.4,-1,0.3

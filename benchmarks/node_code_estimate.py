@@ -5,7 +5,7 @@ Format 2.0 (docs/format.md) stores a node as a u16 header, 2 bits per child (0 l
 reference, 3 two-unit reference), then the references: many of them repeat another child's. Leaf parents
 split z only, and a Kampe chain keeps one mask for many slices, so child c often names the same leaf as child
 c - 1; an octree node's far child c (c >= 4) often equals its near child c - 4 (the Z-neighbour that node
-reuse, seed 004 §3.2, exploits while building). This script re-encodes every view of a file, bottom-up and
+reuse, Kämpe et al. 2015, §3.2, exploits while building). This script re-encodes every view of a file, bottom-up and
 exactly, as
 
   * "as stored": the 2.0 encoding of the file's own order (checked against the file: it must match);

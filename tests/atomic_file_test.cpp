@@ -1,4 +1,4 @@
-// Atomic outputs (DESIGN.md §7): a committed file holds exactly its bytes; an abandoned one, an error or a
+// Atomic outputs (docs/cli.md): a committed file holds exactly its bytes; an abandoned one, an error or a
 // Ctrl-C leaves neither a partial target nor a stray temporary beside it.
 #include <gtest/gtest.h>
 

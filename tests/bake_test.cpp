@@ -1,4 +1,4 @@
-// cpvs-bake end to end (issue 3): every required voxel of the baked DAGs agrees with the depth maps they were
+// cpvs-bake end to end: every required voxel of the baked DAGs agrees with the depth maps they were
 // built from, in every mode and with and without node reuse; regions and thread counts change no byte; the tool
 // writes atomically, reports what pipelines read, and exits with its documented codes.
 #include <gtest/gtest.h>

@@ -141,7 +141,7 @@ TEST(Dag, RegionsGiveTheSameGridAsOnePiece) {
 TEST(Dag, VolumesPastEveryFrontSurfaceOfTheirFootprintAreShadowed) {
   // A slab: every texel enters a solid at slice 10 and leaves it at 60. The chains keep the free voxels lit
   // until the exit (nothing needs shadow before it), but a volume lying past every front surface of its
-  // footprint holds only free and shadowed voxels, so it is all shadowed (seed 004 §3.4, as Sintorn):
+  // footprint holds only free and shadowed voxels, so it is all shadowed (Kämpe et al. 2015, §3.4, as Sintorn):
   // the root's four near children are lit (z < 32 < 60), its four far children shadowed (32 > 10), and
   // nothing else is stored.
   const uint32_t n = 64;

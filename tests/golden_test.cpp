@@ -1,4 +1,4 @@
-// End-to-end golden bytes (issue 3): cpvs-bake on the shipped Tiny scene at N = 64, with a sun and a spot given
+// End-to-end golden bytes: cpvs-bake on the shipped Tiny scene at N = 64, with a sun and a spot given
 // on the command line (so the result does not depend on the scene's own lights) and every setting spelled out
 // (so it does not depend on the tool's defaults), must reproduce
 // tests/golden/tiny_scene_bake64_v2.cpvs byte for byte — with one thread and with two. This pins the whole

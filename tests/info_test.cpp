@@ -1,4 +1,4 @@
-// cpvs-info on .cpvs files (issue 3): a real bake of the Tiny scene is shown with its header, settings,
+// cpvs-info on .cpvs files: a real bake of the Tiny scene is shown with its header, settings,
 // lights, views, DAG levels, bytes and checksums, as text and as JSON that agrees with the runtime reader; the
 // kind of input is decided by the magic, not the name; and corrupt copies (flipped bytes in every part of the
 // file, cuts at and around every section boundary, foreign magic, text-mode damage, a future major version)

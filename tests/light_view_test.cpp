@@ -1,4 +1,4 @@
-// The voxel convention (DESIGN.md §3): one mapping, fitted views, view selection.
+// The voxel convention (docs/architecture.md, "The voxel convention"): one mapping, fitted views, view selection.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -9,7 +9,7 @@
 //
 // Query points are sampled on the scene's own triangles (area-weighted, uniform barycentric, fixed seed) with
 // the triangle's geometric normal; points that lie inside a closed solid (Embree parity count) are dropped: no
-// camera can see them and the baker may answer either way there (free voxels, DESIGN.md §3).
+// camera can see them and the baker may answer either way there (free voxels, docs/architecture.md, "The voxel convention").
 #include <gtest/gtest.h>
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 #pragma once
-// glTF 2.0 import (DESIGN.md §4.1): triangle geometry, node transforms, instancing and KHR_lights_punctual.
+// glTF 2.0 import (docs/architecture.md): triangle geometry, node transforms, instancing and KHR_lights_punctual.
 #include <string>
 
 #include "libcpvs/scene/scene.h"

@@ -1,6 +1,7 @@
 #include "formats/io/points.h"
 
 #include <algorithm>
+#include <iterator>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
@@ -484,12 +485,10 @@ PointFormat detectPointFormat(const std::string& path) {
 }
 
 const char* pointFormatName(PointFormat format) {
-  switch (format) {
-    case PointFormat::Csv: return "csv";
-    case PointFormat::Ply: return "ply";
-    case PointFormat::Exr: return "exr";
-  }
-  return "?";
+  // Indexed by the enum's value (0, 1, 2 in declaration order).
+  static constexpr const char* kNames[] = {"csv", "ply", "exr"};
+  const size_t i = size_t(format);
+  return i < std::size(kNames) ? kNames[i] : "?";
 }
 
 std::unique_ptr<PointReader> PointReader::open(const std::string& path) {

@@ -1,5 +1,5 @@
 #pragma once
-// cpvs-bake's pipeline (DESIGN.md §4): per light, per view, per region: depth maps -> tile chains -> DAG.
+// cpvs-bake's pipeline (docs/architecture.md): per light, per view, per region: depth maps -> tile chains -> DAG.
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -15,7 +15,7 @@ namespace cpvs {
 struct BakeSettings {
   uint32_t resolution = 4096;
   UndefinedMode undefinedMode = UndefinedMode::Kampe;
-  bool nodeReuse = true;           // seed 004 §3.2; off only to measure it
+  bool nodeReuse = true;           // Kämpe et al. 2015, §3.2; off only to measure it
   unsigned threads = 2;            // tile chains and DAG building overlap with rendering when > 1
   RasterBackend backend = RasterBackend::OSMesa;
   // Clamped to the renderer's limit and to N. 1024 on llvmpipe: a region's 41 MB of GL buffers stay in the

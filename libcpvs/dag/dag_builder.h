@@ -1,6 +1,6 @@
 #pragma once
-// Top-down construction of a view's shadow DAG from tile chains, region by region (seed 004 §3.2,
-// DESIGN.md §4.4). Hash tables persist across regions, so identical subtrees merge over the whole view.
+// Top-down construction of a view's shadow DAG from tile chains, region by region (Kämpe et al. 2015, §3.2,
+// docs/construction.md). Hash tables persist across regions, so identical subtrees merge over the whole view.
 #include <cstdint>
 #include <memory>
 #include <vector>

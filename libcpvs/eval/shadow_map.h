@@ -1,5 +1,5 @@
 #pragma once
-// A plain 16-bit shadow map: the baseline the speed-vs-error sweep (tools/cpvs-sweep, issue 4) sets beside a
+// A plain 16-bit shadow map: the baseline the speed-vs-error sweep (tools/cpvs-sweep) sets beside a
 // CPVS of the same bytes. Not part of the engine runtime (it needs Embree or GL to build).
 //
 // The map of one light view is M x M texels over exactly the view's lateral extent, near/far plane and depth

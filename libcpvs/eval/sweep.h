@@ -1,5 +1,5 @@
 #pragma once
-// Speed against error (issue 4): for a scene and its lights, bake a CPVS at each resolution of a sweep, answer
+// Speed against error: for a scene and its lights, bake a CPVS at each resolution of a sweep, answer
 // sampled surface points with the CPVS lookups, and measure the error against Embree shadow rays, beside a
 // plain 16-bit shadow map of equal bytes (libcpvs/eval/shadow_map_method.h); both answer through the ShadowMethod interface (shadow_method.h). tools/cpvs-sweep prints and plots
 // the rows.
@@ -7,7 +7,7 @@
 // Points: area-weighted surface samples with their geometric normals (sampleSurfaces, deterministic seed),
 // without the samples that lie inside a closed solid (faces of intersecting or embedded solids, e.g. a
 // building's base inside the ground slab or a fin inside a tower: no camera sees them, and inside closed
-// geometry the CPVS is free to answer either way — seed 004 §3.3), tested at the point moved the reference's
+// geometry the CPVS is free to answer either way — Kämpe et al. 2015, §3.3), tested at the point moved the reference's
 // offset (referenceEpsilon: by default 1e-6 of the scene diagonal) along its normal
 // (ShadowReference::insideClosedSolid); per light only those inside the light's influence and, unless
 // `allPoints`, facing the light (n . l > 0): a point facing away from the light is in its own surface's shadow,

@@ -147,7 +147,7 @@ void main() {
 }
 )";
 
-// Lockstep peeling (seed 004 §3.3): every iteration consumes the next front layer and the next back layer.
+// Lockstep peeling (Kämpe et al. 2015, §3.3): every iteration consumes the next front layer and the next back layer.
 // With fronts F1 < F2 < ... (F1 = the enter surface; coincident fronts count once, which can only make the
 // exit earlier) and backs B1 <= B2 <= ... (coincident backs counted by multiplicity), the ray leaves the union
 // of closed solids at the first Bj with Bj <= F(j+1): up to that back only j fronts were crossed. The state

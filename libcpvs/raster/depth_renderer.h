@@ -1,6 +1,6 @@
 #pragma once
 // Renders enter and exit depth maps of one region of a light view with OpenGL 4.5 core
-// (OSMesa by default, EGL as an option), DESIGN.md §4.2.
+// (OSMesa by default, EGL as an option), docs/depth-maps.md
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -15,7 +15,7 @@ namespace cpvs {
 
 struct PeelSettings {
   // Each peel iteration renders the closed front faces and the closed back faces once and consumes one layer
-  // of each (lockstep, seed 004 §3.3): k iterations resolve k levels of nesting exactly. When the cap is
+  // of each (lockstep, Kämpe et al. 2015, §3.3): k iterations resolve k levels of nesting exactly. When the cap is
   // reached the exit is the last back layer consumed: never later than the truth, only less free space.
   // Default 2: on the generated closed city at 4k, 2 peels gave a 0.3 % smaller file than 11 (full) peels
   // in 45 % of the peel time (docs/depth-maps.md); deeper exits rarely help compression.

@@ -1,7 +1,7 @@
 #pragma once
 // An OpenGL core context for off-screen rendering, created without linking libGL: libOSMesa.so.8 or
 // libEGL.so.1 is opened with dlopen() at run time and every GL entry point is fetched through the backend's
-// GetProcAddress into a GlFunctions table (DESIGN.md §4.2, docs/depth-maps.md).
+// GetProcAddress into a GlFunctions table (docs/depth-maps.md, docs/depth-maps.md).
 #include <memory>
 #include <string>
 

@@ -1,5 +1,5 @@
 #pragma once
-// Ray-traced ground truth with Embree 3 (DESIGN.md §7: tests compare against Embree; cpvs-query --reference).
+// Ray-traced ground truth with Embree 3 (docs/cli.md: tests compare against Embree; cpvs-query --reference).
 //
 // All rays are given in double world coordinates. Internally the geometry is translated by
 // -bounds.center() and stored in float, so scenes far from the origin keep their precision; hit distances

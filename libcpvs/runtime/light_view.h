@@ -1,5 +1,5 @@
 #pragma once
-// Light views and the voxel convention (DESIGN.md §3): the one mapping from world space to integer voxel
+// Light views and the voxel convention (docs/architecture.md, "The voxel convention"): the one mapping from world space to integer voxel
 // coordinates that the baker, the depth renderer and every lookup share.
 #include <cstdint>
 #include <optional>
@@ -21,7 +21,7 @@ enum class DepthMapping : uint8_t { Linear = 0, Logarithmic = 1 };
 //  * lateral: orthographic a = x_view, b = y_view; perspective a = x_view / d, b = y_view / d.
 //    u = N (a - xMin) / (xMax - xMin), v = N (b - yMin) / (yMax - yMin).
 //  * depth: linear s = N (d - near) / (far - near); logarithmic s = N log(d / near) / log(far / near)
-//    (seed 004 eq. 1).
+//    (Kämpe et al. 2015, eq. 1).
 //  * voxel (x, y, z) = clamp(floor(u, v, s), 0, N - 1). Texel centres are at u = x + 0.5.
 struct LightView {
   Projection projection = Projection::Orthographic;
@@ -49,7 +49,7 @@ struct Voxel {
 GridPoint toGrid(const LightView& view, const glm::dvec3& world);
 // The same with the view's constants computed beforehand (ViewMapping(view)): the same bits.
 GridPoint toGrid(const ViewMapping& mapping, const glm::dvec3& world);
-// floor + clamp to [0, N-1]; the only rounding rule (DESIGN.md §3).
+// floor + clamp to [0, N-1]; the only rounding rule (docs/architecture.md, "The voxel convention").
 Voxel toVoxel(const LightView& view, const glm::dvec3& uvs);
 inline Voxel worldToVoxel(const LightView& view, const glm::dvec3& world) {
   return toVoxel(view, toGrid(view, world).uvs);

@@ -1,5 +1,5 @@
 #pragma once
-// Runtime shadow lookups in a baked CPVS (DESIGN.md §5): point -> view -> biased integer voxel -> one DAG
+// Runtime shadow lookups in a baked CPVS (docs/query.md): point -> view -> biased integer voxel -> one DAG
 // traversal, unfiltered or K x K PCF. Part of cpvs_runtime: depends only on glm and the light-view mapping,
 // no GL, Embree or glTF.
 //
@@ -7,7 +7,7 @@
 //
 // The lookup of a world point p with normal n (n may be zero: no bias) in one view, step by step:
 //  1. g = toGrid(view, p): continuous (u, v, s), the same mapping the baker uses (light_view.h).
-//  2. Bias (seed 004 §4 "Perspective Lights", done in grid space, never with a world-space epsilon):
+//  2. Bias (Kämpe et al. 2015, §4 "Perspective Lights", done in grid space, never with a world-space epsilon):
 //       m = J^-T n, with J = d(u, v, s)/d(world) at p (gridJacobian): the surface normal expressed in voxel
 //       units (the inverse transpose keeps it perpendicular to the surface however anisotropic the voxels
 //       are or however strongly the perspective and log-depth mapping distort them); m^ = m / |m|.
@@ -117,7 +117,7 @@ SpotInfluence spotInfluence(const Light& light);
 // What the bias rule (step 2 above) takes from the options, as cell_lanes.h's cellLanes reads it.
 CellSettings cellSettings(const LookupOptions& options);
 
-// A dense grid of the DAG's nodes at one level (seed 004 §5.3 "top-level pointer grid"): entry
+// A dense grid of the DAG's nodes at one level (Kämpe et al. 2015, §5.3 "top-level pointer grid"): entry
 // (gx, gy, gz) holds the child code of the node at level `level` covering that cell and, for a reference, its
 // word offset, so a traversal starts `level` levels down. 8^level entries of 4 bytes. Built from a DagView.
 struct TopGrid {

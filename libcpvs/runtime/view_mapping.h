@@ -1,5 +1,5 @@
 #pragma once
-// The light-view mapping of light_view.h (DESIGN.md §3) in the form every hot path evaluates it: constants
+// The light-view mapping of light_view.h (docs/architecture.md, "The voxel convention") in the form every hot path evaluates it: constants
 // derived once per view (ViewMapping) and mapToGrid, a template over the lane type. toGrid runs it on one
 // double, the batch lookups on four at once (runtime/batch_cells_avx2.cpp): the same IEEE operations in the
 // same order, so a point gets the same bits whichever path maps it (CMake sets -ffp-contract=off so that no

@@ -2,7 +2,7 @@
 // Ground sheets (docs/depth-maps.md "Ground sheets"): an open mesh that is a height field over the whole
 // scene is the top of solid ground, the way a closed mesh bounds a solid. flatten() closes such a sheet with
 // a skirt and a bottom far behind it, so the exit depth maps see the ground as a solid and the voxels under
-// it become free (seed 004 §3.4), as in the paper's closed FractalLandscape. Answers above the ground do
+// it become free (Kämpe et al. 2015, §3.4), as in the paper's closed FractalLandscape. Answers above the ground do
 // not change: a shadow ray from a point above the sheet can only reach the skirt through the sheet itself.
 #include <cstddef>
 #include <string>

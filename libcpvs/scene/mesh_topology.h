@@ -1,5 +1,5 @@
 #pragma once
-// Decides whether a mesh is closed (DESIGN.md §4.1) from its geometry alone.
+// Decides whether a mesh is closed (docs/architecture.md) from its geometry alone.
 #include <cstdint>
 #include <span>
 #include <vector>

@@ -28,7 +28,7 @@ struct Mesh {
   std::string name;
   std::vector<glm::vec3> positions;
   std::vector<uint32_t> indices;  // 3 per triangle
-  // Closedness is decided by the importer from the geometry alone (DESIGN.md §4.1): after welding
+  // Closedness is decided by the importer from the geometry alone (docs/architecture.md): after welding
   // vertices by position every edge is shared by exactly two triangles with opposite orientation.
   bool closed = false;
   bool insideOut = false;  // closed but with negative signed volume: flipped when flattened

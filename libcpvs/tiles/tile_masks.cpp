@@ -1,6 +1,7 @@
 #include "libcpvs/tiles/tile_masks.h"
 
 #include <algorithm>
+#include <iterator>
 #include <bit>
 #include <string>
 
@@ -17,12 +18,10 @@ UndefinedMode parseUndefinedMode(const std::string& name) {
 }
 
 const char* undefinedModeName(UndefinedMode mode) {
-  switch (mode) {
-    case UndefinedMode::Kampe: return "kampe";
-    case UndefinedMode::Sintorn: return "sintorn";
-    case UndefinedMode::None: return "none";
-  }
-  return "?";
+  // Indexed by the enum's value (0, 1, 2 in declaration order).
+  static constexpr const char* kNames[] = {"kampe", "sintorn", "none"};
+  const size_t i = size_t(mode);
+  return i < std::size(kNames) ? kNames[i] : "?";
 }
 
 uint64_t TileChains::maskAt(uint32_t tile, uint32_t slice) const {

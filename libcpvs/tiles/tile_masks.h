@@ -1,5 +1,5 @@
 #pragma once
-// Per 8x8 texel tile, the visibility along depth as a chain of 64-bit masks (seed 004 §3.4, DESIGN.md §4.3).
+// Per 8x8 texel tile, the visibility along depth as a chain of 64-bit masks (Kämpe et al. 2015, §3.4, docs/architecture.md).
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -10,7 +10,7 @@ namespace cpvs {
 
 // How free voxels (inside closed solids, e < z < x) are resolved.
 enum class UndefinedMode : uint8_t {
-  Kampe = 0,    // seed 004 §3.4: greedy masks that shadow as much as allowed, each started at the most aligned
+  Kampe = 0,    // Kämpe et al. 2015, §3.4: greedy masks that shadow as much as allowed, each started at the most aligned
                 // slice its window allows (tile_masks.cpp, docs/construction.md §1)
   Sintorn = 1,  // Sintorn 2014: lit+free -> lit, shadow+free -> shadow, mixed -> free becomes shadow
   None = 2,     // no free voxels: every texel exits right after its first surface (as for open geometry)
@@ -35,7 +35,7 @@ struct TileChains {
   // Per tile, feeding the min-max hierarchy: every slice before litUntil is all lit in the chain; darkFrom is
   // the farthest enter slice + 1 (N where a texel sees nothing). From darkFrom on no voxel of the tile needs
   // light, so a volume lying past it over its whole footprint may be all shadowed even where the chain kept
-  // free voxels lit (seed 004 §3.4: shadowed + free -> shadowed); the chain is all shadowed from its last entry
+  // free voxels lit (Kämpe et al. 2015, §3.4: shadowed + free -> shadowed); the chain is all shadowed from its last entry
   // at the latest, which is never before darkFrom.
   std::vector<uint32_t> litUntil;
   std::vector<uint32_t> darkFrom;

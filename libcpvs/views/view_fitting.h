@@ -9,7 +9,7 @@
 
 namespace cpvs {
 
-// Builds the views of a light, fitted to the geometry it reaches (x/y extent and near/far), DESIGN.md §3.
+// Builds the views of a light, fitted to the geometry it reaches (x/y extent and near/far), docs/architecture.md, "The voxel convention"
 // Directional: 1 orthographic; spot: 1 perspective (field of view from the outer cone); point: 6 cube faces.
 std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& geometry, uint32_t resolution);
 

@@ -1,5 +1,5 @@
 #pragma once
-// Output files that never exist half-written (DESIGN.md §7): bytes go to a hidden temporary beside the target,
+// Output files that never exist half-written (docs/cli.md): bytes go to a hidden temporary beside the target,
 // which commit() flushes to disk and renames over it. Until then the temporary is removed when the object is
 // destroyed (an error unwinding) and, on Ctrl-C or SIGTERM, by a signal handler before the process dies with
 // that signal — so an interrupted tool leaves neither a partial file nor a stray `.NAME.tmp-XXXXXX`.

@@ -118,6 +118,15 @@ int runMain(const char* toolName, const std::function<int()>& body) {
   }
 }
 
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);  // app.exit prints the help, version or error
+  }
+  return std::nullopt;
+}
+
 void addVersionFlag(CLI::App& app, const char* toolName) {
   app.set_version_flag("--version", std::string(toolName) + " " + kVersion);
 }

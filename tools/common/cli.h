@@ -1,6 +1,7 @@
 #pragma once
-// What every cpvs tool shares on its command line: lights, excluded meshes, exit codes (DESIGN.md §7).
+// What every cpvs tool shares on its command line: lights, excluded meshes, exit codes (docs/cli.md).
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,10 @@ auto forFlag(const std::string& flag, Fn&& parse) -> decltype(parse()) {
     throw Error(e.category(), flag + ": " + e.what());
   }
 }
+
+// Parses the command line. Returns the exit code when parsing ends the run (--help, --version: 0; a usage
+// error, printed: 1), nothing when the tool should go on.
+std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv);
 
 // Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
 int runMain(const char* toolName, const std::function<int()>& body);

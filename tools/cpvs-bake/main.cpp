@@ -1,4 +1,4 @@
-// cpvs-bake: scene (glTF) -> one .cpvs with a shadow DAG per light view (DESIGN.md §1, §4).
+// cpvs-bake: scene (glTF) -> one .cpvs with a shadow DAG per light view (docs/architecture.md, §4).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -136,9 +136,9 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   o.lights.addTo(app);
   app.add_option("--undefined", o.undefinedMode,
-                 "Free voxels inside closed solids: kampe (seed 004 §3.4), sintorn (2014), none")
+                 "Free voxels inside closed solids: kampe (Kämpe et al. 2015, §3.4), sintorn (2014), none")
       ->capture_default_str();
-  app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip seed 004 §3.2), to measure it");
+  app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
   app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
   app.add_option("--backend", o.backend, "Depth rendering: osmesa (default, no GPU or display) or egl")
       ->capture_default_str();
@@ -155,11 +155,7 @@ int run(int argc, char** argv) {
   app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
   app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
   app.add_flag("-q,--quiet", o.quiet, "No progress bar");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
-  }
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
   if (o.output.empty() && o.dumpDepth.empty())
     throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
   if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");

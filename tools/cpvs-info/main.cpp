@@ -170,12 +170,7 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "Print JSON instead of text");
   cpvs::tools::LightOptions lightOptions;
   lightOptions.addTo(app);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help/version (code 0) or the usage error
-    return code == 0 ? 0 : int(cpvs::tools::ExitCode::Usage);
-  }
+  if (const auto done = cpvs::tools::parseCommandLine(app, argc, argv)) return *done;
   return cpvs::tools::runMain(kTool, [&] {
     const InputKind kind = sniff(input);
     if (kind == InputKind::Scene) return printScene(input, lightOptions, json);

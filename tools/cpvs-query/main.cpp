@@ -1,5 +1,5 @@
 // cpvs-query: .cpvs + points (CSV / PLY / EXR G-buffer) -> visibility per point per light, unfiltered or
-// PCF-filtered; with --reference SCENE also Embree shadow rays and the error figures (DESIGN.md §1, §5).
+// PCF-filtered; with --reference SCENE also Embree shadow rays and the error figures (docs/architecture.md, §5).
 // Manual: docs/query.md.
 #include <algorithm>
 #include <cerrno>
@@ -627,10 +627,6 @@ int main(int argc, char** argv) {
              "\nPoints with a NaN or infinite coordinate or normal are answered 0 and counted in a warning and in the "
              "report (invalid_points). Points outside a light's range or cone are answered 0; points whose normal "
              "faces away from the light are answered 0 (in their own surface's shadow).");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
-  }
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
   return tools::runMain("cpvs-query", [&] { return run(options); });
 }

@@ -26,11 +26,7 @@ int run(int argc, char** argv) {
   app.add_option("-n,--count", count, "Number of points")->capture_default_str()->check(CLI::Range(1, 100000000));
   app.add_option("--seed", seed, "Random seed")->capture_default_str();
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh by name (repeatable), e.g. a skybox");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
-  }
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
   Scene scene = importGltf(scenePath);
   options.applyTo(scene);
   const WorldGeometry world = flatten(scene);

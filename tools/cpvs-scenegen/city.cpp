@@ -1,4 +1,4 @@
-// The closed city, the open city and the city with spot lights (seed 004 §5, "ClosedCity").
+// The closed city, the open city and the city with spot lights (Kämpe et al. 2015, §5, "ClosedCity").
 //
 // Layout: a square of 1000 x 1000 units centred on the origin, cut by streets into G x G blocks of L x L
 // lots. A lot holds one building, chosen at random (taller near the centre):

@@ -1,4 +1,4 @@
-// The closed fractal landscape (seed 004 §5, "FractalLandscape").
+// The closed fractal landscape (Kämpe et al. 2015, §5, "FractalLandscape").
 //
 // An n x n grid of quads over [-500, 500]^2 whose heights are fractional Brownian motion of value noise
 // (lattice values from a hash of seed, lattice point and octave; quintic interpolation), shaped so that

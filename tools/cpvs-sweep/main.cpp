@@ -1,4 +1,4 @@
-// cpvs-sweep: speed against error (issue 4). For a scene and its lights, bakes a CPVS at each resolution of a
+// cpvs-sweep: speed against error. For a scene and its lights, bakes a CPVS at each resolution of a
 // sweep, answers sampled surface points with the CPVS lookups, measures the error against Embree shadow rays,
 // and sets a plain 16-bit shadow map of equal bytes beside it (libcpvs/eval). Writes a markdown table, an
 // SVG plot and a JSON file per scene; tools/cpvs-sweep/run_sweeps.py runs the shipped scenes and the city and
@@ -292,11 +292,7 @@ int run(int argc, char** argv) {
   app.add_option("--name", o.name, "Name of the outputs (default: the scene file's stem)");
   app.add_option("--out-dir", o.outDir, "Folder for NAME.md, NAME.svg and NAME.json (none: table to stdout only)");
   app.add_flag("-q,--quiet", o.quiet, "No progress lines; with --out-dir, no table on stdout either");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(tools::ExitCode::Usage);
-  }
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
   if (o.samples < 1 || o.samples > 100000000) throw Error(ErrorCategory::InvalidArgument, "--points must be in 1..1e8");
   tools::forFlag("--reference-epsilon", [&] { ShadowReference::checkRelativeEpsilon(o.referenceEpsilon); });
   if (o.minLightPoints > 100000000) throw Error(ErrorCategory::InvalidArgument, "--min-light-points must be in 0..1e8");
