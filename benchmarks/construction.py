@@ -25,6 +25,7 @@ import subprocess
 import sys
 import time
 
+from kept_analysis import kept_analysis
 from machine import machine_info, run_text
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -384,17 +385,7 @@ class Bench:
             w(f"| (not measured in this run: {', '.join(missing)}) | | |")
         w("")
         # Hand-written analysis below the marker in the existing document is kept across regenerations.
-        try:
-            with open(path) as f:
-                old = f.read()
-        except OSError:
-            old = ""
-        if ANALYSIS_MARKER in old:
-            L.append(old[old.index(ANALYSIS_MARKER):].rstrip())
-        else:
-            w(ANALYSIS_MARKER)
-            w("")
-            w("(No analysis yet: text written below this marker is kept when the tables are regenerated.)")
+        L.extend(kept_analysis(path, ANALYSIS_MARKER))
         os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
         with open(path + ".tmp", "w") as f:
             f.write("\n".join(L) + "\n")

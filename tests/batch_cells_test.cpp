@@ -10,18 +10,11 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/runtime/shadow_lookup.h"
+#include "support/test_support.h"
 #include "libcpvs/views/view_fitting.h"
 
 namespace cpvs {
 namespace {
-
-WorldGeometry groundAndPyramid() {
-  WorldGeometry world;
-  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
-  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
-  for (const auto& p : world.positions) world.bounds.extend(p);
-  return world;
-}
 
 std::vector<Light> testLights() {
   Light spot;
@@ -88,7 +81,7 @@ struct Cells {
 
 TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
   const CellIsa best = bestCellIsa();
-  const WorldGeometry world = groundAndPyramid();
+  const WorldGeometry world = test::groundAndRidge();
   size_t voxels = 0, lit = 0, zero = 0;
   for (const Light& light : testLights()) {
     const std::vector<LightView> views = makeLightViews(light, world, 1024);
@@ -156,7 +149,7 @@ TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
 // Index lists and every batch length around the 4-lane groups: lane j maps points[indices[j]], and a short
 // last group writes only its own lanes.
 TEST(BatchCells, IndexListsAndShortGroups) {
-  const WorldGeometry world = groundAndPyramid();
+  const WorldGeometry world = test::groundAndRidge();
   const LightView view = makeLightViews(testLights()[1], world, 256).at(0);
   const ViewMapping mapping(view);
   const std::vector<SurfacePoint> points = hardPoints(view, testLights()[1], 9);

@@ -9,55 +9,12 @@
 
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/tiles/tile_masks.h"
+#include "support/test_dags.h"
 
 namespace cpvs {
 namespace {
 
-// A synthetic depth map with the structure of real ones: blocky casters at a few depths (so there are
-// mid-air shadow boundaries), solids of various thickness, open surfaces and empty texels.
-DepthRegion syntheticDepth(uint32_t n, uint32_t seed, RegionRect rect = {}) {
-  if (rect.width == 0) rect = {0, 0, n, n};
-  std::mt19937 rng(seed);
-  struct Block {
-    uint32_t x0, y0, x1, y1, e, thickness;
-  };
-  std::vector<Block> blocks;
-  for (int i = 0; i < 12; ++i) {
-    const uint32_t x0 = rng() % n, y0 = rng() % n;
-    const uint32_t w = 1 + rng() % (n / 3), h = 1 + rng() % (n / 3);
-    const uint32_t e = rng() % (n - 2);
-    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e - 1);
-    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
-  }
-  DepthRegion d;
-  d.rect = rect;
-  d.resolution = n;
-  d.enter.assign(size_t(rect.width) * rect.height, n);
-  d.exit.assign(size_t(rect.width) * rect.height, n);
-  for (uint32_t y = 0; y < rect.height; ++y) {
-    for (uint32_t x = 0; x < rect.width; ++x) {
-      const uint32_t gx = rect.x0 + x, gy = rect.y0 + y;
-      uint32_t e = n, xs = n;
-      for (const Block& b : blocks) {
-        if (gx >= b.x0 && gx < b.x1 && gy >= b.y0 && gy < b.y1 && b.e < e) {
-          e = b.e;
-          xs = std::min(n, b.e + b.thickness);
-        }
-      }
-      // A sloped open surface over part of the map.
-      if (gx + gy < n / 2) {
-        const uint32_t slope = (gx + 2 * gy) % n;
-        if (slope < e) {
-          e = slope;
-          xs = std::min(n, slope + 1);
-        }
-      }
-      d.enter[size_t(y) * rect.width + x] = e;
-      d.exit[size_t(y) * rect.width + x] = std::max(xs, std::min(n, e + 1));
-    }
-  }
-  return d;
-}
+using test::syntheticDepth;
 
 void expectExact(const DagView& dag, const DepthRegion& depth) {
   const uint32_t n = depth.resolution;

@@ -26,10 +26,13 @@
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/tiles/tile_masks.h"
+#include "support/test_dags.h"
 #include "support/test_support.h"
 
 namespace cpvs {
 namespace {
+
+using test::syntheticDepth;
 
 using Bytes = std::vector<uint8_t>;
 using namespace cpvsformat;
@@ -38,43 +41,6 @@ constexpr double kPi = 3.14159265358979323846;
 
 // ---------------------------------------------------------------------------------------------------------------
 // Content
-
-// A synthetic depth map with blocky casters, solids and an open slope (as in dag_test.cpp).
-DepthRegion syntheticDepth(uint32_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  struct Block {
-    uint32_t x0, y0, x1, y1, e, thickness;
-  };
-  std::vector<Block> blocks;
-  for (int i = 0; i < 10; ++i) {
-    const uint32_t x0 = rng() % n, y0 = rng() % n;
-    const uint32_t w = 1 + rng() % (n / 3), h = 1 + rng() % (n / 3);
-    const uint32_t e = rng() % (n - 2);
-    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e - 1);
-    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
-  }
-  DepthRegion d;
-  d.rect = {0, 0, n, n};
-  d.resolution = n;
-  d.enter.assign(size_t(n) * n, n);
-  d.exit.assign(size_t(n) * n, n);
-  for (uint32_t y = 0; y < n; ++y)
-    for (uint32_t x = 0; x < n; ++x) {
-      uint32_t e = n, xs = n;
-      for (const Block& b : blocks)
-        if (x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1 && b.e < e) {
-          e = b.e;
-          xs = std::min(n, b.e + b.thickness);
-        }
-      if (x + y < n / 2 && (x + 2 * y) % n < e) {
-        e = (x + 2 * y) % n;
-        xs = std::min(n, e + 1);
-      }
-      d.enter[size_t(y) * n + x] = e;
-      d.exit[size_t(y) * n + x] = std::max(xs, std::min(n, e + 1));
-    }
-  return d;
-}
 
 ShadowDag bakedDag(uint32_t n, uint32_t seed) {
   return buildDag(buildTileChains(syntheticDepth(n, seed), UndefinedMode::Kampe), true);

@@ -22,10 +22,13 @@
 #include "libcpvs/runtime/dag_walk.glsl.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/tiles/tile_masks.h"
+#include "support/test_dags.h"
 #include "support/test_support.h"
 
 namespace cpvs {
 namespace {
+
+using test::wideReferenceDag;
 
 // ---- DAGs -----------------------------------------------------------------------------------------------
 
@@ -52,29 +55,6 @@ ShadowDag syntheticDag(uint32_t n, uint32_t seed) {
         if (e < d.enter[size_t(y) * n + x]) d.enter[size_t(y) * n + x] = e, d.exit[size_t(y) * n + x] = exit;
   }
   return buildDag(buildTileChains(d, UndefinedMode::Kampe), true);
-}
-
-// A 16^3 DAG whose leaf parents reference leaves past index 65535 (two-unit references) next to one-unit
-// references and homogeneous children (the idea of lookup_test's wideReferenceDag).
-ShadowDag wideReferenceDag() {
-  std::vector<uint64_t> leaves(70000);
-  for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0x9E3779B97F4A7C15ull;
-  std::vector<uint32_t> root{0}, parents;
-  for (unsigned c = 0; c < 8; ++c) {
-    root[0] |= 2u << (2 * c);
-    root.push_back(uint32_t(parents.size()));
-    const size_t header = parents.size();
-    parents.push_back(0);
-    for (unsigned z = 0; z < 8; ++z) {
-      const unsigned kind = (c + z) % 4;  // 0 lit, 1 shadowed, 2 a low leaf index, 3 a high one
-      parents[header] |= std::min(kind, 2u) << (2 * z);
-      if (kind == 2) parents.push_back(c * 8 + z);
-      if (kind == 3) parents.push_back(65530 + c * 500 + z);
-    }
-  }
-  const std::span<const uint32_t> levels[2] = {root, parents};
-  const uint64_t counts[2] = {1, 8};
-  return orThrow(encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves)));
 }
 
 // The TorusKnot under a sun and a spot at N = 128 (every voxel on the GPU too) and 256 (one bake each per

@@ -85,10 +85,7 @@ TEST(LightView, SameAnswersWhenTheSceneMovesOrScales) {
 
 TEST(LightView, PointLightHasSixFacesAndSelectsByMajorAxis) {
   const WorldGeometry world = boxesScene();
-  Light light;
-  light.type = LightType::Point;
-  light.position = {0, 8, 0};
-  light.range = 50;
+  const Light light = test::pointLight("point", {0, 8, 0}, 50);
   const auto views = makeLightViews(light, world, 64);
   ASSERT_EQ(views.size(), 6u);
   auto face = [&](glm::dvec3 p) { return views[*selectView(light, views, p)].face; };

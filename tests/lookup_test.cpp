@@ -20,50 +20,16 @@
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/tiles/tile_masks.h"
 #include "libcpvs/views/view_fitting.h"
+#include "support/test_dags.h"
 #include "support/test_support.h"
 
 namespace cpvs {
 namespace {
 
-// ---- synthetic DAGs -------------------------------------------------------------------------------------
+using test::syntheticDepth;
+using test::wideReferenceDag;
 
-// Random blocky casters (some thin, some solid), a sloped open surface, empty texels.
-DepthRegion randomDepth(uint32_t n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  struct Block {
-    uint32_t x0, y0, x1, y1, e, thickness;
-  };
-  std::vector<Block> blocks;
-  const int count = 4 + int(rng() % 12);
-  for (int i = 0; i < count; ++i) {
-    const uint32_t x0 = rng() % n, y0 = rng() % n;
-    const uint32_t w = 1 + rng() % std::max(1u, n / 3), h = 1 + rng() % std::max(1u, n / 3);
-    const uint32_t e = rng() % (n - 1);
-    const uint32_t thickness = (rng() % 3 == 0) ? 1 : 1 + rng() % (n - e);
-    blocks.push_back({x0, y0, std::min(n, x0 + w), std::min(n, y0 + h), e, thickness});
-  }
-  DepthRegion d;
-  d.rect = {0, 0, n, n};
-  d.resolution = n;
-  d.enter.assign(size_t(n) * n, n);
-  d.exit.assign(size_t(n) * n, n);
-  for (uint32_t y = 0; y < n; ++y)
-    for (uint32_t x = 0; x < n; ++x) {
-      uint32_t e = n, xs = n;
-      for (const Block& b : blocks)
-        if (x >= b.x0 && x < b.x1 && y >= b.y0 && y < b.y1 && b.e < e) {
-          e = b.e;
-          xs = std::min(n, b.e + b.thickness);
-        }
-      if ((x ^ y) % 7 == 0 && x + y < n) {  // speckle: single-texel open surfaces
-        const uint32_t s = (3 * x + y) % n;
-        if (s < e) e = s, xs = std::min(n, s + 1);
-      }
-      d.enter[size_t(y) * n + x] = e;
-      d.exit[size_t(y) * n + x] = std::max(xs, std::min(n, e + 1));
-    }
-  return d;
-}
+// ---- synthetic DAGs -------------------------------------------------------------------------------------
 
 ShadowDag dagFrom(const DepthRegion& depth, UndefinedMode mode = UndefinedMode::Kampe) {
   return buildDag(buildTileChains(depth, mode), true);
@@ -108,7 +74,7 @@ Light sun() {
 TEST(Pcf, OneTraversalEqualsKSquaredLookups) {
   for (uint32_t n : {8u, 16u, 64u, 128u}) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
-      const ShadowDag dag = dagFrom(randomDepth(n, seed * 31 + n));
+      const ShadowDag dag = dagFrom(syntheticDepth(n, seed * 31 + n));
       const DagView view = dag.view();
       std::mt19937 rng(seed);
       std::uniform_int_distribution<int32_t> coord(-6, int32_t(n) + 5);
@@ -127,7 +93,7 @@ TEST(Pcf, OneTraversalEqualsKSquaredLookups) {
 
 TEST(TopGrid, StartingFromTheGridGivesTheSameAnswers) {
   for (uint32_t n : {16u, 64u, 128u}) {
-    const ShadowDag dag = dagFrom(randomDepth(n, n + 7));
+    const ShadowDag dag = dagFrom(syntheticDepth(n, n + 7));
     const DagView view = dag.view();
     for (uint32_t level = 1; level <= 5; ++level) {
       const TopGrid grid = TopGrid::build(view, level);
@@ -154,7 +120,7 @@ TEST(TopGrid, StartingFromTheGridGivesTheSameAnswers) {
   // The automatic level keeps the grid within the DAG's own bytes, at most kMaxAutomaticTopGridLevels, and
   // takes the deepest level that does.
   for (uint32_t n : {64u, 256u}) {
-    const ShadowDag dag = dagFrom(randomDepth(n, 3));
+    const ShadowDag dag = dagFrom(syntheticDepth(n, 3));
     const uint32_t level = TopGrid::automaticLevel(dag.view());
     EXPECT_LE(level, kMaxAutomaticTopGridLevels);
     if (level > 0) {
@@ -187,7 +153,7 @@ TEST(Pcf, HomogeneousRootsAndWholeGridKernels) {
 
 TEST(Lookup, VisibilityMatchesReferenceOnRandomPointsAndNormals) {
   const uint32_t n = 64;
-  const ShadowDag dag = dagFrom(randomDepth(n, 5));
+  const ShadowDag dag = dagFrom(syntheticDepth(n, 5));
   const LightView view = identityView(n);
   const Light light = sun();
   std::mt19937 rng(9);
@@ -211,7 +177,7 @@ TEST(Lookup, VisibilityMatchesReferenceOnRandomPointsAndNormals) {
 
 TEST(Lookup, BatchEqualsSinglePointLookups) {
   const uint32_t n = 64;
-  const ShadowDag dag = dagFrom(randomDepth(n, 11));
+  const ShadowDag dag = dagFrom(syntheticDepth(n, 11));
   const LightView view = identityView(n);
   std::mt19937 rng(12);
   std::uniform_real_distribution<double> pos(-4.0, n + 4.0), dir(-1.0, 1.0);
@@ -264,30 +230,6 @@ private:
   uint16_t* data_ = nullptr;
 };
 
-// A 16^3 DAG whose leaf parents reference leaves past index 65535 (two-unit references), mixed with
-// homogeneous children and one-unit references; leaf masks from a hash. The baked DAGs of the tests are too
-// small to need two-unit references.
-ShadowDag wideReferenceDag() {
-  std::vector<uint64_t> leaves(70000);
-  for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0x9E3779B97F4A7C15ull;
-  std::vector<uint32_t> root{0}, parents;
-  for (unsigned c = 0; c < 8; ++c) {
-    root[0] |= 2u << (2 * c);
-    root.push_back(uint32_t(parents.size()));
-    const size_t header = parents.size();
-    parents.push_back(0);
-    for (unsigned z = 0; z < 8; ++z) {
-      const unsigned kind = (c + z) % 4;  // 0 lit, 1 shadowed, 2 a low leaf index, 3 a high one
-      parents[header] |= std::min(kind, 2u) << (2 * z);
-      if (kind == 2) parents.push_back(c * 8 + z);
-      if (kind == 3) parents.push_back(65530 + c * 500 + z);
-    }
-  }
-  const std::span<const uint32_t> levels[2] = {root, parents};
-  const uint64_t counts[2] = {1, 8};
-  return orThrow(encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves)));
-}
-
 // Every voxel of the DAG walked from the root (in groups, as the lookups do) with the vector walks: its
 // visibility, and its tile's mask at its slice.
 TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
@@ -297,7 +239,7 @@ TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
   for (uint32_t n : {16u, 32u, 64u})
     for (uint32_t seed = 1; seed <= 4; ++seed) cases.emplace_back(n, seed);
   for (const auto& [n, seed] : cases) {
-    const ShadowDag dag = seed == 0 ? wideReferenceDag() : dagFrom(randomDepth(n, seed * 13 + n));
+    const ShadowDag dag = seed == 0 ? wideReferenceDag() : dagFrom(syntheticDepth(n, seed * 13 + n));
     if (dag.rootCode != ChildCode::Ref) continue;
     const GuardedUnits guarded(dag.nodes);
     DagView view = dag.view();
@@ -336,7 +278,7 @@ TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
 // CPU has them) give the scalar single-point answers, K = 1 and PCF, with and without a top grid.
 TEST(DagWalks, BatchOnAGuardedDagEqualsSinglePointLookups) {
   const uint32_t n = 64;
-  const ShadowDag dag = dagFrom(randomDepth(n, 23));
+  const ShadowDag dag = dagFrom(syntheticDepth(n, 23));
   ASSERT_EQ(dag.rootCode, ChildCode::Ref);
   const GuardedUnits guarded(dag.nodes);
   DagView view = dag.view();
@@ -409,18 +351,25 @@ TEST(Lookup, MisuseIsReportedNotThrown) {
   EXPECT_EQ(out, std::vector<float>(3, 1.0f));
 }
 
-TEST(Lookup, JacobianMatchesFiniteDifferences) {
-  WorldGeometry world;
-  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
-  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
-  for (const auto& p : world.positions) world.bounds.extend(p);
+// The lights the mapping tests look at test::groundAndRidge() with.
+Light tiltedSpot() {
   Light spot;
   spot.type = LightType::Spot;
   spot.position = {1, 6, 2};
   spot.direction = glm::normalize(glm::dvec3(-0.2, -1, -0.1));
   spot.outerConeAngle = 1.0;
+  return spot;
+}
+
+Light tiltedSun() {
   Light directional;
   directional.direction = glm::normalize(glm::dvec3(0.3, -1, 0.5));
+  return directional;
+}
+
+TEST(Lookup, JacobianMatchesFiniteDifferences) {
+  const WorldGeometry world = test::groundAndRidge();
+  const Light spot = tiltedSpot(), directional = tiltedSun();
   for (const Light& light : {spot, directional}) {
     const LightView view = makeLightViews(light, world, 256)[0];
     for (const glm::dvec3& p : {glm::dvec3(0.3, 0.1, -0.7), glm::dvec3(-2, 0, 3), glm::dvec3(1, 1, 1)}) {
@@ -443,17 +392,8 @@ TEST(Lookup, JacobianMatchesFiniteDifferences) {
 }
 
 TEST(Lookup, HoistedToGridIsToGridBitForBit) {
-  WorldGeometry world;
-  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
-  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
-  for (const auto& p : world.positions) world.bounds.extend(p);
-  Light spot;
-  spot.type = LightType::Spot;
-  spot.position = {1, 6, 2};
-  spot.direction = glm::normalize(glm::dvec3(-0.2, -1, -0.1));
-  spot.outerConeAngle = 1.0;
-  Light directional;
-  directional.direction = glm::normalize(glm::dvec3(0.3, -1, 0.5));
+  const WorldGeometry world = test::groundAndRidge();
+  const Light spot = tiltedSpot(), directional = tiltedSun();
   Light point;
   point.type = LightType::Point;
   point.position = {0.5, 3, -1};
@@ -639,14 +579,11 @@ TEST(Influence, OutsideRangeOrConeIsZero) {
 // each point the single-point answer of its own face.
 TEST(Influence, PointLightBatchEqualsSinglePointLookups) {
   const WorldGeometry world = boxWorld();
-  Light point;
-  point.type = LightType::Point;
-  point.position = {0.5, 0.25, 0.1};
-  point.range = 9;
+  const Light point = test::pointLight("point", {0.5, 0.25, 0.1}, 9);
   std::vector<LightView> views = makeLightViews(point, world, 64);
   ASSERT_EQ(views.size(), 6u);
   std::vector<ShadowDag> owned;
-  for (uint32_t face = 0; face < 6; ++face) owned.push_back(dagFrom(randomDepth(64, 40 + face)));
+  for (uint32_t face = 0; face < 6; ++face) owned.push_back(dagFrom(syntheticDepth(64, 40 + face)));
   std::vector<DagView> dags;
   for (const ShadowDag& d : owned) dags.push_back(d.view());
   for (LightView& v : views) v.empty = false;

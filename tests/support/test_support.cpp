@@ -112,6 +112,23 @@ Light spotLight(const std::string& name, const glm::dvec3& position, const glm::
   return spot;
 }
 
+Light pointLight(const std::string& name, const glm::dvec3& position, double range) {
+  Light point;
+  point.name = name;
+  point.type = LightType::Point;
+  point.position = position;
+  point.range = range;
+  return point;
+}
+
+WorldGeometry groundAndRidge() {
+  WorldGeometry world;
+  world.positions = {{-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}, {0, 2, 0}};
+  world.indices = {0, 1, 2, 0, 2, 3, 0, 1, 4};
+  for (const auto& p : world.positions) world.bounds.extend(p);
+  return world;
+}
+
 void classifyMeshes(Scene& scene) {
   for (Mesh& mesh : scene.meshes) classifyMesh(mesh);
 }

@@ -38,6 +38,10 @@ Light sunLight(const std::string& name, const glm::dvec3& direction);
 Light spotLight(const std::string& name, const glm::dvec3& position, const glm::dvec3& direction, double outerCone,
                 double range);
 
+Light pointLight(const std::string& name, const glm::dvec3& position, double range);
+// A 10 x 10 ground square at y = 0 with a ridge triangle up to y = 2: a small world for the mapping tests.
+WorldGeometry groundAndRidge();
+
 struct ToolResult {
   int exitCode = -1;
   std::string output;  // stdout and stderr together

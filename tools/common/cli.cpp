@@ -63,40 +63,49 @@ void LightOptions::addTo(CLI::App& app) {
       ->type_name("NAME");
 }
 
+namespace {
+
+Light namedLight(LightType type, const char* stem, size_t index) {
+  Light light;
+  light.name = stem + std::to_string(index);
+  light.type = type;
+  return light;
+}
+
+// RANGE as the options take it: 0 means unlimited.
+double lightRange(const char* flag, const std::string& text, double value) {
+  if (value < 0) throw Error(ErrorCategory::InvalidArgument, std::string(flag) + " '" + text + "': RANGE must not be negative");
+  return value == 0 ? std::numeric_limits<double>::infinity() : value;
+}
+
+}  // namespace
+
 void LightOptions::applyTo(Scene& scene) const {
   if (!excludedMeshes.empty()) forFlag("--exclude-mesh", [&] { excludeMeshes(scene, excludedMeshes); });
   if (!any()) return;
   scene.lights.clear();
   for (size_t i = 0; i < suns.size(); ++i) {
     const auto v = parseNumbers("--sun", suns[i], 3);
-    Light light;
-    light.name = "sun" + std::to_string(i);
-    light.type = LightType::Directional;
+    Light light = namedLight(LightType::Directional, "sun", i);
     light.direction = unitDirection("--sun", suns[i], v[0], v[1], v[2]);
     scene.lights.push_back(light);
   }
   for (size_t i = 0; i < spots.size(); ++i) {
     const auto v = parseNumbers("--spot", spots[i], 8);
-    Light light;
-    light.name = "spot" + std::to_string(i);
-    light.type = LightType::Spot;
+    Light light = namedLight(LightType::Spot, "spot", i);
     light.position = {v[0], v[1], v[2]};
     light.direction = unitDirection("--spot", spots[i], v[3], v[4], v[5]);
     if (!(v[6] > 0 && v[6] <= M_PI / 2))
       throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
     light.outerConeAngle = v[6];
-    if (v[7] < 0) throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': RANGE must not be negative");
-    light.range = v[7] == 0 ? std::numeric_limits<double>::infinity() : v[7];
+    light.range = lightRange("--spot", spots[i], v[7]);
     scene.lights.push_back(light);
   }
   for (size_t i = 0; i < points.size(); ++i) {
     const auto v = parseNumbers("--point", points[i], 4);
-    Light light;
-    light.name = "point" + std::to_string(i);
-    light.type = LightType::Point;
+    Light light = namedLight(LightType::Point, "point", i);
     light.position = {v[0], v[1], v[2]};
-    if (v[3] < 0) throw Error(ErrorCategory::InvalidArgument, "--point '" + points[i] + "': RANGE must not be negative");
-    light.range = v[3] == 0 ? std::numeric_limits<double>::infinity() : v[3];
+    light.range = lightRange("--point", points[i], v[3]);
     scene.lights.push_back(light);
   }
 }
