@@ -334,6 +334,13 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   EXPECT_EQ(t["ground_sheets"][0]["faces"], "+y");
   EXPECT_EQ(t["ground_sheets"][0]["used"], true);
   EXPECT_EQ(t["ground_sheets"][0]["closing_triangles"], 12u);  // 4 boundary edges: 4 x 2 wall + 4 bottom
+  // cpvs-info describes the same sheet with the same keys.
+  const auto info = runTool(toolPath("cpvs-info") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " --json > " + dir +
+                            "/info.json");
+  ASSERT_EQ(info.exitCode, 0) << info.output;
+  const nlohmann::json i = nlohmann::json::parse(readFile(dir + "/info.json"));
+  ASSERT_EQ(i["groundSheets"].size(), 1u);
+  EXPECT_EQ(i["groundSheets"][0], t["ground_sheets"][0]);
 }
 
 TEST(BakeTool, DumpDepthWritesEnterAndExitSlices) {

@@ -16,6 +16,7 @@
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/ground_json.h"
 #include "tools/common/progress.h"
 
 namespace {
@@ -55,19 +56,9 @@ void dumpDepthRegion(const std::string& dir, size_t light, size_t view, const De
   writeExr((std::filesystem::path(dir) / name).string(), image);
 }
 
-const char* axisName(int axis, int sign) {
-  static const char* names[] = {"-x", "-y", "-z", "+x", "+y", "+z"};
-  return names[(sign > 0 ? 3 : 0) + axis];
-}
-
 nlohmann::json groundSheetsJson(const std::vector<GroundSheet>& sheets) {
   nlohmann::json out = nlohmann::json::array();
-  for (const GroundSheet& g : sheets) {
-    nlohmann::json j = {{"mesh", g.mesh}, {"node", g.node}, {"faces", axisName(g.axis, g.sign)}, {"used", g.used}};
-    if (g.used) j["closing_triangles"] = g.closingTriangles;
-    else j["reason"] = g.reason;
-    out.push_back(j);
-  }
+  for (const GroundSheet& g : sheets) out.push_back(tools::groundSheetJson<nlohmann::json>(g));
   return out;
 }
 

@@ -12,6 +12,7 @@
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
+#include "tools/common/ground_json.h"
 #include "tools/cpvs-info/info_common.h"
 
 namespace {
@@ -67,8 +68,7 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
 nlohmann::ordered_json groundJson(const WorldGeometry& world) {
   nlohmann::ordered_json sheets = nlohmann::ordered_json::array();
   for (const cpvs::GroundSheet& g : world.groundSheets)
-    sheets.push_back({{"mesh", g.mesh}, {"node", g.node}, {"axis", g.axis}, {"sign", g.sign}, {"used", g.used},
-                      {"reason", g.reason}, {"closingTriangles", g.closingTriangles}});
+    sheets.push_back(cpvs::tools::groundSheetJson(g));
   return sheets;
 }
 
