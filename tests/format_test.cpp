@@ -684,6 +684,12 @@ TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
       {"NaN bound", [nan](RawFile& f) { setViewF64(f, 0, 168, nan); }, "not finite"},
       {"empty lateral extent", [](RawFile& f) { setViewF64(f, 0, 176, -1.5); }, "lateral extent"},
       {"infinite matrix", [](RawFile& f) { setViewF64(f, 0, 40, INFINITY); }, "viewFromWorld"},
+      // Finite but absurd: an infinite width once subtracted, or a matrix that overflows a mapped point.
+      {"bounds of 1e308", [](RawFile& f) { setViewF64(f, 0, 168, -1e308); setViewF64(f, 0, 176, 1e308); }, "beyond"},
+      {"far of 1e308", [](RawFile& f) { setViewF64(f, 0, 208, 1e308); }, "beyond"},
+      {"matrix element of 1e308", [](RawFile& f) { setViewF64(f, 0, 48, 1e308); }, "viewFromWorld element"},
+      {"extent too small for N", [](RawFile& f) { setViewF64(f, 0, 168, 0.0); setViewF64(f, 0, 176, 1e-320); },
+       "too small"},
       {"log depth with near 0", [](RawFile& f) { setViewF64(f, 1, 200, 0.0); }, "near > 0"},
       {"node section index", [](RawFile& f) { setView(f, 0, 16, 5, 4); }, "'NODE'"},
       {"leaf section index", [](RawFile& f) { setView(f, 0, 20, 99, 4); }, "'LEAF'"},

@@ -26,6 +26,9 @@ inline constexpr uint32_t kLightRecordSize = 112;   // LGHT record, 1.0 and 2.0
 inline constexpr uint32_t kViewRecordSize = 472;    // VIEW record, 1.0 and 2.0
 inline constexpr uint32_t kMaxLevels = 32;          // nodesPerLevel slots in a VIEW record
 inline constexpr uint32_t kMaxResolution = 1u << 20;
+// Largest magnitude of a view bound (lateral extent, near, far) a reader accepts; matrix elements up to twice it.
+// Far beyond any level (1e18 scene units), far below where the mapping's arithmetic would overflow.
+inline constexpr double kMaxViewCoordinate = 1e18;
 // Section types, as the four bytes in the file (first character in the lowest byte).
 inline constexpr uint32_t fourcc(char a, char b, char c, char d) {
   return uint32_t(uint8_t(a)) | uint32_t(uint8_t(b)) << 8 | uint32_t(uint8_t(c)) << 16 | uint32_t(uint8_t(d)) << 24;

@@ -526,6 +526,21 @@ void CpvsFile::parse(const std::string& name) {
       if (!(v.near < v.far)) r.fail(vwhat + ": near " + num(v.near) + " is not before far " + num(v.far));
       if (v.mapping == DepthMapping::Logarithmic && !(v.near > 0))
         r.fail(vwhat + ": logarithmic depth needs near > 0 (near is " + num(v.near) + ")");
+      // Finite is not enough: the mapping divides by the extents and takes log(far / near), and a bound of 1e308
+      // gives an infinite width. Every value must lie within what a bake of a real scene can write.
+      for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
+        if (!(std::abs(x) <= kMaxViewCoordinate))
+          r.fail(vwhat + ": bound " + num(x) + " beyond +-" + num(kMaxViewCoordinate));
+      const double n = double(v.resolution);
+      const double spans[] = {n / (v.xMax - v.xMin), n / (v.yMax - v.yMin),
+                              n / (v.mapping == DepthMapping::Linear ? v.far - v.near : std::log(v.far / v.near))};
+      for (double scale : spans)
+        if (!(std::isfinite(scale) && scale > 0)) r.fail(vwhat + ": an extent too small for its resolution");
+      for (int c = 0; c < 4; ++c)
+        for (int row = 0; row < 4; ++row)
+          if (!(std::abs(v.viewFromWorld[c][row]) <= 2 * kMaxViewCoordinate))
+            r.fail(vwhat + ": viewFromWorld element " + num(v.viewFromWorld[c][row]) + " beyond +-" +
+                   num(2 * kMaxViewCoordinate));
       out.nodesPerLevel.resize(levels);
       for (uint32_t k = 0; k < kMaxLevels; ++k) {
         const uint64_t c = r.u64(w + 216 + 8 * k);
