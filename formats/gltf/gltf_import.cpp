@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "formats/gltf/untrusted_input.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/scene/mesh_topology.h"
 
@@ -52,8 +53,8 @@ bool hasImageExtension(const std::string& path) {
 // meant (the loader is given an absolute path, so candidates from "." are the relative ones). Images are
 // never read: shadows do not need them, and they can be large.
 bool fileExistsBesideSceneExceptImages(const std::string& path, void* userData) {
-  if (path.empty() || path.front() != '/' || hasImageExtension(path)) return false;
-  return tinygltf::FileExists(path, userData);
+  if (hasImageExtension(path)) return false;
+  return gltf::fileExists(path, userData);
 }
 
 bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
@@ -221,7 +222,7 @@ Triangulation triangulate(int mode, const std::vector<uint32_t>& sequence) {
 
 class GltfImporter {
 public:
-  explicit GltfImporter(std::string path) : path_(std::move(path)) {}
+  GltfImporter(std::string path, const ImportOptions& options) : path_(std::move(path)), options_(options) {}
 
   Scene run() {
     scene_.source = path_;
@@ -251,6 +252,9 @@ private:
   void load() {
     std::error_code ec;
     if (std::filesystem::is_directory(path_, ec)) fail("is a directory, not a glTF file");
+    // A FIFO or device would block the read or never end.
+    if (std::filesystem::exists(path_, ec) && !std::filesystem::is_regular_file(path_, ec))
+      fail("is not a regular file (a FIFO, socket or device)");
     std::ifstream file(path_, std::ios::binary | std::ios::ate);
     if (!file) fail(std::string("cannot open: ") + std::strerror(errno));
     const std::streamoff size = file.tellg();
@@ -260,13 +264,24 @@ private:
     file.seekg(0);
     if (!file.read(reinterpret_cast<char*>(bytes.data()), size)) fail(std::string("cannot read: ") + std::strerror(errno));
     const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+    // The untrusted-input rules (untrusted_input.h) before tinygltf parses anything.
+    const gltf::JsonText json = gltf::locateJson(path_, bytes);
+    const std::span<const uint8_t> jsonBytes(bytes.data() + json.begin, json.length);
+    gltf::checkJsonNesting(path_, jsonBytes);
+    const nlohmann::json root = nlohmann::json::parse(jsonBytes.begin(), jsonBytes.end(), nullptr,
+                                                      /*allow_exceptions=*/false);
+    if (root.is_discarded()) fail("the JSON cannot be parsed");
+    gltf::checkAssetVersion(path_, root);
 
     tinygltf::TinyGLTF loader;
     loader.SetImageLoader(&skipImageDecoding, nullptr);
-    loader.SetFsCallbacks({&fileExistsBesideSceneExceptImages, &tinygltf::ExpandFilePath, &tinygltf::ReadWholeFile,
-                           &tinygltf::WriteWholeFile, nullptr});
     // An absolute base directory, so that tinygltf's extra search in "." can be told apart and refused.
     const std::string baseDir = std::filesystem::absolute(path_, ec).parent_path().string();
+    gltf::FileAccess access;
+    access.folder = std::filesystem::weakly_canonical(baseDir, ec).string();
+    access.allowExternal = options_.allowExternalUris;
+    loader.SetFsCallbacks({&fileExistsBesideSceneExceptImages, &tinygltf::ExpandFilePath, &gltf::readWholeFile,
+                           &tinygltf::WriteWholeFile, &access});
     std::string errors, warnings;
     const bool ok =
         binary ? loader.LoadBinaryFromMemory(&model_, &errors, &warnings, bytes.data(), unsigned(bytes.size()), baseDir)
@@ -276,29 +291,20 @@ private:
       // Images are skipped on purpose (see fileExistsBesideSceneExceptImages); say nothing about them.
       if (line.find("image[") != std::string::npos) continue;
       if (line.rfind("File not found", 0) == 0 && hasImageExtension(line)) continue;
-      warn(line);
+      warn(gltf::shortenDataUris(line));
     }
+    // A buffer refused by the file rules: say why, rather than tinygltf's "file not found".
+    if (!access.refusal.empty()) fail("buffer " + gltf::shortenDataUris(access.refusal));
     // tinygltf reports some problems in `errors` and still returns true; those are errors too.
     const std::vector<std::string> errorLines = lines(errors);
     if (!ok || !errorLines.empty()) {
       std::string message;
       for (const std::string& line : errorLines) message += (message.empty() ? "" : "; ") + line;
-      fail(message.empty() ? "not a valid glTF 2.0 file" : message);
+      fail(message.empty() ? "not a valid glTF 2.0 file" : gltf::shortenDataUris(message));
     }
 
     // tinygltf silently ignores optional properties of the wrong JSON type ("mesh": "0" would just lose the
-    // mesh), so the properties cpvs relies on are type-checked here. tinygltf has validated the GLB layout.
-    size_t jsonBegin = 0, jsonLength = bytes.size();
-    if (binary) {
-      uint32_t chunkLength = 0;
-      std::memcpy(&chunkLength, bytes.data() + 12, 4);
-      jsonBegin = 20;
-      jsonLength = chunkLength;
-    }
-    const nlohmann::json root =
-        nlohmann::json::parse(bytes.begin() + long(jsonBegin), bytes.begin() + long(jsonBegin + jsonLength), nullptr,
-                              /*allow_exceptions=*/false);
-    if (root.is_discarded()) fail("the JSON cannot be parsed");
+    // mesh), so the properties cpvs relies on are type-checked here.
     checkJsonTypes(root);
   }
 
@@ -847,6 +853,7 @@ private:
   }
 
   std::string path_;
+  ImportOptions options_;
   tinygltf::Model model_;
   Scene scene_;
   std::vector<Light> lightDefinitions_;
@@ -860,6 +867,6 @@ private:
 
 }  // namespace
 
-Scene importGltf(const std::string& path) { return GltfImporter(path).run(); }
+Scene importGltf(const std::string& path, const ImportOptions& options) { return GltfImporter(path, options).run(); }
 
 }  // namespace cpvs

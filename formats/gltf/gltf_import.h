@@ -29,7 +29,15 @@ namespace cpvs {
 //   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
 //   triangle) throws Error(ErrorCategory::InvalidInput) naming the file and the element. Things that are
 //   ignored without harm (images, skins, morph targets, non-triangle primitives) go to scene.warnings.
-// Safe on untrusted input: every offset and size is checked before it is read.
-Scene importGltf(const std::string& path);
+// Safe on untrusted input: every offset and size is checked before it is read, and the rules of
+// formats/gltf/untrusted_input.h (JSON depth and size, GLB and asset versions, which files buffers may come
+// from) hold before tinygltf parses the file.
+struct ImportOptions {
+  // Buffers may be read from files outside the scene's folder (by default a uri such as "../../etc/passwd"
+  // is refused; docs/robustness.md).
+  bool allowExternalUris = false;
+};
+
+Scene importGltf(const std::string& path, const ImportOptions& options = {});
 
 }  // namespace cpvs

@@ -127,6 +127,11 @@ int runMain(const char* toolName, const std::function<int()>& body) {
   }
 }
 
+void addImportOptions(CLI::App& app, ImportOptions& options) {
+  app.add_flag("--allow-external-uris", options.allowExternalUris,
+               "Let glTF buffers come from files outside the scene's folder (refused by default: docs/robustness.md)");
+}
+
 std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);

@@ -7,6 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "formats/gltf/gltf_import.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/exit_codes.h"
 #include "libcpvs/scene/scene.h"
@@ -47,6 +48,9 @@ auto forFlag(const std::string& flag, Fn&& parse) -> decltype(parse()) {
 // Parses the command line. Returns the exit code when parsing ends the run (--help, --version: 0; a usage
 // error, printed: 1), nothing when the tool should go on.
 std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv);
+
+// --allow-external-uris: glTF buffers may come from outside the scene's folder.
+void addImportOptions(CLI::App& app, ImportOptions& options);
 
 // Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
 int runMain(const char* toolName, const std::function<int()>& body);

@@ -38,6 +38,7 @@ struct Options {
   std::string dumpDepth;
   bool quiet = false;
   tools::LightOptions lights;
+  ImportOptions import;
 };
 
 void dumpDepthRegion(const std::string& dir, size_t light, size_t view, const DepthRegion& depth) {
@@ -126,6 +127,7 @@ int run(int argc, char** argv) {
   app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
       ->capture_default_str();
   o.lights.addTo(app);
+  tools::addImportOptions(app, o.import);
   app.add_option("--undefined", o.undefinedMode,
                  "Free voxels inside closed solids: kampe (Kämpe et al. 2015, §3.4), sintorn (2014), none")
       ->capture_default_str();
@@ -163,7 +165,7 @@ int run(int argc, char** argv) {
   settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
   const Stopwatch total;
-  Scene scene = importGltf(o.scene);
+  Scene scene = importGltf(o.scene, o.import);
   o.lights.applyTo(scene);
   for (const std::string& w : scene.warnings)
     if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";

@@ -110,8 +110,9 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
   std::cout << report.dump(2) << "\n";
 }
 
-int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOptions, bool json) {
-  Scene scene = cpvs::importGltf(path);
+int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOptions,
+               const cpvs::ImportOptions& import, bool json) {
+  Scene scene = cpvs::importGltf(path, import);
   lightOptions.applyTo(scene);
   for (const std::string& warning : scene.warnings) std::cerr << kTool << ": warning: " << warning << "\n";
   const WorldGeometry world = cpvs::flatten(scene);
@@ -170,10 +171,12 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json, "Print JSON instead of text");
   cpvs::tools::LightOptions lightOptions;
   lightOptions.addTo(app);
+  cpvs::ImportOptions importOptions;
+  cpvs::tools::addImportOptions(app, importOptions);
   if (const auto done = cpvs::tools::parseCommandLine(app, argc, argv)) return *done;
   return cpvs::tools::runMain(kTool, [&] {
     const InputKind kind = sniff(input);
-    if (kind == InputKind::Scene) return printScene(input, lightOptions, json);
+    if (kind == InputKind::Scene) return printScene(input, lightOptions, importOptions, json);
     if (lightOptions.any() || !lightOptions.excludedMeshes.empty())
       throw cpvs::Error(cpvs::ErrorCategory::InvalidArgument, input + ": --sun, --spot, --point and --exclude-mesh apply to "
                                                "scenes; a .cpvs file holds the lights it was baked with");

@@ -47,6 +47,7 @@ constexpr double kRoundSeconds = 0.04;    // per method and round
 
 struct Options {
   std::string cpvs;
+  ImportOptions import;
   std::string points;
   std::string normals;
   std::string output;
@@ -286,7 +287,7 @@ int run(const Options& options) {
   double referenceLoadMs = 0;
   if (!options.reference.empty()) {
     const Stopwatch load;
-    Scene scene = importGltf(options.reference);
+    Scene scene = importGltf(options.reference, options.import);
     if (!options.excludedMeshes.empty())
       tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
     reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation, options.referenceEpsilon);
@@ -553,6 +554,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("-q,--quiet", options.quiet, "No progress bar");
   tools::addVersionFlag(app, "cpvs-query");
+  tools::addImportOptions(app, options.import);
   app.footer(tools::exitCodeHelp() +
              "\nPoints with a NaN or infinite coordinate or normal are answered 0 and counted in a warning and in the "
              "report (invalid_points). Points outside a light's range or cone are answered 0; points whose normal "

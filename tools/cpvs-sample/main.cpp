@@ -16,6 +16,7 @@ int run(int argc, char** argv) {
   size_t count = 100000;
   uint64_t seed = 1;
   tools::LightOptions options;  // only --exclude-mesh is meaningful here
+  ImportOptions import;
   CLI::App app{"cpvs-sample: writes random points on the surfaces of a glTF scene (area-weighted, with the\n"
                "triangle's outward normal) as CSV x,y,z,nx,ny,nz, the input of cpvs-query --points.\n"
                "The same scene, count and seed give the same file on every machine."};
@@ -26,8 +27,9 @@ int run(int argc, char** argv) {
   app.add_option("-n,--count", count, "Number of points")->capture_default_str()->check(CLI::Range(1, 100000000));
   app.add_option("--seed", seed, "Random seed")->capture_default_str();
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh by name (repeatable), e.g. a skybox");
+  tools::addImportOptions(app, import);
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
-  Scene scene = importGltf(scenePath);
+  Scene scene = importGltf(scenePath, import);
   options.applyTo(scene);
   const WorldGeometry world = flatten(scene);
   const std::vector<SurfaceSample> samples = sampleSurfaces(world, count, seed);

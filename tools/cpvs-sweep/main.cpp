@@ -43,6 +43,7 @@ struct Options {
   std::string outDir;
   bool quiet = false;
   tools::LightOptions lights;
+  ImportOptions import;
 };
 
 std::vector<uint32_t> parseResolutions(const std::string& text) {
@@ -267,6 +268,7 @@ int run(int argc, char** argv) {
   tools::addVersionFlag(app, "cpvs-sweep");
   app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
   o.lights.addTo(app);
+  tools::addImportOptions(app, o.import);
   app.add_option("--resolutions", o.resolutions, "Comma-separated resolutions to bake (powers of two)")
       ->capture_default_str();
   app.add_option("--points", o.samples, "Surface samples drawn (then filtered per light)")->capture_default_str();
@@ -315,7 +317,7 @@ int run(int argc, char** argv) {
   settings.bake.threads = o.threads;
   settings.timingSeconds = o.timing;
 
-  Scene scene = importGltf(o.scene);
+  Scene scene = importGltf(o.scene, o.import);
   o.lights.applyTo(scene);
   if (scene.lights.empty())
     throw Error(ErrorCategory::InvalidArgument, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");

@@ -1,0 +1,150 @@
+// Hostile and broken inputs (docs/robustness.md): each gives a clear error with the documented category or
+// exit code, promptly, never a crash, a hang or a read outside the scene's folder.
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "formats/gltf/gltf_import.h"
+#include "libcpvs/base/error.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using test::runTool;
+using test::tempDir;
+using test::toolPath;
+
+// One triangle whose positions come from buffer `uri` (36 bytes), with `extra` spliced into the top-level
+// object and `version` as asset.version.
+std::string triangleGltf(const std::string& uri, const std::string& extra = "", const std::string& version = "2.0") {
+  return R"({"asset":{"version":")" + version + R"("},)" + extra +
+         R"("buffers":[{"uri":")" + uri + R"(","byteLength":36}],
+"bufferViews":[{"buffer":0,"byteLength":36}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0})";
+}
+
+void writeText(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+void writeTriangleBuffer(const std::string& path) {
+  const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(v), sizeof v);
+}
+
+// The import's error, or "" when it succeeds.
+std::string importError(const std::string& path, const ImportOptions& options = {}) {
+  try {
+    importGltf(path, options);
+  } catch (const Error& e) {
+    EXPECT_EQ(e.category(), ErrorCategory::InvalidInput) << e.what();
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Robustness, TheTriangleImports) {
+  const std::string dir = tempDir();
+  writeTriangleBuffer(dir + "/tri.bin");
+  writeText(dir + "/tri.gltf", triangleGltf("tri.bin"));
+  EXPECT_EQ(importError(dir + "/tri.gltf"), "");
+}
+
+TEST(Robustness, DeepJsonNestingIsRefusedBeforeParsing) {
+  const std::string dir = tempDir();
+  writeTriangleBuffer(dir + "/tri.bin");
+  for (size_t depth : {200u, 20000u}) {
+    const std::string nested = R"("extras":)" + std::string(depth, '[') + std::string(depth, ']') + ",";
+    writeText(dir + "/deep.gltf", triangleGltf("tri.bin", nested));
+    EXPECT_NE(importError(dir + "/deep.gltf").find("nests more than 128 levels"), std::string::npos) << depth;
+    const auto r = runTool(toolPath("cpvs-info") + " " + dir + "/deep.gltf");
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+  }
+  // Brackets inside strings are not nesting.
+  writeText(dir + "/strings.gltf", triangleGltf("tri.bin", R"("extras":{"a":")" + std::string(1000, '[') + R"("},)"));
+  EXPECT_EQ(importError(dir + "/strings.gltf"), "");
+}
+
+TEST(Robustness, BuffersComeOnlyFromRegularFilesInTheScenesFolder) {
+  const std::string dir = tempDir();
+  // A directory as the buffer.
+  writeText(dir + "/dot.gltf", triangleGltf("."));
+  EXPECT_NE(importError(dir + "/dot.gltf").find("not a regular file"), std::string::npos);
+  // A FIFO: refused at once, never opened for a blocking read.
+  ASSERT_EQ(::mkfifo((dir + "/fifo.bin").c_str(), 0600), 0) << std::strerror(errno);
+  writeText(dir + "/fifo.gltf", triangleGltf("fifo.bin"));
+  const auto start = std::chrono::steady_clock::now();
+  const auto r = runTool("timeout 20 " + toolPath("cpvs-info") + " " + dir + "/fifo.gltf");
+  EXPECT_EQ(r.exitCode, 2) << r.output;
+  EXPECT_NE(r.output.find("not a regular file"), std::string::npos) << r.output;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+  // A path that climbs out of the folder: refused unless external URIs are allowed.
+  const std::string sub = dir + "/a/b";
+  std::filesystem::create_directories(sub);
+  writeTriangleBuffer(dir + "/outside.bin");
+  writeText(sub + "/climb.gltf", triangleGltf("../../outside.bin"));
+  const std::string climb = importError(sub + "/climb.gltf");
+  EXPECT_NE(climb.find("outside the scene's folder"), std::string::npos) << climb;
+  EXPECT_NE(climb.find("--allow-external-uris"), std::string::npos) << climb;
+  EXPECT_EQ(importError(sub + "/climb.gltf", ImportOptions{true}), "");
+  writeText(sub + "/passwd.gltf", triangleGltf("../../../../../../../../etc/passwd"));
+  EXPECT_NE(importError(sub + "/passwd.gltf").find("outside the scene's folder"), std::string::npos);
+  // A symbolic link inside the folder to a file outside it is outside too.
+  ASSERT_EQ(::symlink((dir + "/outside.bin").c_str(), (sub + "/link.bin").c_str()), 0);
+  writeText(sub + "/link.gltf", triangleGltf("link.bin"));
+  EXPECT_NE(importError(sub + "/link.gltf").find("outside the scene's folder"), std::string::npos);
+  // The tool takes the option too.
+  EXPECT_EQ(runTool(toolPath("cpvs-info") + " " + sub + "/climb.gltf").exitCode, 2);
+  EXPECT_EQ(runTool(toolPath("cpvs-info") + " --allow-external-uris " + sub + "/climb.gltf").exitCode, 0);
+}
+
+TEST(Robustness, DataUrisAreShortenedInMessages) {
+  const std::string dir = tempDir();
+  // A data: URI of the wrong length: the message names it without printing its 40 kB.
+  const std::string payload(40000, 'A');
+  writeText(dir + "/data.gltf", triangleGltf("data:application/octet-stream;base64," + payload));
+  const std::string message = importError(dir + "/data.gltf");
+  EXPECT_FALSE(message.empty());
+  EXPECT_EQ(message.find(std::string(200, 'A')), std::string::npos) << message.size();
+  EXPECT_LT(message.size(), 2000u);
+}
+
+TEST(Robustness, UnknownMajorVersionsAreRefused) {
+  const std::string dir = tempDir();
+  writeTriangleBuffer(dir + "/tri.bin");
+  writeText(dir + "/v3.gltf", triangleGltf("tri.bin", "", "3.0"));
+  EXPECT_NE(importError(dir + "/v3.gltf").find("asset.version '3.0'"), std::string::npos);
+  writeText(dir + "/min3.gltf", triangleGltf("tri.bin", R"("extensionsUsed":[],)", "2.0").replace(10, 0, R"("minVersion":"3.0",)"));
+  EXPECT_NE(importError(dir + "/min3.gltf").find("minVersion"), std::string::npos);
+  // A GLB container of version 3.
+  std::string json = triangleGltf("tri.bin");
+  json.resize((json.size() + 3) & ~size_t(3), ' ');
+  std::string glb = "glTF";
+  auto u32 = [&](uint32_t v) { glb.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(3);
+  u32(uint32_t(20 + json.size()));
+  u32(uint32_t(json.size()));
+  u32(0x4E4F534Au);
+  glb += json;
+  writeText(dir + "/v3.glb", glb);
+  EXPECT_NE(importError(dir + "/v3.glb").find("GLB container version 3"), std::string::npos);
+  glb[4] = 2;
+  writeText(dir + "/v2.glb", glb);
+  EXPECT_EQ(importError(dir + "/v2.glb"), "");
+}
+
+TEST(Robustness, ASceneThatIsAFifoIsRefusedAtOnce) {
+  const std::string dir = tempDir();
+  ASSERT_EQ(::mkfifo((dir + "/scene.gltf").c_str(), 0600), 0);
+  EXPECT_NE(importError(dir + "/scene.gltf").find("not a regular file"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace cpvs
