@@ -38,8 +38,8 @@ TEST(AtomicFile, CommitPutsTheBytesInPlaceAndNothingElse) {
   const fs::path target = dir / "out.bin";
   {
     tools::AtomicFile file(target.string());
-    EXPECT_TRUE(fs::exists(file.temporaryPath()));
-    EXPECT_FALSE(fs::exists(target));  // nothing under the final name before commit
+    EXPECT_EQ(entries(dir), 0u);  // anonymous (O_TMPFILE): nothing with a name before commit
+    EXPECT_EQ(file.temporaryPath(), "");
     file.write("first ");
     file.write(std::string(100000, 'x'));
     file.commit();
@@ -88,6 +88,40 @@ TEST(AtomicFile, CtrlCWhileWritingRemovesTheTemporary) {
     }
     EXPECT_EQ(readAll(target), "old");
     EXPECT_EQ(entries(dir), 1u) << "signal " << sig << ": a temporary was left in " << dir;
+  }
+}
+
+// SIGKILL cannot be caught: with an anonymous temporary there is nothing to clean up, at any moment.
+TEST(AtomicFile, SigkillAtAnyMomentLeavesNothing) {
+  for (int moment = 0; moment < 3; ++moment) {
+    const fs::path dir = test::tempDir();
+    const fs::path target = dir / "out.bin";
+    tools::writeFileAtomically(target.string(), "old");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      tools::AtomicFile file(target.string());  // moment 0: right after the temporary appears
+      if (moment >= 1) file.write(std::string(1 << 20, 'x'));
+      if (moment == 2) ::fsync(1);
+      ::kill(::getpid(), SIGKILL);
+      ::_exit(0);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
+    EXPECT_EQ(readAll(target), "old");
+    EXPECT_EQ(entries(dir), 1u) << "moment " << moment << ": something was left in " << dir;
+  }
+}
+
+TEST(AtomicFile, ADirectoryAsTheTargetIsAnOutputErrorAtOnce) {
+  const fs::path dir = test::tempDir();
+  try {
+    tools::AtomicFile file(dir.string());
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.category(), ErrorCategory::OutputFailed);
+    EXPECT_NE(std::string(e.what()).find("is a directory"), std::string::npos) << e.what();
   }
 }
 

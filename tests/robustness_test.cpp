@@ -148,3 +148,36 @@ TEST(Robustness, ASceneThatIsAFifoIsRefusedAtOnce) {
 
 }  // namespace
 }  // namespace cpvs
+
+namespace cpvs {
+namespace {
+
+// An output that cannot be written fails before the bake (an 8k bake of FlightHelmet takes seconds), and
+// nothing of the run is written: not the .cpvs when only the report's path is bad.
+TEST(Robustness, UnwritableOutputsFailAtOnceAndWriteNothing) {
+  const std::string dir = tempDir();
+  const std::string bake = toolPath("cpvs-bake") + " " + test::sourcePath("data/scenes/FlightHelmet/FlightHelmet.gltf") +
+                           " -r 8k --sun 0.5,-1,-0.3 --quiet";
+  struct Case {
+    std::string arguments, message;
+  };
+  const Case cases[] = {
+      {" -o " + dir, "is a directory"},
+      {" -o " + dir + "/missing/out.cpvs", "missing/out.cpvs"},
+      {" -o " + dir + "/out.cpvs --report " + dir + "/missing/r.json", "missing/r.json"},
+      {" -o " + dir + "/out.cpvs --report " + dir, "is a directory"},
+  };
+  for (const Case& c : cases) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = runTool(bake + c.arguments);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(r.exitCode, 3) << c.arguments << "\n" << r.output;
+    EXPECT_NE(r.output.find(c.message), std::string::npos) << r.output;
+    EXPECT_LT(seconds, 1.0) << c.arguments;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/out.cpvs")) << c.arguments;
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -13,6 +13,14 @@
 namespace cpvs {
 namespace {
 
+// The node units of a DAG, never null: a view without nodes (all lit or all shadowed) gets a few zero units,
+// so that the branch-free walks can form (and prefetch) node addresses without offsetting a null pointer.
+inline const uint16_t* nodeUnits(const DagView& dag) {
+  static const uint16_t kNoNodes[64] = {};
+  return dag.nodes.empty() ? kNoNodes : dag.nodes.data();
+}
+
+
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The kernel's footprint, inclusive texel bounds already clipped to [0, N).
@@ -84,7 +92,7 @@ uint32_t countCode(const DagView& dag, uint32_t code, uint32_t offset, uint32_t 
 // Walks from a node of edge `size` with child code `code` (offset: its words) down to voxel (x, y, z).
 inline bool walk(const DagView& dag, uint32_t code, uint32_t offset, uint32_t size, uint32_t x, uint32_t y,
                  uint32_t z) {
-  const uint16_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = nodeUnits(dag);
   for (uint32_t half = size >> 1; half >= 8; half >>= 1) {
     if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
     const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
@@ -447,7 +455,7 @@ bool vectorWalks(const DagView& dag, size_t slots) {
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
-  const uint16_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = nodeUnits(dag);
   // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
   for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
     const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
@@ -518,7 +526,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
     batch.answers = out.data();
     return walkVoxelsAvx512(batch);
   }
-  const uint16_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = nodeUnits(dag);
   // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
@@ -568,7 +576,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
     batch.counts = counts.data();
     return countCornerTilesAvx512(batch);
   }
-  const uint16_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = nodeUnits(dag);
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
   const uint32_t startSize = grid.empty() ? dag.resolution : 1u << grid.shift;
@@ -622,7 +630,7 @@ CPVS_POPCNT_CLONES void LightShadow::countFootprints(uint32_t view, std::span<co
   };
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
-  const uint16_t* nodes = dag.nodes.data();
+  const uint16_t* nodes = nodeUnits(dag);
   const uint64_t* leaves = dag.leaves.data();
   counts.assign(pending.size(), 0);
   // A footprint of K texels spans at most `span` nodes per axis at any level (nodes are at least 8 texels

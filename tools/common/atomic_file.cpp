@@ -60,14 +60,35 @@ void unregisterTemporary(int slot) {
 
 }  // namespace
 
-AtomicFile::AtomicFile(const std::string& path) : path_(path) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+namespace {
+
+std::string folderOf(const std::string& path) {
+  const std::filesystem::path target(path);
+  return target.has_parent_path() ? target.parent_path().string() : std::string(".");
+}
+
+// ".NAME.tmp-XXXXXX" beside the target.
+std::string temporaryName(const std::string& path) {
+  const std::filesystem::path target(path);
   std::string name = ".";  // appended piece by piece: GCC 12 misreports the concatenation (-Wrestrict)
   name += target.filename().string();
   name += ".tmp-XXXXXX";
-  temp_ = (dir / name).string();
+  return (std::filesystem::path(folderOf(path)) / name).string();
+}
+
+}  // namespace
+
+AtomicFile::AtomicFile(const std::string& path) : path_(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw Error(ErrorCategory::OutputFailed, path + ": is a directory, not a file that can be written");
+  // An anonymous file in the target's folder: nothing with a name exists until commit(), so even SIGKILL
+  // leaves no trace. File systems without O_TMPFILE get a named temporary, removed on errors and signals.
+  fd_ = ::open(folderOf(path).c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
+  if (fd_ >= 0) return;
+  if (errno != EOPNOTSUPP && errno != EISDIR && errno != EINVAL && errno != ENOENT)
+    throw Error(ErrorCategory::OutputFailed, path + ": cannot write in its folder: " + std::strerror(errno));
+  temp_ = temporaryName(path);
   fd_ = ::mkstemp(temp_.data());
   if (fd_ < 0)
     throw Error(ErrorCategory::OutputFailed, path + ": cannot create a temporary file beside it: " + std::strerror(errno));
@@ -102,16 +123,44 @@ void AtomicFile::write(std::string_view bytes) {
 }
 
 void AtomicFile::commit() {
+  prepare();
+  publish();
+}
+
+void AtomicFile::prepare() {
   if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": commit after the file was closed");
-  ::fchmod(fd_, 0644);
-  const bool flushed = ::fsync(fd_) == 0;
-  const int closed = ::close(fd_);
-  fd_ = -1;
-  if (!flushed || closed != 0) {
+  auto fail = [&](const std::string& what) {
     const std::string reason = std::strerror(errno);
     discard();
-    throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
+    throw Error(ErrorCategory::OutputFailed, path_ + ": " + what + ": " + reason);
+  };
+  ::fchmod(fd_, 0644);
+  if (::fsync(fd_) != 0) fail("write failed");
+  if (!exists_) {
+    // Give the anonymous file a temporary name (linkat cannot replace an existing target), then rename it over
+    // the target: only between these two calls does a name exist that a kill could leave behind.
+    const std::string proc = "/proc/self/fd/" + std::to_string(fd_);
+    for (int attempt = 0;; ++attempt) {
+      temp_ = temporaryName(path_);
+      const int probe = ::mkstemp(temp_.data());  // a fresh unique name...
+      if (probe < 0) fail("cannot name the finished file");
+      ::close(probe);
+      ::unlink(temp_.c_str());  // ...that linkat then takes
+      slot_ = registerTemporary(temp_);
+      if (::linkat(AT_FDCWD, proc.c_str(), AT_FDCWD, temp_.c_str(), AT_SYMLINK_FOLLOW) == 0) break;
+      unregisterTemporary(slot_);
+      slot_ = -1;
+      if (errno != EEXIST || attempt > 8) fail("cannot name the finished file");
+    }
+    exists_ = true;
   }
+  const int closed = ::close(fd_);
+  fd_ = -1;
+  if (closed != 0) fail("write failed");
+}
+
+void AtomicFile::publish() {
+  if (!exists_ || fd_ >= 0) throw Error(ErrorCategory::OutputFailed, path_ + ": publish before prepare");
   if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
     const std::string reason = std::strerror(errno);
     discard();
@@ -120,6 +169,13 @@ void AtomicFile::commit() {
   exists_ = false;
   unregisterTemporary(slot_);
   slot_ = -1;
+}
+
+void commitTogether(std::initializer_list<AtomicFile*> files) {
+  for (AtomicFile* f : files)
+    if (f) f->prepare();  // an error here discards every file (their destructors), none is in place yet
+  for (AtomicFile* f : files)
+    if (f) f->publish();
 }
 
 void writeFileAtomically(const std::string& path, std::string_view bytes) {

@@ -1,8 +1,12 @@
 #pragma once
-// Output files that never exist half-written (docs/cli.md): bytes go to a hidden temporary beside the target,
-// which commit() flushes to disk and renames over it. Until then the temporary is removed when the object is
-// destroyed (an error unwinding) and, on Ctrl-C or SIGTERM, by a signal handler before the process dies with
-// that signal — so an interrupted tool leaves neither a partial file nor a stray `.NAME.tmp-XXXXXX`.
+// Output files that never exist half-written (docs/cli.md): bytes go to an anonymous file in the target's
+// folder (O_TMPFILE), which commit() flushes to disk, names and renames over the target; a killed process
+// (even SIGKILL) leaves nothing. Where the file system has no O_TMPFILE, a hidden `.NAME.tmp-XXXXXX` beside
+// the target takes its place, removed when the object is destroyed (an error unwinding) and, on Ctrl-C or
+// SIGTERM, by a signal handler before the process dies with that signal.
+// Creating the object checks that the target can be written (not a directory, its folder writable), so a
+// tool can open all its outputs before the work and fail at once.
+#include <initializer_list>
 #include <string>
 #include <string_view>
 
@@ -10,14 +14,19 @@ namespace cpvs::tools {
 
 class AtomicFile {
 public:
-  // Creates `.NAME.tmp-XXXXXX` in the target's folder. Throws Error(OutputFailed) naming `path`.
+  // Opens the temporary in the target's folder. Throws Error(OutputFailed) naming `path`.
   explicit AtomicFile(const std::string& path);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
 
   void write(std::string_view bytes);  // Throws Error(OutputFailed).
-  void commit();                       // fsync, mode 0644, rename into place. Throws Error(OutputFailed).
+  void commit();                       // prepare() then publish(). Throws Error(OutputFailed).
+  // The two halves of commit: prepare flushes the bytes to disk (mode 0644) and gives the file a hidden
+  // temporary name; publish renames it over the target (which cannot fail for want of space).
+  void prepare();
+  void publish();
+  // The named temporary ("" while the file is anonymous).
   const std::string& temporaryPath() const { return temp_; }
 
 private:
@@ -28,6 +37,10 @@ private:
   bool exists_ = false;  // the temporary is on disk
   int slot_ = -1;  // where the signal handler finds the temporary's name (-1: not registered)
 };
+
+// Commits several outputs of one run together: all are flushed and named first, then all renamed into place,
+// so a failure (a full disk) leaves none of them changed. Null entries are skipped.
+void commitTogether(std::initializer_list<AtomicFile*> files);
 
 // The whole file at once.
 void writeFileAtomically(const std::string& path, std::string_view bytes);

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 
@@ -164,6 +165,15 @@ int run(int argc, char** argv) {
   settings.peel.maxPeels = o.maxPeels;
   settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
+  // Every output is opened before the work: a path that cannot be written fails now, not after the bake.
+  std::optional<tools::AtomicFile> cpvsFile, reportFile;
+  if (!o.output.empty()) cpvsFile.emplace(o.output);
+  if (!o.report.empty()) reportFile.emplace(o.report);
+  if (!o.dumpDepth.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(o.dumpDepth, ec);
+    if (ec) throw Error(ErrorCategory::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
+  }
   const Stopwatch total;
   Scene scene = importGltf(o.scene, o.import);
   o.lights.applyTo(scene);
@@ -171,11 +181,6 @@ int run(int argc, char** argv) {
     if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";
   if (scene.lights.empty())
     throw Error(ErrorCategory::InvalidArgument, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
-  if (!o.dumpDepth.empty()) {
-    std::error_code ec;
-    std::filesystem::create_directories(o.dumpDepth, ec);
-    if (ec) throw Error(ErrorCategory::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
-  }
 
   tools::ProgressBar progress("baking", o.quiet);
   BakeCallbacks callbacks;
@@ -198,16 +203,14 @@ int run(int argc, char** argv) {
   if (!o.output.empty()) {
     const Stopwatch write;
     const std::string bytes = writeCpvs(content);
-    tools::writeFileAtomically(o.output, bytes);
+    cpvsFile->write(bytes);
     writeMs = write.ms();
     fileBytes = bytes.size();
   }
   const double totalMs = total.ms();
 
-  if (!o.report.empty()) {
-    const nlohmann::json j = reportJson(o, settings, report, totalMs, writeMs, fileBytes);
-    tools::writeFileAtomically(o.report, j.dump(2) + "\n");
-  }
+  if (reportFile) reportFile->write(reportJson(o, settings, report, totalMs, writeMs, fileBytes).dump(2) + "\n");
+  tools::commitTogether({cpvsFile ? &*cpvsFile : nullptr, reportFile ? &*reportFile : nullptr});
   if (!o.quiet) {
     size_t views = 0;
     for (const auto& l : report.lights) views += l.views.size();

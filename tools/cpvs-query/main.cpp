@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <thread>
 
 #include <fcntl.h>
@@ -71,7 +72,7 @@ bool isFinite(const QueryPoint& p) {
          std::isfinite(p.normal.x) && std::isfinite(p.normal.y) && std::isfinite(p.normal.z);
 }
 
-// The CSV output, streamed through a 1 MiB buffer into an AtomicFile (renamed into place by commit()).
+// The CSV output, streamed through a 1 MiB buffer into an AtomicFile (committed with the report at the end).
 class AtomicOutput {
 public:
   explicit AtomicOutput(const std::string& path) : file_(path) { buffer_.reserve(1 << 20); }
@@ -79,16 +80,13 @@ public:
   void flushIfFull() {
     if (buffer_.size() >= (1u << 20)) flush();
   }
-  void commit() {
-    flush();
-    file_.commit();
-  }
-
-private:
   void flush() {
     file_.write(buffer_);
     buffer_.clear();
   }
+  tools::AtomicFile& file() { return file_; }
+
+private:
 
   tools::AtomicFile file_;
   std::string buffer_;
@@ -280,6 +278,12 @@ int run(const Options& options) {
   if (!options.normals.empty() && format != PointFormat::Exr)
     throw Error(ErrorCategory::InvalidArgument, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
   const bool exrOutput = endsWith(options.output, ".exr");
+  // The outputs are opened before the work, so a path that cannot be written fails at once; the CSV and the
+  // report are committed together at the end.
+  std::optional<AtomicOutput> csvFile;
+  if (!exrOutput) csvFile.emplace(options.output);
+  std::optional<tools::AtomicFile> reportFile;
+  if (!options.report.empty()) reportFile.emplace(options.report);
   if (exrOutput && format != PointFormat::Exr)
     throw Error(ErrorCategory::InvalidArgument, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
 
@@ -328,7 +332,7 @@ int run(const Options& options) {
       out.pixels = std::move(values);
       writeExr(options.output, out);
     } else {
-      AtomicOutput csv(options.output);
+      AtomicOutput& csv = *csvFile;
       for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
       csv.buffer() += '\n';
       for (size_t i = 0; i < points.size(); ++i) {
@@ -339,12 +343,12 @@ int run(const Options& options) {
         csv.buffer() += '\n';
         csv.flushIfFull();
       }
-      csv.commit();
+      csv.flush();
     }
   } else {
     std::unique_ptr<PointReader> reader = PointReader::open(options.points);
     hasNormals = reader->hasNormals();
-    AtomicOutput csv(options.output);
+    AtomicOutput& csv = *csvFile;
     for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
     csv.buffer() += '\n';
     std::vector<QueryPoint> chunk;
@@ -365,7 +369,7 @@ int run(const Options& options) {
       }
       progress.update(reader->progress());
     }
-    csv.commit();
+    csv.flush();
   }
   progress.finish();
 
@@ -389,7 +393,10 @@ int run(const Options& options) {
                  static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
                  static_cast<unsigned long long>(totals.insideClosed));
   }
-  if (options.report.empty()) return 0;
+  if (!reportFile) {
+    if (csvFile) csvFile->file().commit();
+    return 0;
+  }
 
   // Throughput, one thread each, over the first chunk of points (the whole set when it fits in one).
   const std::vector<QueryPoint> timing = validPoints(timingSet);
@@ -493,7 +500,8 @@ int run(const Options& options) {
     r["score_inside_closed"] = options.scoreInside;
     report["reference"] = r;
   }
-  tools::writeFileAtomically(options.report, report.dump(2) + "\n");
+  reportFile->write(report.dump(2) + "\n");
+  tools::commitTogether({csvFile ? &csvFile->file() : nullptr, &*reportFile});
   return 0;
 }
 
