@@ -8,7 +8,7 @@ packages=(
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libstb-dev libtbb-dev libxxhash-dev libjemalloc-dev
-  assimp-testmodels clang
+  assimp-testmodels clang libclang-rt-14-dev
 )
 
 missing=()
