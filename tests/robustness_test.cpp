@@ -181,3 +181,40 @@ TEST(Robustness, UnwritableOutputsFailAtOnceAndWriteNothing) {
 
 }  // namespace
 }  // namespace cpvs
+
+#include "libcpvs/bake/bake.h"
+
+namespace cpvs {
+namespace {
+
+TEST(Robustness, AMemoryBudgetShrinksRegionsOrStopsTheBake) {
+  BakeSettings settings;
+  settings.regionSize = 1024;
+  EXPECT_EQ(regionSizeWithinBudget(settings), 1024u);  // no budget
+  settings.maxMemoryBytes = uint64_t(8) << 30;
+  EXPECT_EQ(regionSizeWithinBudget(settings), 1024u);  // 64 MiB of a 2 GiB quarter
+  settings.maxMemoryBytes = uint64_t(100) << 20;
+  EXPECT_EQ(regionSizeWithinBudget(settings), 512u);   // 16 MiB <= 25 MiB
+  settings.maxMemoryBytes = uint64_t(1) << 20;
+  EXPECT_EQ(regionSizeWithinBudget(settings), 64u);    // never below 64
+
+  // A budget the process exceeds: exit 4 at once with a message that says what to do, and no output.
+  const std::string dir = tempDir();
+  const std::string bake = toolPath("cpvs-bake") + " " + test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") +
+                           " -r 2k --sun 0.3,-1,0.2 --quiet -o " + dir + "/out.cpvs";
+  const auto small = runTool(bake + " --max-memory 16M");
+  EXPECT_EQ(small.exitCode, 4) << small.output;
+  EXPECT_NE(small.output.find("memory budget of 16 MiB exceeded"), std::string::npos) << small.output;
+  EXPECT_NE(small.output.find("raise the budget"), std::string::npos) << small.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.cpvs"));
+  // A generous budget changes nothing.
+  ASSERT_EQ(runTool(bake + " --max-memory 64G").exitCode, 0);
+  const auto plain = runTool(toolPath("cpvs-bake") + " " + test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") +
+                             " -r 2k --sun 0.3,-1,0.2 --quiet -o " + dir + "/plain.cpvs");
+  ASSERT_EQ(plain.exitCode, 0) << plain.output;
+  EXPECT_EQ(runTool("cmp " + dir + "/out.cpvs " + dir + "/plain.cpvs").exitCode, 0);
+  EXPECT_EQ(runTool(bake + " --max-memory 12X").exitCode, 1);
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -5,7 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <xxhash.h>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/base/parallel.h"
+#include "libcpvs/base/peak_memory.h"
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/version.h"
@@ -67,8 +69,24 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   return hash;
 }
 
-CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report,
+uint64_t regionMemoryBytes(uint32_t regionSize) {
+  // llvmpipe's colour, depth and stencil targets and read-back (about 40 bytes a texel, docs/depth-maps.md),
+  // the enter/exit maps (8) and tile chains (up to about 16).
+  constexpr uint64_t kBytesPerTexel = 64;
+  return uint64_t(regionSize) * regionSize * kBytesPerTexel;
+}
+
+uint32_t regionSizeWithinBudget(const BakeSettings& settings) {
+  uint32_t size = settings.regionSize;
+  if (settings.maxMemoryBytes == 0) return size;
+  while (size > 64 && regionMemoryBytes(size) > settings.maxMemoryBytes / 4) size /= 2;
+  return size;
+}
+
+CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                       const BakeCallbacks& callbacks) {
+  BakeSettings settings = requested;
+  settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
   CpvsContent content;
@@ -128,6 +146,12 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeRepo
           vr.texelsAtPeelCap += stats.texelsAtPeelCap;
           vr.trianglesSubmitted += stats.trianglesSubmitted;
           if (callbacks.depthRegion) callbacks.depthRegion(li, vi, view, *depth);
+          if (settings.maxMemoryBytes && currentRssBytes() > settings.maxMemoryBytes)
+            throw Error(ErrorCategory::RuntimeFailure,
+                        "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB exceeded (" +
+                            std::to_string(currentRssBytes() >> 20) + " MiB resident) while baking light '" +
+                            baked.light.name + "' view " + std::to_string(vi) + " at " +
+                            std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
           pending.wait();
           auto work = [&, depth]() {
             Stopwatch masks;

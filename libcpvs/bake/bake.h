@@ -23,6 +23,10 @@ struct BakeSettings {
   uint32_t regionSize = 1024;
   PeelSettings peel;
   GroundSheets ground = GroundSheets::Auto;  // close ground sheets into solids (libcpvs/scene/ground_sheet.h)
+  // Memory budget in bytes (0: none). The region size is lowered until a region's buffers take at most a
+  // quarter of it, and the bake stops with Error(RuntimeFailure) as soon as the process's resident memory
+  // exceeds it (checked after every region), before the system would kill it.
+  uint64_t maxMemoryBytes = 0;
 };
 
 struct ViewReport {
@@ -65,6 +69,13 @@ struct BakeCallbacks {
 
 // Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
 uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings);
+
+// Bytes a region of `regionSize` x `regionSize` texels takes while it is baked (GL buffers, depth maps, tile
+// chains), as the memory budget counts it.
+uint64_t regionMemoryBytes(uint32_t regionSize);
+// The region size `settings` bakes with: its regionSize, halved (down to 64) while regionMemoryBytes exceeds a
+// quarter of maxMemoryBytes.
+uint32_t regionSizeWithinBudget(const BakeSettings& settings);
 
 // Bakes every light of the scene. Throws Error (NotSupported when the backend is missing).
 CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report = nullptr,

@@ -33,6 +33,9 @@ struct LightOptions {
 // Parses "4k", "16k", "512", "65536": a power of two from 8 to 256k. Throws Error(Usage).
 uint32_t parseResolution(const std::string& text);
 
+// Parses "512M", "2G", "1.5G", "1048576": bytes (K, M, G, T are powers of 1024). Throws Error(InvalidArgument).
+uint64_t parseByteSize(const std::string& text);
+
 // Runs parse() and puts the command-line flag in front of an InvalidArgument error's message: the library's
 // messages name the value and what was expected, the tool names where the user typed it.
 template <class Fn>

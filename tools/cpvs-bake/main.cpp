@@ -34,6 +34,7 @@ struct Options {
   std::string backend = "osmesa";
   std::string regionSize = "1k";
   uint32_t maxPeels = 2;
+  std::string maxMemory;
   std::string ground = "auto";
   std::string report;
   std::string dumpDepth;
@@ -138,6 +139,10 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--region", o.regionSize, "Largest region rendered at once (power of two); bounds memory")
       ->capture_default_str();
+  app.add_option("--max-memory", o.maxMemory,
+                 "Memory budget (e.g. 2G): smaller regions where they help, else stop with exit 4 before the system "
+                 "runs out (the process's resident memory is checked after every region)")
+      ->type_name("SIZE");
   app.add_option("--max-peels", o.maxPeels, "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits are set early (never wrong, less compression)")
       ->capture_default_str();
   app.add_option("--ground", o.ground,
@@ -163,6 +168,8 @@ int run(int argc, char** argv) {
   settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   settings.regionSize = tools::forFlag("--region", [&] { return tools::parseResolution(o.regionSize); });
   settings.peel.maxPeels = o.maxPeels;
+  if (!o.maxMemory.empty())
+    settings.maxMemoryBytes = tools::forFlag("--max-memory", [&] { return tools::parseByteSize(o.maxMemory); });
   settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
   // Every output is opened before the work: a path that cannot be written fails now, not after the bake.
