@@ -218,3 +218,31 @@ TEST(Robustness, AMemoryBudgetShrinksRegionsOrStopsTheBake) {
 
 }  // namespace
 }  // namespace cpvs
+
+namespace cpvs {
+namespace {
+
+// Every file a tool reads may be a FIFO (or a directory): refused at once, never waited on.
+TEST(Robustness, FifosAreRefusedByEveryReader) {
+  const std::string dir = tempDir();
+  for (const char* name : {"/f.cpvs", "/f.csv", "/f.exr"}) ASSERT_EQ(::mkfifo((dir + name).c_str(), 0600), 0);
+  const std::string cpvs = test::sourcePath("tests/golden/tiny_v2.cpvs");
+  const std::string points = dir + "/p.csv";
+  writeText(points, "x,y,z\n0,0,0\n");
+  const std::string commands[] = {
+      toolPath("cpvs-info") + " " + dir + "/f.cpvs",
+      toolPath("cpvs-query") + " " + dir + "/f.cpvs --points " + points + " -o " + dir + "/o.csv",
+      toolPath("cpvs-query") + " " + cpvs + " --points " + dir + "/f.csv -o " + dir + "/o.csv",
+      toolPath("cpvs-query") + " " + cpvs + " --points " + dir + "/f.exr -o " + dir + "/o.csv",
+  };
+  for (const std::string& command : commands) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto r = runTool("timeout 20 " + command);
+    EXPECT_EQ(r.exitCode, 2) << command << "\n" << r.output;
+    EXPECT_NE(r.output.find("not a regular file"), std::string::npos) << r.output;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0) << command;
+  }
+}
+
+}  // namespace
+}  // namespace cpvs

@@ -248,7 +248,8 @@ Result<std::unique_ptr<CpvsFile>> CpvsFile::fromBorrowedBytes(std::span<const ui
 }
 
 std::unique_ptr<CpvsFile> CpvsFile::openOrThrow(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: opening a FIFO must not wait for a writer (fstat below refuses anything but a regular file).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) throw ReadFailure{path + ": cannot open: " + std::strerror(errno)};
   struct stat st {};
   if (::fstat(fd, &st) != 0) {

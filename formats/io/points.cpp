@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <sstream>
 #include <string_view>
 
@@ -474,6 +475,10 @@ private:
 }  // namespace
 
 PointFormat detectPointFormat(const std::string& path) {
+  // A FIFO or device would block the read or never end.
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw Error(ErrorCategory::InvalidInput, path + ": not a regular file (a directory, FIFO or device)");
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw Error(ErrorCategory::InvalidInput, path + ": cannot open: " + std::strerror(errno));
   unsigned char magic[4] = {0, 0, 0, 0};

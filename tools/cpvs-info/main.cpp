@@ -3,6 +3,7 @@
 // kind of input is decided by its first bytes, not by its name. See --help.
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 
@@ -134,6 +135,9 @@ enum class InputKind { Scene, Cpvs, Unknown };
 // around it) is a .cpvs file; "glTF" is a .glb; a JSON object (after an optional BOM and white space) is a
 // .gltf. Everything else (an empty file included) goes to the .cpvs reader, whose message says what it is not.
 InputKind sniff(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, path + ": not a regular file (a directory, FIFO or device)");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, path + ": cannot open: " + std::strerror(errno));
   char head[64] = {};
