@@ -10,7 +10,7 @@
 #include <xxhash.h>
 
 #include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/runtime/shadow_lookup.h"
+#include "libcpvs/runtime/file_shadows.h"
 
 namespace {
 
@@ -53,18 +53,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!file) return 0;
   for (const cpvs::CpvsFile::LightEntry& entry : file.value()->lights()) {
     std::vector<cpvs::LightView> views;
-    std::vector<cpvs::DagView> dags;
     for (const cpvs::CpvsFile::View& v : entry.views) {
       views.push_back(v.view);
-      dags.push_back(v.dag);
       // Every corner and the centre of the grid, straight from the integer coordinates.
-      const uint32_t n = v.dag.resolution ? v.dag.resolution : v.view.resolution;
-      if (v.dag.resolution == 0) continue;
+      const uint32_t n = v.dag.resolution;
+      if (n == 0) continue;
       for (uint32_t x : {0u, n / 2, n - 1})
         for (uint32_t z : {0u, n / 2, n - 1}) (void)v.dag.shadowed(x, n - 1 - x, z);
     }
     for (int grid : {0, cpvs::kAutomaticTopGrid}) {
-      auto shadow = cpvs::LightShadow::create(entry.light, views, dags, grid);
+      auto shadow = cpvs::lightShadowOf(entry, grid);
       if (!shadow) continue;
       // Points spread over the views' fitted boxes (the mapping, the bias, every walk), in one batch and one by one.
       std::vector<cpvs::SurfacePoint> points;

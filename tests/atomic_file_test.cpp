@@ -66,22 +66,30 @@ TEST(AtomicFile, AnAbandonedFileLeavesTheOldTargetAndNoTemporary) {
   EXPECT_EQ(entries(dir), 1u);
 }
 
+// Runs `body` in a child process (which is expected to die of a signal) and returns its wait status.
+template <class Fn>
+int statusOfChild(Fn&& body) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    body();
+    ::_exit(0);
+  }
+  int status = 0;
+  if (child < 0 || ::waitpid(child, &status, 0) != child) return -1;
+  return status;
+}
+
 TEST(AtomicFile, CtrlCWhileWritingRemovesTheTemporary) {
   for (int sig : {SIGINT, SIGTERM}) {
     const fs::path dir = test::tempDir();
     const fs::path target = dir / "out.bin";
     tools::writeFileAtomically(target.string(), "old");
-    const pid_t child = ::fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
+    const int status = statusOfChild([&] {
       tools::AtomicFile file(target.string());
       tools::AtomicFile second((dir / "other.bin").string());
       file.write("partial");
-      std::raise(sig);
-      ::_exit(0);  // not reached: the handler removes the temporaries and dies of the signal
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
+      std::raise(sig);  // the handler removes the temporaries and dies of the signal
+    });
     EXPECT_TRUE(WIFSIGNALED(status)) << "signal " << sig;
     if (WIFSIGNALED(status)) {
       EXPECT_EQ(WTERMSIG(status), sig);
@@ -97,17 +105,12 @@ TEST(AtomicFile, SigkillAtAnyMomentLeavesNothing) {
     const fs::path dir = test::tempDir();
     const fs::path target = dir / "out.bin";
     tools::writeFileAtomically(target.string(), "old");
-    const pid_t child = ::fork();
-    ASSERT_GE(child, 0);
-    if (child == 0) {
+    const int status = statusOfChild([&] {
       tools::AtomicFile file(target.string());  // moment 0: right after the temporary appears
       if (moment >= 1) file.write(std::string(1 << 20, 'x'));
       if (moment == 2) ::fsync(1);
       ::kill(::getpid(), SIGKILL);
-      ::_exit(0);
-    }
-    int status = 0;
-    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    });
     ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL);
     EXPECT_EQ(readAll(target), "old");
     EXPECT_EQ(entries(dir), 1u) << "moment " << moment << ": something was left in " << dir;

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "formats/cpvs/cpvs_file.h"
-#include "libcpvs/runtime/shadow_lookup.h"
+#include "libcpvs/runtime/file_shadows.h"
 
 namespace {
 
@@ -71,13 +71,7 @@ int main(int argc, char** argv) {
   }
   std::vector<cpvs::LightShadow> lights;
   for (const cpvs::CpvsFile::LightEntry& entry : file.value()->lights()) {
-    std::vector<cpvs::LightView> views;
-    std::vector<cpvs::DagView> dags;
-    for (const cpvs::CpvsFile::View& v : entry.views) {
-      views.push_back(v.view);
-      dags.push_back(v.dag);
-    }
-    cpvs::Result<cpvs::LightShadow> shadow = cpvs::LightShadow::create(entry.light, views, dags);
+    cpvs::Result<cpvs::LightShadow> shadow = cpvs::lightShadowOf(entry);
     if (!shadow) {
       std::fprintf(stderr, "%s: %s\n", argv[0], shadow.outcome().message().c_str());
       return 2;

@@ -1,6 +1,7 @@
 #include "libcpvs/eval/cpvs_method.h"
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/runtime/file_shadows.h"
 
 namespace cpvs {
 
@@ -15,13 +16,7 @@ CpvsMethod CpvsMethod::fromBake(const BakedLight& baked, int topGridLevels) {
 }
 
 CpvsMethod CpvsMethod::fromFile(const CpvsFile::LightEntry& entry, int topGridLevels) {
-  std::vector<LightView> views;
-  std::vector<DagView> dags;
-  for (const CpvsFile::View& v : entry.views) {
-    views.push_back(v.view);
-    dags.push_back(v.dag);
-  }
-  return CpvsMethod(orThrow(LightShadow::create(entry.light, std::move(views), std::move(dags), topGridLevels)));
+  return CpvsMethod(orThrow(lightShadowOf(entry, topGridLevels)));
 }
 
 uint64_t CpvsMethod::bytes() const {

@@ -1,7 +1,7 @@
 # The runtime's files, for this build and for any project that vendors them (docs/runtime.md).
 get_filename_component(CPVS_RUNTIME_INCLUDE_DIR "${CMAKE_CURRENT_LIST_DIR}/../.." ABSOLUTE)
 set(_cpvs_runtime_dir "${CPVS_RUNTIME_INCLUDE_DIR}/libcpvs/runtime")
-set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 dag_walks_avx512 light light_view outcome
+set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 dag_walks_avx512 file_shadows light light_view outcome
   shadow_dag shadow_lookup view_mapping)
 list(TRANSFORM _cpvs_runtime_files PREPEND "${_cpvs_runtime_dir}/")
 list(TRANSFORM _cpvs_runtime_files APPEND ".cpp")

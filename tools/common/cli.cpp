@@ -141,6 +141,11 @@ std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
   return std::nullopt;
 }
 
+void addStandardFlags(CLI::App& app, const char* toolName, const std::string& footerMore) {
+  app.footer(exitCodeHelp() + footerMore);
+  addVersionFlag(app, toolName);
+}
+
 void addVersionFlag(CLI::App& app, const char* toolName) {
   app.set_version_flag("--version", std::string(toolName) + " " + kVersion);
 }

@@ -58,6 +58,9 @@ void addImportOptions(CLI::App& app, ImportOptions& options);
 // Runs a tool's main body: maps cpvs::Error and other exceptions to messages on stderr and exit codes.
 int runMain(const char* toolName, const std::function<int()>& body);
 
+// --version and the exit-code footer (with `footerMore` after it) every tool has.
+void addStandardFlags(CLI::App& app, const char* toolName, const std::string& footerMore = "");
+
 // Sets --version on the app to print "<tool> <version>".
 void addVersionFlag(CLI::App& app, const char* toolName);
 

@@ -122,8 +122,7 @@ int run(int argc, char** argv) {
   Options o;
   CLI::App app{"cpvs-bake: bake Compact Precomputed Voxelized Shadows for every light of a glTF scene.\n"
                "Lights come from the scene (KHR_lights_punctual) unless given with --sun/--spot/--point."};
-  app.footer(tools::exitCodeHelp());
-  tools::addVersionFlag(app, "cpvs-bake");
+  tools::addStandardFlags(app, "cpvs-bake");
   app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
   app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
   app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")

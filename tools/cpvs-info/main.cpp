@@ -167,8 +167,7 @@ int main(int argc, char** argv) {
                "input is decided by its first bytes, not by its name.\n"
                "Format: docs/format.md.",
                kTool};
-  app.footer(cpvs::tools::exitCodeHelp());
-  cpvs::tools::addVersionFlag(app, kTool);
+  cpvs::tools::addStandardFlags(app, kTool);
   std::string input;
   bool json = false;
   app.add_option("INPUT", input, "Scene file (.gltf or .glb) or baked file (.cpvs)")->required();

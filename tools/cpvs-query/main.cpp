@@ -561,9 +561,8 @@ int main(int argc, char** argv) {
       ->type_name("N")
       ->capture_default_str();
   app.add_flag("-q,--quiet", options.quiet, "No progress bar");
-  tools::addVersionFlag(app, "cpvs-query");
   tools::addImportOptions(app, options.import);
-  app.footer(tools::exitCodeHelp() +
+  tools::addStandardFlags(app, "cpvs-query",
              "\nPoints with a NaN or infinite coordinate or normal are answered 0 and counted in a warning and in the "
              "report (invalid_points). Points outside a light's range or cone are answered 0; points whose normal "
              "faces away from the light are answered 0 (in their own surface's shadow).");

@@ -20,8 +20,7 @@ int run(int argc, char** argv) {
   CLI::App app{"cpvs-sample: writes random points on the surfaces of a glTF scene (area-weighted, with the\n"
                "triangle's outward normal) as CSV x,y,z,nx,ny,nz, the input of cpvs-query --points.\n"
                "The same scene, count and seed give the same file on every machine."};
-  app.footer(tools::exitCodeHelp());
-  tools::addVersionFlag(app, "cpvs-sample");
+  tools::addStandardFlags(app, "cpvs-sample");
   app.add_option("scene", scenePath, "Input scene (.gltf or .glb)")->required();
   app.add_option("-o,--output", output, "Output .csv (written atomically)")->required();
   app.add_option("-n,--count", count, "Number of points")->capture_default_str()->check(CLI::Range(1, 100000000));

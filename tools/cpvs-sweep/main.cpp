@@ -264,8 +264,7 @@ int run(int argc, char** argv) {
   CLI::App app{"cpvs-sweep: speed against error. Bakes a scene's lights at each resolution of a sweep, answers\n"
                "sampled surface points with the CPVS lookups and with a 16-bit shadow map of equal bytes, and\n"
                "compares both with Embree shadow rays. Writes NAME.md (table), NAME.svg (plots) and NAME.json."};
-  app.footer(tools::exitCodeHelp());
-  tools::addVersionFlag(app, "cpvs-sweep");
+  tools::addStandardFlags(app, "cpvs-sweep");
   app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
   o.lights.addTo(app);
   tools::addImportOptions(app, o.import);

@@ -1,0 +1,11 @@
+#pragma once
+// The step every engine takes after opening a .cpvs: one LightShadow per light of the file.
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/shadow_lookup.h"
+
+namespace cpvs {
+
+// The LightShadow of one light of an open file (its views and DAGs referenced: the file must outlive it).
+Result<LightShadow> lightShadowOf(const CpvsFile::LightEntry& entry, int topGridLevels = kAutomaticTopGrid);
+
+}  // namespace cpvs
