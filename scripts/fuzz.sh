@@ -30,6 +30,7 @@ seed() {  # seed TARGET: fills out/fuzz/corpus/TARGET once
       fi ;;
     fuzz_gltf)
       for f in Tiny/tiny.gltf TorusKnot/torusknot.gltf; do cp "$root/data/scenes/$f" "$dir/"; done
+      cp "$root"/tests/fuzz-regressions/gltf-*.gltf "$dir/"  # inputs that once failed: replayed every run
       python3 - "$root/data/scenes/Tiny/tiny.gltf" "$dir/tiny.glb" <<'PY'
 import base64, json, struct, sys
 g = json.load(open(sys.argv[1]))

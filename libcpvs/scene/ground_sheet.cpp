@@ -111,7 +111,9 @@ class HeightField {
   static double cross2(glm::dvec2 a, glm::dvec2 b) { return a.x * b.y - a.y * b.x; }
   size_t cellU(double u) const { return clampCell((u - f_.minU) / cellU_); }
   size_t cellV(double v) const { return clampCell((v - f_.minV) / cellV_); }
-  size_t clampCell(double x) const { return x > 0.0 ? std::min(cells_ - 1, size_t(x)) : 0; }
+  // Clamped in double first: a coordinate far outside the frame (or a huge extent ratio) must not convert an
+  // out-of-range double to size_t (undefined behaviour, found by fuzzing the import). NaN lands in cell 0.
+  size_t clampCell(double x) const { return x > 0.0 ? size_t(std::min(x, double(cells_ - 1))) : 0; }
 
   const WorldGeometry& world_;
   SheetFrame f_;
