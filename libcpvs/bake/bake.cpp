@@ -1,10 +1,14 @@
 #include "libcpvs/bake/bake.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <xxhash.h>
 
+#include "libcpvs/bake/bake_cache.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/peak_memory.h"
@@ -27,7 +31,8 @@ ShadowDag allLitDag(uint32_t resolution) {
   return dag;
 }
 
-std::string settingsJson(const BakeSettings& settings, uint64_t inputHash) {
+std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const std::vector<uint32_t>& part,
+                         size_t sceneLights) {
   char hash[17];
   std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(inputHash));
   // Only what determines the bytes of the result: no timestamps, no thread count, no paths.
@@ -40,6 +45,8 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash) {
                       {"region", std::min(settings.regionSize, settings.resolution)},
                       {"ground", groundSheetsName(settings.ground)},
                       {"input_hash", hash}};
+  // A run that bakes only some lights says which: cpvs-merge checks and drops this key.
+  if (part.size() != sceneLights) j["part"] = {{"lights", formatLightList(part)}, {"of", sceneLights}};
   return j.dump();
 }
 
@@ -83,14 +90,120 @@ uint32_t regionSizeWithinBudget(const BakeSettings& settings) {
   return size;
 }
 
+namespace {
+
+// Per view of a light: its triangles (view space) and the estimated cost of baking it: the texels of the
+// regions its triangles overlap plus a weight per triangle and region drawn.
+struct LightGeometry {
+  std::vector<ViewGeometry> views;
+  double cost = 0;
+  bool reachesGeometry = false;
+};
+
+LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<LightView>& views, uint32_t regionSize) {
+  constexpr double kTexelsPerTriangleDraw = 64;
+  LightGeometry out;
+  for (const LightView& view : views) {
+    out.views.push_back(view.empty ? ViewGeometry{} : gatherViewGeometry(world, view));
+    const ViewGeometry& g = out.views.back();
+    if (g.triangleCount() == 0) continue;
+    out.reachesGeometry = true;
+    const uint32_t size = std::min(regionSize, view.resolution);
+    const uint32_t perSide = (view.resolution + size - 1) / size;
+    std::vector<uint8_t> occupied(size_t(perSide) * perSide, 0);
+    uint64_t draws = 0;
+    for (const glm::vec4& b : g.gridBounds) {
+      const auto cell = [&](float t) { return uint32_t(std::clamp(std::floor(t / float(size)), 0.0f, float(perSide - 1))); };
+      for (uint32_t y = cell(b.z); y <= cell(b.w); ++y)
+        for (uint32_t x = cell(b.x); x <= cell(b.y); ++x) {
+          occupied[size_t(y) * perSide + x] = 1;
+          ++draws;
+        }
+    }
+    const double regions = double(std::count(occupied.begin(), occupied.end(), uint8_t(1)));
+    out.cost += regions * double(size) * double(size) + kTexelsPerTriangleDraw * double(draws);
+  }
+  return out;
+}
+
+std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world, uint32_t resolution) {
+  std::vector<std::vector<LightView>> views;
+  for (const Light& light : scene.lights) views.push_back(makeLightViews(light, world, resolution));
+  return views;
+}
+
+std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& settings, const WorldGeometry& world,
+                                   const std::vector<std::vector<LightView>>& views, std::vector<double>* costs) {
+  std::vector<uint32_t> chosen = settings.lights;
+  if (chosen.empty())
+    for (uint32_t i = 0; i < scene.lights.size(); ++i) chosen.push_back(i);
+  for (const uint32_t i : chosen)
+    if (i >= scene.lights.size())
+      throw Error(ErrorCategory::InvalidArgument, "light index " + std::to_string(i) + " is out of range: the scene has " +
+                                                      std::to_string(scene.lights.size()) + " light(s)");
+  if (settings.shard.count <= 1 && !costs) return chosen;
+  std::vector<double> cost(scene.lights.size(), 0.0);
+  for (const uint32_t i : chosen) cost[i] = gatherLightGeometry(world, views[i], settings.regionSize).cost;
+  if (costs) *costs = cost;
+  return settings.shard.count <= 1 ? chosen : shardLights(chosen, cost, settings.shard);
+}
+
+// Lights whose range is tiny against the scene usually mean a unit mismatch (a level in centimetres, lights in
+// metres): every shadow would be baked into a speck.
+void warnAboutRanges(const Scene& scene, const WorldGeometry& world, std::vector<std::string>& warnings) {
+  if (world.positions.empty()) return;
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const glm::dvec3& p : world.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const double diagonal = glm::length(hi - lo);
+  double largest = 0;
+  size_t local = 0;
+  for (const Light& l : scene.lights)
+    if (l.type != LightType::Directional && std::isfinite(l.range)) {
+      largest = std::max(largest, l.range);
+      ++local;
+    }
+  constexpr double kTinyFraction = 0.01;
+  if (local > 0 && local == size_t(std::count_if(scene.lights.begin(), scene.lights.end(), [](const Light& l) {
+        return l.type != LightType::Directional;
+      })) && largest < kTinyFraction * diagonal) {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "every spot and point light's range is under 1 %% of the scene's size (largest range %.4g, scene "
+                  "diagonal %.4g): are the lights and the geometry in the same units (a level authored in "
+                  "centimetres with ranges in metres)?",
+                  largest, diagonal);
+    warnings.emplace_back(text);
+  }
+}
+
+void describeDag(const ShadowDag& dag, ViewReport& vr) {
+  vr.nodesPerLevel = dag.nodesPerLevel;
+  vr.uniqueLeaves = dag.leaves.size();
+  vr.bytes = dag.bytes();
+}
+
+}  // namespace
+
+std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& requested, std::vector<double>* costs) {
+  BakeSettings settings = requested;
+  settings.regionSize = regionSizeWithinBudget(requested);
+  const WorldGeometry world = flatten(scene, settings.ground);
+  return selectLights(scene, settings, world, viewsOfLights(scene, world, settings.resolution), costs);
+}
+
 CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                       const BakeCallbacks& callbacks) {
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
+  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings.resolution);
+  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews, nullptr);
   CpvsContent content;
-  content.settingsJson = settingsJson(settings, inputHash);
+  content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
 
   std::unique_ptr<DepthRenderer> renderer;  // opened on first use: scenes without geometry need none
   BakeReport localReport;
@@ -98,21 +211,49 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeRep
   rep.inputHash = inputHash;
   rep.groundSheets = world.groundSheets;
   rep.sceneTriangles = world.sceneTriangleCount();
+  rep.sceneLights = scene.lights.size();
+  warnAboutRanges(scene, world, rep.warnings);
+  std::optional<BakeCache> cache;
+  if (!settings.cacheFolder.empty()) cache.emplace(settings.cacheFolder);
 
   // Progress counts views, weighted equally.
-  std::vector<std::vector<LightView>> allViews;
   size_t totalViews = 0, doneViews = 0;
-  for (const Light& light : scene.lights) {
-    allViews.push_back(makeLightViews(light, world, settings.resolution));
-    totalViews += allViews.back().size();
-  }
+  for (const uint32_t li : chosen) totalViews += allViews[li].size();
 
-  for (size_t li = 0; li < scene.lights.size(); ++li) {
+  for (size_t done = 0; done < chosen.size(); ++done) {
+    const uint32_t li = chosen[done];
+    const Stopwatch lightTime;
     BakedLight baked;
     baked.light = scene.lights[li];
+    if (callbacks.lightStarted) callbacks.lightStarted(baked.light.name);
     LightReport lightReport;
     lightReport.name = baked.light.name;
+    lightReport.index = li;
     lightReport.type = baked.light.type;
+    const LightGeometry lightGeometry = gatherLightGeometry(world, allViews[li], settings.regionSize);
+    lightReport.estimatedCost = lightGeometry.cost;
+    lightReport.reachesGeometry = lightGeometry.reachesGeometry;
+    if (!lightGeometry.reachesGeometry)
+      rep.warnings.push_back("light '" + baked.light.name + "' (index " + std::to_string(li) +
+                             ") reaches no geometry: every voxel of its views is lit (check its position, direction "
+                             "and range)");
+    uint64_t cacheKey = 0;
+    if (cache) {
+      cacheKey = lightBakeKey(settings, allViews[li], lightGeometry.views);
+      std::string problem;
+      if (std::optional<BakedLight> hit = cache->find(cacheKey, baked.light, &problem)) {
+        if (hit->views.size() == allViews[li].size()) {
+          baked = std::move(*hit);
+          lightReport.cache = LightReport::Cache::Hit;
+        } else {
+          problem = cache->pathOf(cacheKey) + ": holds " + std::to_string(hit->views.size()) + " view(s), expected " +
+                    std::to_string(allViews[li].size());
+        }
+      }
+      if (!problem.empty()) rep.warnings.push_back("bake cache entry ignored and baked again: " + problem);
+      if (lightReport.cache != LightReport::Cache::Hit) lightReport.cache = LightReport::Cache::Miss;
+    }
+    const bool fromCache = lightReport.cache == LightReport::Cache::Hit;
     for (size_t vi = 0; vi < allViews[li].size(); ++vi) {
       const LightView& view = allViews[li][vi];
       ViewReport vr;
@@ -120,8 +261,14 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeRep
       vr.face = view.face;
       vr.empty = view.empty;
       vr.shadowMapBytes = uint64_t(view.resolution) * view.resolution * 2;
+      if (fromCache) {
+        describeDag(baked.views[vi].dag, vr);
+        lightReport.views.push_back(vr);
+        ++doneViews;
+        continue;
+      }
       BakedView bakedView{view, {}};
-      const ViewGeometry geometry = gatherViewGeometry(world, view);
+      const ViewGeometry& geometry = lightGeometry.views[vi];
       if (view.empty || geometry.triangleCount() == 0) {
         bakedView.dag = allLitDag(view.resolution);
       } else {
@@ -176,16 +323,17 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeRep
         vr.nodesBuilt = builder.stats().nodesBuilt;
         vr.nodesReused = builder.stats().nodesReused;
       }
-      vr.nodesPerLevel = bakedView.dag.nodesPerLevel;
-      vr.uniqueLeaves = bakedView.dag.leaves.size();
-      vr.bytes = bakedView.dag.bytes();
+      describeDag(bakedView.dag, vr);
       baked.views.push_back(std::move(bakedView));
       lightReport.views.push_back(vr);
       ++doneViews;
       if (callbacks.progress) callbacks.progress(double(doneViews) / double(totalViews));
     }
+    if (cache && !fromCache) cache->store(cacheKey, baked);
+    lightReport.ms = lightTime.ms();
     content.lights.push_back(std::move(baked));
     rep.lights.push_back(std::move(lightReport));
+    if (callbacks.lightDone) callbacks.lightDone(rep.lights.back(), done + 1, chosen.size());
   }
   return content;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "libcpvs/bake/cpvs_writer.h"
+#include "libcpvs/bake/light_subsets.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/scene/scene.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -27,6 +28,12 @@ struct BakeSettings {
   // quarter of it, and the bake stops with Error(RuntimeFailure) as soon as the process's resident memory
   // exceeds it (checked after every region), before the system would kill it.
   uint64_t maxMemoryBytes = 0;
+
+  // Which lights this run bakes (none of this changes a light's bytes, nor the input hash):
+  std::vector<uint32_t> lights;  // indices into the scene's lights, ascending; empty: every light
+  ShardSpec shard;               // then only this cost-balanced shard of them (libcpvs/bake/light_subsets.h)
+  // A folder of finished light bakes (libcpvs/bake/bake_cache.h); empty: no cache.
+  std::string cacheFolder;
 };
 
 struct ViewReport {
@@ -48,8 +55,13 @@ struct ViewReport {
 
 struct LightReport {
   std::string name;
+  uint32_t index = 0;  // in the scene's light list
   LightType type = LightType::Directional;
   std::vector<ViewReport> views;
+  double ms = 0;               // wall time of this light, cache look-up included
+  double estimatedCost = 0;    // what shards are balanced by (arbitrary units)
+  enum class Cache { Off, Hit, Miss } cache = Cache::Off;
+  bool reachesGeometry = true;
 };
 
 struct BakeReport {
@@ -58,6 +70,8 @@ struct BakeReport {
   uint64_t inputHash = 0;
   std::vector<GroundSheet> groundSheets;  // the height fields spanning the scene, used or not (and why)
   size_t sceneTriangles = 0;              // the scene's own triangles, as flattened for the bake
+  size_t sceneLights = 0;                 // lights in the scene; `lights` holds those this run baked
+  std::vector<std::string> warnings;      // a light that reaches no geometry, ranges tiny against the scene
 };
 
 struct BakeCallbacks {
@@ -65,6 +79,9 @@ struct BakeCallbacks {
   std::function<void(double)> progress;
   // Called for each rendered region, e.g. to dump depth maps.
   std::function<void(size_t light, size_t view, const LightView&, const DepthRegion&)> depthRegion;
+  // Called when a light starts and when it is finished (`done` lights of `total` finished).
+  std::function<void(const std::string& name)> lightStarted;
+  std::function<void(const LightReport&, size_t done, size_t total)> lightDone;
 };
 
 // Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
@@ -77,7 +94,14 @@ uint64_t regionMemoryBytes(uint32_t regionSize);
 // quarter of maxMemoryBytes.
 uint32_t regionSizeWithinBudget(const BakeSettings& settings);
 
-// Bakes every light of the scene. Throws Error (NotSupported when the backend is missing).
+// The lights a run with `settings` bakes: settings.lights (or every light), then its shard. Shards are balanced by
+// an estimate of each light's cost (its views' occupied regions and triangles); every light index ends in exactly
+// one shard.
+std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& settings, std::vector<double>* costs = nullptr);
+
+// Bakes the scene's lights that `settings` selects (every light by default). A run that bakes only some of them
+// writes a part: its settings block names the lights it holds and how many the scene has, and cpvs-merge joins
+// parts into the file one run would write. Throws Error (NotSupported when the backend is missing).
 CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report = nullptr,
                       const BakeCallbacks& callbacks = {});
 

@@ -7,8 +7,16 @@
 
 namespace cpvs::tools {
 
+bool stderrIsTerminal() { return ::isatty(STDERR_FILENO) != 0; }
+
 ProgressBar::ProgressBar(std::string label, bool quiet)
-    : label_(std::move(label)), enabled_(!quiet && ::isatty(STDERR_FILENO)), start_(std::chrono::steady_clock::now()) {}
+    : label_(std::move(label)), enabled_(!quiet && stderrIsTerminal()), start_(std::chrono::steady_clock::now()) {}
+
+void ProgressBar::setDetail(std::string detail) {
+  constexpr size_t kWidest = 32;
+  if (detail.size() > kWidest) detail = detail.substr(0, kWidest - 3) + "...";
+  detail_ = std::move(detail);
+}
 
 ProgressBar::~ProgressBar() { finish(); }
 
@@ -22,8 +30,12 @@ void ProgressBar::update(double fraction) {
   constexpr int width = 30;
   const int filled = permille * width / 1000;
   const double seconds = std::chrono::duration<double>(now - start_).count();
-  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%%  %.1fs", label_.c_str(), filled, "##############################",
-               width - filled, "", permille / 10.0, seconds);
+  char eta[32] = "";
+  if (permille >= 10 && permille < 1000)
+    std::snprintf(eta, sizeof eta, ", ETA %.0fs", seconds * (1000.0 - permille) / permille);
+  // \033[K clears what a longer previous line left.
+  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%%  %.1fs%s  %s\033[K", label_.c_str(), filled,
+               "##############################", width - filled, "", permille / 10.0, seconds, eta, detail_.c_str());
   std::fflush(stderr);
 }
 

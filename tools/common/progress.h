@@ -5,15 +5,18 @@
 
 namespace cpvs::tools {
 
+bool stderrIsTerminal();
+
 class ProgressBar {
 public:
   ProgressBar(std::string label, bool quiet);
   ~ProgressBar();
-  void update(double fraction);  // [0, 1]; redraws at most ~10 times a second
+  void update(double fraction);  // [0, 1]; redraws at most ~10 times a second, with an ETA
+  void setDetail(std::string detail);  // what is being worked on (e.g. a light's name), shown after the bar
   void finish();
 
 private:
-  std::string label_;
+  std::string label_, detail_;
   bool enabled_;
   int lastPermille_ = -1;
   std::chrono::steady_clock::time_point start_, lastDraw_;

@@ -39,6 +39,9 @@ struct Options {
   std::string report;
   std::string dumpDepth;
   bool quiet = false;
+  std::string lightList;
+  std::string shard;
+  std::string cache;
   tools::LightOptions lights;
   ImportOptions import;
 };
@@ -94,7 +97,15 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"bytes", v.bytes},
                        {"shadow_map_bytes", v.shadowMapBytes}});
     }
-    lights.push_back({{"name", l.name}, {"type", lightTypeName(l.type)}, {"views", views}});
+    const char* cache = l.cache == LightReport::Cache::Hit ? "hit" : l.cache == LightReport::Cache::Miss ? "miss" : "off";
+    lights.push_back({{"name", l.name},
+                      {"index", l.index},
+                      {"type", lightTypeName(l.type)},
+                      {"ms", l.ms},
+                      {"cache", cache},
+                      {"estimated_cost", l.estimatedCost},
+                      {"reaches_geometry", l.reachesGeometry},
+                      {"views", views}});
   }
   return {{"version", kVersion},
           {"tool", "cpvs-bake"},
@@ -112,6 +123,8 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
           {"renderer", report.renderer},
           {"triangles", report.sceneTriangles},
           {"ground_sheets", groundSheetsJson(report.groundSheets)},
+          {"scene_lights", report.sceneLights},
+          {"warnings", report.warnings},
           {"total_ms", totalMs},
           {"peak_rss_bytes", peakRssBytes()},
           {"file_bytes", fileBytes},
@@ -152,7 +165,20 @@ int run(int argc, char** argv) {
       ->check(CLI::IsMember({"auto", "off"}));
   app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
   app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
-  app.add_flag("-q,--quiet", o.quiet, "No progress bar");
+  app.add_option("--lights", o.lightList,
+                 "Bake only these lights: indices, inclusive index ranges and names, e.g. 0-11,20,Lantern (the file is "
+                 "then a part for cpvs-merge)")
+      ->type_name("LIST");
+  app.add_option("--shard", o.shard,
+                 "Bake shard I of N (0-based) of the lights: a deterministic, cost-balanced subset; cpvs-merge joins "
+                 "the N parts into the file one run writes")
+      ->type_name("I/N");
+  app.add_option("--cache", o.cache,
+                 "Folder of finished light bakes keyed by what each depends on: unchanged lights are read back, not "
+                 "baked (same bytes as a clean bake)")
+      ->type_name("DIR");
+  app.add_flag("-q,--quiet", o.quiet,
+               "No progress (a bar on a terminal, else one line per finished light) and no warnings");
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
   if (o.output.empty() && o.dumpDepth.empty())
     throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
@@ -167,6 +193,8 @@ int run(int argc, char** argv) {
   settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   settings.regionSize = tools::forFlag("--region", [&] { return tools::parseResolution(o.regionSize); });
   settings.peel.maxPeels = o.maxPeels;
+  if (!o.shard.empty()) settings.shard = tools::forFlag("--shard", [&] { return parseShard(o.shard); });
+  settings.cacheFolder = o.cache;
   if (!o.maxMemory.empty())
     settings.maxMemoryBytes = tools::forFlag("--max-memory", [&] { return tools::parseByteSize(o.maxMemory); });
   settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
@@ -187,10 +215,23 @@ int run(int argc, char** argv) {
     if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";
   if (scene.lights.empty())
     throw Error(ErrorCategory::InvalidArgument, o.scene + ": the scene has no KHR_lights_punctual lights; give --sun, --spot or --point");
+  if (!o.lightList.empty())
+    settings.lights = tools::forFlag("--lights", [&] { return parseLightList(o.lightList, scene.lights); });
 
   tools::ProgressBar progress("baking", o.quiet);
   BakeCallbacks callbacks;
   callbacks.progress = [&](double f) { progress.update(f); };
+  callbacks.lightStarted = [&](const std::string& name) { progress.setDetail(name); };
+  // Build logs (stderr not a terminal) get one line per light instead of a bar.
+  const bool lightLines = !o.quiet && !tools::stderrIsTerminal();
+  callbacks.lightDone = [&](const LightReport& l, size_t done, size_t total) {
+    if (!lightLines) return;
+    uint64_t bytes = 0;
+    for (const ViewReport& v : l.views) bytes += v.bytes;
+    std::fprintf(stderr, "cpvs-bake: light %zu/%zu '%s' (index %u): %zu view(s), %.2f s, %llu bytes%s\n", done, total,
+                 l.name.c_str(), l.index, l.views.size(), l.ms / 1000.0, (unsigned long long)bytes,
+                 l.cache == LightReport::Cache::Hit ? ", from the cache" : "");
+  };
   if (!o.dumpDepth.empty())
     callbacks.depthRegion = [&](size_t light, size_t view, const LightView&, const DepthRegion& depth) {
       dumpDepthRegion(o.dumpDepth, light, view, depth);
@@ -198,6 +239,8 @@ int run(int argc, char** argv) {
   BakeReport report;
   const CpvsContent content = bakeScene(scene, settings, &report, callbacks);
   progress.finish();
+  if (!o.quiet)
+    for (const std::string& w : report.warnings) std::cerr << "cpvs-bake: warning: " << w << "\n";
   if (!o.quiet)
     for (const GroundSheet& g : report.groundSheets)
       std::fprintf(stderr, "cpvs-bake: ground: mesh '%s' (node '%s') %s\n", g.mesh.c_str(), g.node.c_str(),
@@ -220,8 +263,12 @@ int run(int argc, char** argv) {
   if (!o.quiet) {
     size_t views = 0;
     for (const auto& l : report.lights) views += l.views.size();
-    std::fprintf(stderr, "cpvs-bake: %zu light(s), %zu view(s) at %u^3 in %.2f s", report.lights.size(), views,
-                 settings.resolution, totalMs / 1000.0);
+    size_t hits = 0;
+    for (const auto& l : report.lights) hits += l.cache == LightReport::Cache::Hit;
+    std::fprintf(stderr, "cpvs-bake: %zu light(s)", report.lights.size());
+    if (report.lights.size() != report.sceneLights) std::fprintf(stderr, " of %zu", report.sceneLights);
+    if (!settings.cacheFolder.empty()) std::fprintf(stderr, " (%zu from the cache)", hits);
+    std::fprintf(stderr, ", %zu view(s) at %u^3 in %.2f s", views, settings.resolution, totalMs / 1000.0);
     if (!o.output.empty()) std::fprintf(stderr, " -> %s (%llu bytes)", o.output.c_str(), (unsigned long long)fileBytes);
     std::fprintf(stderr, "\n");
   }

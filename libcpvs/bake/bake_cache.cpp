@@ -1,0 +1,115 @@
+#include "libcpvs/bake/bake_cache.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+#include <xxhash.h>
+
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/baked_from_file.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/version.h"
+
+namespace cpvs {
+namespace {
+
+std::string hex(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+template <class T>
+void hashVector(XXH3_state_t* state, const std::vector<T>& v) {
+  const uint64_t count = v.size();
+  XXH3_64bits_update(state, &count, sizeof count);
+  if (!v.empty()) XXH3_64bits_update(state, v.data(), v.size() * sizeof(T));
+}
+
+}  // namespace
+
+uint64_t lightBakeKey(const BakeSettings& settings, const std::vector<LightView>& views,
+                      const std::vector<ViewGeometry>& geometry) {
+  XXH3_state_t* state = XXH3_createState();
+  XXH3_64bits_reset(state);
+  const std::string version = std::string("cpvs-bake ") + kVersion;
+  XXH3_64bits_update(state, version.data(), version.size());
+  const uint64_t s[] = {settings.resolution, uint64_t(settings.undefinedMode), settings.nodeReuse,
+                        settings.peel.maxPeels, settings.peel.stopBelowPerMillion,
+                        std::min(settings.regionSize, settings.resolution), uint64_t(settings.ground), views.size()};
+  XXH3_64bits_update(state, s, sizeof s);
+  for (size_t i = 0; i < views.size(); ++i) {
+    const LightView& v = views[i];
+    const double values[] = {double(v.projection), double(v.mapping), double(v.resolution), v.xMin, v.xMax,
+                             v.yMin, v.yMax, v.near, v.far, double(v.face), double(v.empty)};
+    XXH3_64bits_update(state, values, sizeof values);
+    XXH3_64bits_update(state, &v.viewFromWorld[0][0], sizeof(double) * 16);
+    hashVector(state, geometry[i].positions);
+    hashVector(state, geometry[i].closedIndices);
+    hashVector(state, geometry[i].openIndices);
+  }
+  const uint64_t key = XXH3_64bits_digest(state);
+  XXH3_freeState(state);
+  return key;
+}
+
+BakeCache::BakeCache(std::string folder) : folder_(std::move(folder)) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  if (ec || !std::filesystem::is_directory(folder_))
+    throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot create the bake cache folder" +
+                                                 (ec ? ": " + ec.message() : std::string()));
+}
+
+std::string BakeCache::pathOf(uint64_t key) const {
+  return (std::filesystem::path(folder_) / (hex(key) + ".cpvs")).string();
+}
+
+std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std::string* problem) const {
+  const std::string path = pathOf(key);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
+  auto opened = CpvsFile::open(path);
+  const auto reject = [&](const std::string& why) -> std::optional<BakedLight> {
+    if (problem) *problem = why;
+    return std::nullopt;
+  };
+  if (!opened.ok()) return reject(opened.outcome().message());
+  const CpvsFile& file = *opened.value();
+  nlohmann::json settings = nlohmann::json::parse(file.settingsJson(), nullptr, false);
+  if (!settings.is_object() || settings.value("cache_key", std::string()) != hex(key) || file.lights().size() != 1)
+    return reject(path + ": not a cache entry for key " + hex(key));
+  BakedLight baked = bakedLightOf(file.lights()[0]);
+  baked.light = light;
+  return baked;
+}
+
+void BakeCache::store(uint64_t key, const BakedLight& baked) const {
+  CpvsContent content;
+  content.lights.push_back(baked);
+  content.settingsJson = nlohmann::json{{"cache_key", hex(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
+  const std::string bytes = writeCpvs(content);
+  const std::string path = pathOf(key);
+  std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex(key) + "-XXXXXX")).string();
+  const int fd = ::mkstemp(temp.data());
+  if (fd < 0) throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot write a bake cache entry");
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n <= 0) break;
+    written += size_t(n);
+  }
+  const bool ok = written == bytes.size() && ::fsync(fd) == 0;
+  ::close(fd);
+  if (!ok || std::rename(temp.c_str(), path.c_str()) != 0) {
+    ::unlink(temp.c_str());
+    throw Error(ErrorCategory::OutputFailed, path + ": cannot write the bake cache entry");
+  }
+}
+
+}  // namespace cpvs

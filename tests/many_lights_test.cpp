@@ -1,0 +1,250 @@
+// Many lights in one level: light lists and shards, parts merged into the file one run writes (byte for byte),
+// the bake cache (a one-light change re-bakes one light, same bytes as a clean bake), and the warnings.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/light_subsets.h"
+#include "libcpvs/bake/merge_parts.h"
+#include "libcpvs/base/error.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using test::runTool;
+using test::tempDir;
+using test::toolPath;
+
+// A ground slab with a row of blocks and six local lights: four spots along the row, a point light, and a spot
+// pointing at the sky (it reaches no geometry).
+Scene streetScene() {
+  Scene scene;
+  test::addBox(scene, "ground", {-30, -1, -6}, {30, 0, 6});
+  for (int i = 0; i < 5; ++i)
+    test::addBox(scene, "block" + std::to_string(i), {-26.0 + 12 * i, 0, -3}, {-22.0 + 12 * i, 3.0 + i, 1});
+  test::classifyMeshes(scene);
+  for (int i = 0; i < 4; ++i)
+    scene.lights.push_back(test::spotLight("lamp" + std::to_string(i), {-24.0 + 14 * i, 9, 3}, {0.1, -1, -0.2}, 0.6, 20));
+  scene.lights.push_back(test::pointLight("bulb", {5, 7, 2}, 15));
+  scene.lights.push_back(test::spotLight("skyward", {0, 20, 0}, {0, 1, 0}, 0.5, 10));
+  return scene;
+}
+
+BakeSettings smallSettings() {
+  BakeSettings s;
+  s.resolution = 128;
+  s.regionSize = 64;  // several regions per view: node order depends on them
+  return s;
+}
+
+std::string bakeBytes(const Scene& scene, const BakeSettings& settings, BakeReport* report = nullptr) {
+  return writeCpvs(bakeScene(scene, settings, report));
+}
+
+std::unique_ptr<CpvsFile> openBytes(const std::string& bytes, const std::string& name) {
+  auto file = CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, name);
+  if (!file.ok()) throw Error(file.outcome());
+  return std::move(file).value();
+}
+
+TEST(LightSubsets, ParsesIndicesRangesAndNames) {
+  const Scene scene = streetScene();
+  EXPECT_EQ(parseLightList("0", scene.lights), (std::vector<uint32_t>{0}));
+  EXPECT_EQ(parseLightList("3,0-1,bulb,1", scene.lights), (std::vector<uint32_t>{0, 1, 3, 4}));
+  EXPECT_EQ(parseLightList("skyward,2-3", scene.lights), (std::vector<uint32_t>{2, 3, 5}));
+  EXPECT_EQ(formatLightList({0, 1, 2, 4, 6, 7}), "0-2,4,6-7");
+  for (const char* bad : {"6", "0-6", "3-1", "lamp9", "0,,1", "", "1,", "-1"}) {
+    try {
+      parseLightList(bad, scene.lights);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.category(), ErrorCategory::InvalidArgument);
+      EXPECT_NE(std::string(e.what()).find("light list"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(parseShard("2/4").index, 2u);
+  for (const char* bad : {"4/4", "0/0", "1", "a/b", "-1/4", "1/4/2"}) EXPECT_THROW(parseShard(bad), Error) << bad;
+}
+
+TEST(LightSubsets, ShardsHoldEveryLightOnceAndBalanceTheCost) {
+  const std::vector<double> costs = {9, 1, 1, 1, 5, 4, 3, 3, 2, 8};
+  std::vector<uint32_t> all(costs.size());
+  for (uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::vector<int> seen(costs.size(), 0);
+  double heaviest = 0, lightest = 1e9;
+  for (uint32_t s = 0; s < 3; ++s) {
+    double load = 0;
+    for (const uint32_t light : shardLights(all, costs, {s, 3})) {
+      ++seen[light];
+      load += costs[light];
+    }
+    heaviest = std::max(heaviest, load);
+    lightest = std::min(lightest, load);
+  }
+  for (const int n : seen) EXPECT_EQ(n, 1);
+  EXPECT_LE(heaviest - lightest, 1.0);  // 37 in all: 13 / 12 / 12
+  // More shards than lights: the extra shards are empty, none is lost.
+  EXPECT_TRUE(shardLights({0, 1}, costs, {4, 5}).empty());
+}
+
+TEST(ManyLights, ShardsMergedEqualOneRun) {
+  const Scene scene = streetScene();
+  std::string whole;
+  SKIP_WITHOUT_OSMESA(whole = bakeBytes(scene, smallSettings()));
+  std::vector<std::string> partBytes;
+  for (uint32_t s = 0; s < 3; ++s) {
+    BakeSettings settings = smallSettings();
+    settings.shard = {s, 3};
+    settings.threads = 1 + s % 2;  // no byte depends on it
+    partBytes.push_back(bakeBytes(scene, settings));
+    EXPECT_NE(partBytes.back(), whole);
+  }
+  std::vector<std::unique_ptr<CpvsFile>> files;
+  std::vector<NamedPart> parts;
+  for (size_t i : {2, 0, 1}) {  // any order
+    files.push_back(openBytes(partBytes[i], "part" + std::to_string(i)));
+    parts.push_back({"part" + std::to_string(i), files.back().get()});
+  }
+  EXPECT_EQ(writeCpvs(mergeParts(parts)), whole);
+
+  // A named list and its complement.
+  BakeSettings first = smallSettings(), rest = smallSettings();
+  first.lights = {0, 4};
+  rest.lights = {1, 2, 3, 5};
+  const std::string a = bakeBytes(scene, first), b = bakeBytes(scene, rest);
+  const auto fa = openBytes(a, "a.cpvs"), fb = openBytes(b, "b.cpvs");
+  EXPECT_EQ(fa->lights().size(), 2u);
+  EXPECT_EQ(fa->lights()[1].light.name, "bulb");
+  EXPECT_EQ(writeCpvs(mergeParts({{"b.cpvs", fb.get()}, {"a.cpvs", fa.get()}})), whole);
+
+  // Refusals: a missing light, an overlap, parts of another bake.
+  const auto expectRefusal = [](const std::vector<NamedPart>& p, const std::string& needle) {
+    try {
+      mergeParts(p);
+      ADD_FAILURE() << "merged; expected a refusal mentioning '" << needle << "'";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.category(), ErrorCategory::InvalidInput);
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expectRefusal({{"a.cpvs", fa.get()}}, "missing: 1-3,5");
+  expectRefusal({{"a.cpvs", fa.get()}, {"b.cpvs", fb.get()}, {"part0", files[1].get()}}, "is in both");
+  BakeSettings other = smallSettings();
+  other.lights = {1, 2, 3, 5};
+  other.resolution = 64;
+  const std::string c = bakeBytes(scene, other);
+  const auto fc = openBytes(c, "c.cpvs");
+  expectRefusal({{"a.cpvs", fa.get()}, {"c.cpvs", fc.get()}}, "differ in: input_hash, resolution");
+}
+
+TEST(ManyLights, CacheRebakesOnlyTheLightsAChangeReaches) {
+  Scene scene = streetScene();
+  const std::string folder = tempDir() + "/cache";
+  BakeSettings settings = smallSettings();
+  settings.cacheFolder = folder;
+  BakeReport first;
+  SKIP_WITHOUT_OSMESA(bakeBytes(scene, settings, &first));
+  for (const LightReport& l : first.lights) EXPECT_EQ(l.cache, LightReport::Cache::Miss) << l.name;
+
+  // Move one light: it alone is baked again, and the file equals a clean bake.
+  scene.lights[1].position.x += 1.5;
+  BakeReport second;
+  const std::string cached = bakeBytes(scene, settings, &second);
+  BakeSettings clean = smallSettings();
+  EXPECT_EQ(cached, bakeBytes(scene, clean));
+  for (const LightReport& l : second.lights)
+    EXPECT_EQ(l.cache, l.index == 1 ? LightReport::Cache::Miss : LightReport::Cache::Hit) << l.name;
+
+  // Raise one block (not above the tallest, so the scene's bounds stay): the lights that reach it are baked
+  // again, the lamp at the far end of the street (14 units beyond its range) and the skyward spot are not.
+  Mesh& block = scene.meshes[4];  // block3, x in [10, 14], 6 high
+  for (glm::vec3& p : block.positions)
+    if (p.y > 1) p.y += 0.5f;
+  BakeReport third;
+  EXPECT_EQ(bakeBytes(scene, settings, &third), bakeBytes(scene, clean));
+  std::vector<uint32_t> missed;
+  for (const LightReport& l : third.lights)
+    if (l.cache == LightReport::Cache::Miss) missed.push_back(l.index);
+  EXPECT_EQ(missed, (std::vector<uint32_t>{2, 3, 4}));
+
+  // A damaged entry is baked again with a warning, never used.
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    std::fstream f(entry.path(), std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(200);
+    f.put('\x5a');
+  }
+  BakeReport fourth;
+  EXPECT_EQ(bakeBytes(scene, settings, &fourth), bakeBytes(scene, clean));
+  size_t damaged = 0;
+  for (const std::string& w : fourth.warnings) damaged += w.find("bake cache entry ignored") != std::string::npos;
+  EXPECT_GT(damaged, 0u);
+}
+
+TEST(ManyLights, WarnsAboutALightThatReachesNothingAndTinyRanges) {
+  Scene scene = streetScene();
+  BakeReport report;
+  SKIP_WITHOUT_OSMESA(bakeScene(scene, smallSettings(), &report));
+  ASSERT_EQ(report.warnings.size(), 1u);
+  EXPECT_NE(report.warnings[0].find("'skyward' (index 5) reaches no geometry"), std::string::npos) << report.warnings[0];
+  EXPECT_FALSE(report.lights[5].reachesGeometry);
+
+  // The same level authored in centimetres with ranges left in metres.
+  for (Mesh& m : scene.meshes)
+    for (glm::vec3& p : m.positions) p *= 100.0f;
+  for (Light& l : scene.lights) l.position *= 100.0;
+  BakeReport centimetres;
+  bakeScene(scene, smallSettings(), &centimetres);
+  bool unitsWarned = false;
+  for (const std::string& w : centimetres.warnings) unitsWarned |= w.find("same units") != std::string::npos;
+  EXPECT_TRUE(unitsWarned);
+}
+
+TEST(ManyLights, ToolsSplitMergeAndLogOneLinePerLight) {
+  const std::string dir = tempDir();
+  const std::string scene = dir + "/spots.glb";
+  ASSERT_EQ(runTool(toolPath("cpvs-scenegen") + " city-spots --triangles 5000 --lights 7 -o " + scene).exitCode, 0);
+  const std::string bake = toolPath("cpvs-bake") + " " + scene + " -r 64 --region 32";
+  const test::ToolResult whole = runTool(bake + " -o " + dir + "/whole.cpvs --report " + dir + "/whole.json");
+  ASSERT_EQ(whole.exitCode, 0) << whole.output;
+  // stderr is not a terminal here: one line per finished light.
+  EXPECT_NE(whole.output.find("cpvs-bake: light 7/7 'spot_6' (index 6): 1 view(s)"), std::string::npos) << whole.output;
+  std::string parts;
+  for (int s = 0; s < 3; ++s) {
+    const std::string part = dir + "/part" + std::to_string(s) + ".cpvs";
+    const test::ToolResult r = runTool(bake + " -q --shard " + std::to_string(s) + "/3 -o " + part);
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_EQ(r.output, "");  // --quiet
+    parts += " " + part;
+  }
+  const test::ToolResult merged = runTool(toolPath("cpvs-merge") + parts + " -o " + dir + "/merged.cpvs");
+  ASSERT_EQ(merged.exitCode, 0) << merged.output;
+  EXPECT_EQ(runTool("cmp " + dir + "/whole.cpvs " + dir + "/merged.cpvs").exitCode, 0);
+  // A missing part: exit 2 (invalid input), nothing written.
+  const test::ToolResult missing = runTool(toolPath("cpvs-merge") + " " + dir + "/part0.cpvs -o " + dir + "/half.cpvs");
+  EXPECT_EQ(missing.exitCode, 2) << missing.output;
+  EXPECT_NE(missing.output.find("missing:"), std::string::npos) << missing.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/half.cpvs"));
+  // Bad flags name themselves.
+  const test::ToolResult badShard = runTool(bake + " --shard 3/3 -o " + dir + "/x.cpvs");
+  EXPECT_EQ(badShard.exitCode, 1) << badShard.output;
+  EXPECT_NE(badShard.output.find("--shard"), std::string::npos) << badShard.output;
+  const test::ToolResult badList = runTool(bake + " --lights 0,Nope -o " + dir + "/x.cpvs");
+  EXPECT_NE(badList.exitCode, 0);
+  EXPECT_NE(badList.output.find("--lights: light list '0,Nope': 'Nope'"), std::string::npos) << badList.output;
+  // The report says which lights a run baked and how.
+  std::ifstream in(dir + "/whole.json");
+  const nlohmann::json report = nlohmann::json::parse(in);
+  EXPECT_EQ(report["scene_lights"], 7);
+  EXPECT_EQ(report["lights"][6]["index"], 6);
+  EXPECT_EQ(report["lights"][6]["cache"], "off");
+}
+
+}  // namespace
+}  // namespace cpvs
