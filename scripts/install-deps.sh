@@ -9,6 +9,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libstb-dev libtbb-dev libxxhash-dev libjemalloc-dev
   assimp-testmodels clang libclang-rt-14-dev
+  slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
 )
 
 missing=()

@@ -194,8 +194,10 @@ std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& reque
   return selectLights(scene, settings, world, viewsOfLights(scene, world, settings.resolution), costs);
 }
 
-CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeReport* report,
-                      const BakeCallbacks& callbacks) {
+namespace {
+
+CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
+                          const BakeCallbacks& callbacks) {
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
@@ -335,6 +337,17 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& requested, BakeRep
     rep.lights.push_back(std::move(lightReport));
     if (callbacks.lightDone) callbacks.lightDone(rep.lights.back(), done + 1, chosen.size());
   }
+  return content;
+}
+
+}  // namespace
+
+CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeReport* report,
+                      const BakeCallbacks& callbacks) {
+  // Every parallel loop of the bake (rasterising, tile masks, the DAG beside them) runs on `threads` threads.
+  tbb::task_arena arena(int(std::clamp(settings.threads, 1u, 256u)));
+  CpvsContent content;
+  arena.execute([&] { content = bakeSceneHere(scene, settings, report, callbacks); });
   return content;
 }
 

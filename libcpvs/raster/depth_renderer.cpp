@@ -25,18 +25,21 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/stopwatch.h"
+#include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/raster/gl_context.h"
+#include "libcpvs/raster/triangle_setup.h"
 
 namespace cpvs {
 
 RasterBackend parseRasterBackend(const std::string& name) {
   if (name == "osmesa") return RasterBackend::OSMesa;
   if (name == "egl") return RasterBackend::EGL;
-  throw Error(ErrorCategory::InvalidArgument, "unknown raster backend '" + name + "' (expected osmesa or egl)");
+  if (name == "cpu") return RasterBackend::Cpu;
+  throw Error(ErrorCategory::InvalidArgument, "unknown raster backend '" + name + "' (expected cpu, osmesa or egl)");
 }
 
 const char* rasterBackendName(RasterBackend backend) {
-  return backend == RasterBackend::EGL ? "egl" : "osmesa";
+  return backend == RasterBackend::EGL ? "egl" : backend == RasterBackend::Cpu ? "cpu" : "osmesa";
 }
 
 namespace {
@@ -233,12 +236,6 @@ struct GpuVertex {
 };
 static_assert(sizeof(GpuVertex) == 48);
 
-int depthMode(const LightView& view) {
-  const bool logarithmic = view.mapping == DepthMapping::Logarithmic;
-  if (view.projection == Projection::Orthographic) return logarithmic ? 1 : 0;
-  return logarithmic ? 3 : 2;
-}
-
 // Per triangle of `geometry` (closed, then open): three vertices with
 //  * clip positions: for triangles wholly at d >= near / 2 (every orthographic one) the texel position is
 //    computed here in double and snapped to 1/256 texel (the rasteriser's sub-pixel grid); p = u - block.x0
@@ -256,104 +253,42 @@ struct ViewportBlock {
 
 void buildVertices(const ViewGeometry& geometry, const LightView& view, const ViewportBlock& block, GpuVertex* out) {
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
-  const bool perspective = view.projection == Projection::Perspective;
-  const int mode = depthMode(view);
-  const double nearClip = 0.5 * view.near;
-  const double ortLinearScale = 1.0 / (view.far - view.near);
   const double halfViewport = 0.5 * block.size;
   const double sx = 2.0 * n / (block.size * ex), sy = 2.0 * n / (block.size * ey);
   const double ac = view.xMin + (double(block.x0) + halfViewport) * ex / n;
   const double bc = view.yMin + (double(block.y0) + halfViewport) * ey / n;
   const size_t closedCount = geometry.closedIndices.size() / 3;
   const size_t count = closedCount + geometry.openIndices.size() / 3;
-  constexpr double kLimit = double(1 << 24);
-  auto qOfDepth = [&](double d) {
-    if (mode == 0) return (d - view.near) * ortLinearScale;
-    if (mode == 1) return d;
-    return 1.0 / d;
-  };
 
   auto one = [&](size_t t) {
     const uint32_t* idx = t < closedCount ? &geometry.closedIndices[3 * t]
                                           : &geometry.openIndices[3 * (t - closedCount)];
     glm::dvec3 p[3];
-    double d[3], u[3], v[3];
-    bool safe = true;
-    for (int k = 0; k < 3; ++k) {
-      p[k] = glm::dvec3(geometry.positions[idx[k]]);
-      d[k] = -p[k].z;
-      if (perspective && !(d[k] >= nearClip)) safe = false;
-      const double a = perspective ? p[k].x / d[k] : p[k].x, b = perspective ? p[k].y / d[k] : p[k].y;
-      u[k] = n * (a - view.xMin) / ex;
-      v[k] = n * (b - view.yMin) / ey;
-    }
-    // Depth plane q(u, v) = k0 + ku u + kv v.
-    const glm::dvec3 normal = glm::cross(p[1] - p[0], p[2] - p[0]);
-    double k0 = 0, ku = 0, kv = 0;
-    bool planar = false;
-    if (!perspective) {
-      if (normal.z != 0) {  // d = (nx x + ny y - c) / nz with x = xMin + u ex / N
-        const double c = glm::dot(normal, p[0]);
-        ku = normal.x * ex / (n * normal.z);
-        kv = normal.y * ey / (n * normal.z);
-        k0 = (normal.x * view.xMin + normal.y * view.yMin - c) / normal.z;
-        if (mode == 0) {
-          k0 = (k0 - view.near) * ortLinearScale;
-          ku *= ortLinearScale;
-          kv *= ortLinearScale;
-        }
-        planar = true;
-      }
-    } else {
-      const double c = glm::dot(normal, p[0]);
-      if (c != 0) {  // 1 / d = (nx a + ny b - nz) / c with a = xMin + u ex / N
-        ku = normal.x * ex / (n * c);
-        kv = normal.y * ey / (n * c);
-        k0 = (normal.x * view.xMin + normal.y * view.yMin - normal.z) / c;
-        planar = true;
-      }
-    }
-    // Reference texel: the rounded centroid of the projected vertices in front of the light.
-    double su = 0, sv = 0;
-    int visible = 0;
-    for (int k = 0; k < 3; ++k)
-      if (!perspective || d[k] >= nearClip) {
-        su += u[k];
-        sv += v[k];
-        ++visible;
-      }
-    const double u0 = visible ? std::clamp(std::round(su / visible), -kLimit, kLimit) : 0.0;
-    const double v0 = visible ? std::clamp(std::round(sv / visible), -kLimit, kLimit) : 0.0;
-    double qMin = -std::numeric_limits<float>::max(), qMax = std::numeric_limits<float>::max();
-    if (safe) {
-      qMin = std::min({qOfDepth(d[0]), qOfDepth(d[1]), qOfDepth(d[2])});
-      qMax = std::max({qOfDepth(d[0]), qOfDepth(d[1]), qOfDepth(d[2])});
-    }
-    const double q0 = planar ? k0 + ku * u0 + kv * v0 : (safe ? qMin : 0.0);
-    if (!planar) ku = kv = 0;
+    for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(geometry.positions[idx[k]]);
+    const TriangleSetup s = setUpTriangle(view, p[0], p[1], p[2]);
     for (int k = 0; k < 3; ++k) {
       GpuVertex& out3 = out[3 * t + size_t(k)];
-      if (safe) {
-        const double px = std::round(u[k] * 256.0) / 256.0 - block.x0;
-        const double py = std::round(v[k] * 256.0) / 256.0 - block.y0;
+      if (s.safe) {
+        const double px = std::round(s.u[k] * 256.0) / 256.0 - block.x0;
+        const double py = std::round(s.v[k] * 256.0) / 256.0 - block.y0;
         out3.clip[0] = float(px / halfViewport - 1.0);
         out3.clip[1] = float(py / halfViewport - 1.0);
         out3.clip[2] = 0.0f;
         out3.clip[3] = 1.0f;
       } else {
-        out3.clip[0] = float(sx * (p[k].x - ac * d[k]));
-        out3.clip[1] = float(sy * (p[k].y - bc * d[k]));
-        out3.clip[2] = float(d[k] - view.near);
-        out3.clip[3] = float(d[k]);
+        out3.clip[0] = float(sx * (p[k].x - ac * s.d[k]));
+        out3.clip[1] = float(sy * (p[k].y - bc * s.d[k]));
+        out3.clip[2] = float(s.d[k] - view.near);
+        out3.clip[3] = float(s.d[k]);
       }
-      out3.plane[0] = float(q0);
-      out3.plane[1] = float(ku);
-      out3.plane[2] = float(kv);
+      out3.plane[0] = float(s.q0);
+      out3.plane[1] = float(s.ku);
+      out3.plane[2] = float(s.kv);
       out3.pad = 0.0f;
-      out3.origin[0] = int32_t(u0);
-      out3.origin[1] = int32_t(v0);
-      out3.range[0] = float(qMin);
-      out3.range[1] = float(qMax);
+      out3.origin[0] = int32_t(s.u0);
+      out3.origin[1] = int32_t(s.v0);
+      out3.range[0] = float(s.qMin);
+      out3.range[1] = float(s.qMax);
     }
   };
   if (count >= 16384) {
@@ -860,6 +795,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
 }  // namespace
 
 std::unique_ptr<DepthRenderer> DepthRenderer::create(RasterBackend backend) {
+  if (backend == RasterBackend::Cpu) return createCpuDepthRenderer();
   std::unique_ptr<gl::Context> context =
       backend == RasterBackend::EGL ? gl::createEGLContext() : gl::createOSMesaContext();
   return std::make_unique<GlDepthRenderer>(std::move(context));

@@ -31,7 +31,7 @@ struct Options {
   std::string undefinedMode = "kampe";
   bool noNodeReuse = false;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
-  std::string backend = "osmesa";
+  std::string backend = "cpu";
   std::string regionSize = "1k";
   uint32_t maxPeels = 2;
   std::string maxMemory;
@@ -147,7 +147,7 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
   app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
-  app.add_option("--backend", o.backend, "Depth rendering: osmesa (default, no GPU or display) or egl")
+  app.add_option("--backend", o.backend, "Depth rendering: cpu (default: the CPU rasteriser), osmesa (OpenGL on llvmpipe, no GPU or display) or egl (OpenGL on a GPU)")
       ->capture_default_str();
   app.add_option("--region", o.regionSize, "Largest region rendered at once (power of two); bounds memory")
       ->capture_default_str();

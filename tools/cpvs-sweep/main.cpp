@@ -36,7 +36,7 @@ struct Options {
   int pcf = 1;
   std::string baselineDepth = "embree";
   std::string undefinedMode = "kampe";
-  std::string backend = "osmesa";
+  std::string backend = "cpu";
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   double timing = 0.25;
   std::string name;
@@ -287,7 +287,7 @@ int run(int argc, char** argv) {
                  "Depth of the equal-bytes shadow map: embree (rays through texel centres) or raster (GL)")
       ->capture_default_str();
   app.add_option("--undefined", o.undefinedMode, "Bake mode for free voxels: kampe, sintorn, none")->capture_default_str();
-  app.add_option("--backend", o.backend, "Depth rendering: osmesa or egl")->capture_default_str();
+  app.add_option("--backend", o.backend, "Depth rendering: cpu (default), osmesa or egl")->capture_default_str();
   app.add_option("-j,--threads", o.threads, "Bake threads")->capture_default_str();
   app.add_option("--timing", o.timing, "Seconds per throughput measurement")->capture_default_str();
   app.add_option("--name", o.name, "Name of the outputs (default: the scene file's stem)");

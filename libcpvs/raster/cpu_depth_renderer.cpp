@@ -1,0 +1,447 @@
+#include "libcpvs/raster/cpu_depth_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
+#include "libcpvs/raster/triangle_setup.h"
+
+namespace cpvs {
+namespace {
+
+// Kind ranks: on an exact depth tie the lower rank is the enter surface (the GL renderer draws open, then closed
+// back, then closed front faces with GL_LESS), so a tie never makes the exit later.
+enum Kind : uint8_t { kOpen = 0, kClosedBack = 1, kClosedFront = 2, kNone = 3 };
+
+// Peel states of a texel (the GL renderer's counts).
+enum State : uint8_t { kInactive = 0, kActive = 1, kExitFound = 2, kCapped = 3, kStuck = 4 };
+
+constexpr float kInfinity = std::numeric_limits<float>::infinity();
+
+// The largest float below x (x finite or +infinity).
+inline float floatBefore(float x) {
+  if (x == 0.0f) return -std::numeric_limits<float>::denorm_min();
+  uint32_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  bits = x > 0.0f ? bits - 1 : bits + 1;
+  std::memcpy(&x, &bits, sizeof bits);
+  return x;
+}
+
+// A triangle ready to rasterise in one region: snapped vertices relative to the region's origin (1/256 texel,
+// counter-clockwise), the depth plane, and what it is.
+struct RasterTriangle {
+  int64_t x[3], y[3];
+  double q0, ku, kv, qMin, qMax;  // q at texel (i, j) of the region: q0 + ku i + kv j, clamped
+  Kind kind;
+  int32_t i0, i1, j0, j1;         // covered texels lie in [i0, i1] x [j0, j1] (region coordinates)
+};
+
+// Coordinates below 2^29 (in 1/256 texel) keep every edge function within int64.
+constexpr int64_t kFastLimit = int64_t(1) << 29;
+
+template <class Wide>
+struct Edge {
+  Wide a, b, c;  // E(px, py) = a px + b py + c, inside when > 0, or == 0 on a top-left edge
+  Wide threshold;  // inside when E >= threshold (E is an integer)
+  Edge(int64_t x0, int64_t y0, int64_t x1, int64_t y1) {
+    const int64_t dx = x1 - x0, dy = y1 - y0;
+    a = -Wide(dy);
+    b = Wide(dx);
+    c = Wide(dy) * x0 - Wide(dx) * y0;
+    // Counter-clockwise in a y-up window: left edges run downward, top edges run toward -x.
+    threshold = (dy < 0 || (dy == 0 && dx < 0)) ? 0 : 1;
+  }
+};
+
+template <class Wide>
+Wide floorDiv(Wide num, Wide den) {  // den > 0
+  const Wide q = num / den;
+  return (num % den != 0 && num < 0) ? q - 1 : q;
+}
+
+// Narrows [lo, hi] to the texels i whose centre satisfies the edge on the row where E(i) = w + step i.
+template <class Wide>
+void clipSpan(Wide w, Wide step, Wide threshold, int64_t& lo, int64_t& hi) {
+  if (step == 0) {
+    if (w < threshold) hi = lo - 1;
+  } else if (step > 0) {  // i >= (threshold - w) / step
+    const Wide first = -floorDiv<Wide>(w - threshold, step);
+    if (first > Wide(lo)) lo = first > Wide(hi) ? hi + 1 : int64_t(first);
+  } else {  // i <= (w - threshold) / -step
+    const Wide last = floorDiv<Wide>(w - threshold, -step);
+    if (last < Wide(hi)) hi = last < Wide(lo) ? lo - 1 : int64_t(last);
+  }
+}
+
+// Calls fn(j, iBegin, iEnd, rowQ) for each row j in [rowBegin, rowEnd) the triangle covers: texels (i, j) with i
+// in [iBegin, iEnd), each at depth q = clamp(rowQ + t.ku i, t.qMin, t.qMax). Spans come from the edge functions
+// solved exactly in integers, so the coverage is the per-texel test's.
+template <class Wide, class Fn>
+void scanTriangle(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
+  const Edge<Wide> edges[3] = {{t.x[0], t.y[0], t.x[1], t.y[1]}, {t.x[1], t.y[1], t.x[2], t.y[2]},
+                               {t.x[2], t.y[2], t.x[0], t.y[0]}};
+  const int32_t jBegin = std::max(t.j0, rowBegin), jEnd = std::min(t.j1 + 1, rowEnd);
+  for (int32_t j = jBegin; j < jEnd; ++j) {
+    const Wide py = Wide(256) * j + 128;
+    int64_t lo = t.i0, hi = t.i1;
+    for (const Edge<Wide>& e : edges) {
+      // E at texel i's centre (256 i + 128, py).
+      const Wide w = e.a * 128 + e.b * py + e.c;
+      clipSpan<Wide>(w, e.a * 256, e.threshold, lo, hi);
+    }
+    if (lo <= hi) fn(j, int32_t(lo), int32_t(hi) + 1, t.q0 + t.kv * j);
+  }
+}
+
+template <class Fn>
+void scan(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
+  bool fast = true;
+  for (int k = 0; k < 3; ++k) fast = fast && std::llabs(t.x[k]) < kFastLimit && std::llabs(t.y[k]) < kFastLimit;
+  if (fast)
+    scanTriangle<int64_t>(t, rowBegin, rowEnd, fn);
+  else
+    scanTriangle<__int128>(t, rowBegin, rowEnd, fn);
+}
+
+// Where each slice of a view begins, as a depth key (see render()): bound[s] is the key at t = s / N for
+// s = 1..N, with bound[0] = -inf and bound[N + 1] = +inf. A key lies in slice s when bound[s] <= key < bound[s+1]
+// (slice N: at or beyond the far plane). Texels along a row change slice by a few at most, so a walk from the
+// previous texel's slice replaces a logarithm per texel.
+struct SliceTable {
+  uint32_t resolution = 0;
+  int mode = -1;
+  double nearDepth = 0, farDepth = 0;
+  std::vector<double> bound;
+
+  bool matches(const LightView& view, int m) const {
+    return resolution == view.resolution && mode == m && nearDepth == view.near && farDepth == view.far;
+  }
+  void build(const LightView& view, const DepthFunction& depth) {
+    resolution = view.resolution;
+    mode = depth.mode;
+    nearDepth = view.near;
+    farDepth = view.far;
+    const uint32_t n = resolution;
+    bound.assign(size_t(n) + 2, 0.0);
+    bound[0] = -std::numeric_limits<double>::infinity();
+    bound[n + 1] = std::numeric_limits<double>::infinity();
+    for (uint32_t s = 1; s <= n; ++s) {
+      const double t = double(s) / n;
+      double q;  // the inverse of DepthFunction
+      if (mode == 0) q = t;
+      else if (mode == 1) q = depth.nearDepth * std::exp2(t / depth.scale);
+      else if (mode == 2) q = 1.0 / (depth.nearDepth + t / depth.scale);
+      else q = std::exp2(-t / depth.scale) / depth.nearDepth;
+      bound[s] = mode >= 2 ? -q : q;
+    }
+  }
+  uint32_t slice(float key, uint32_t hint) const {
+    const double k = key;
+    // A few steps from the hint, else a binary search (a depth discontinuity jumps many slices).
+    uint32_t s = hint;
+    for (int step = 0; step < 4; ++step) {
+      if (k < bound[s]) {
+        --s;
+      } else if (k >= bound[s + 1]) {
+        ++s;
+      } else {
+        return s;
+      }
+    }
+    return uint32_t(std::upper_bound(bound.begin() + 1, bound.end() - 1, k) - bound.begin()) - 1;
+  }
+};
+
+class CpuDepthRenderer final : public DepthRenderer {
+public:
+  uint32_t maxRegionSize() const override { return 1u << 14; }
+  std::string description() const override { return "cpvs CPU rasteriser"; }
+  DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                     const PeelSettings& peel, RenderStats* stats) override;
+
+private:
+  SliceTable slices_;
+  // Per-texel state, kept between regions (allocating it anew cost a page fault per 4 KiB every region).
+  std::vector<float> enterKey_, frontCursor_, backCursor_, nearestFront_, nearestBack_;
+  std::vector<uint8_t> kind_, state_;
+  std::vector<uint16_t> backCount_;
+  std::vector<RasterTriangle> setUp(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect) const;
+};
+
+// Snaps one (sub)triangle and appends it when it covers part of the region.
+void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const double (&v)[3], const TriangleSetup& s,
+                 bool closed, bool mirrored, const RegionRect& rect) {
+  RasterTriangle t;
+  constexpr double kLimit = double(int64_t(1) << 60);
+  for (int k = 0; k < 3; ++k) {
+    const double su = std::round(u[k] * 256.0), sv = std::round(v[k] * 256.0);
+    if (!(std::abs(su) < kLimit && std::abs(sv) < kLimit)) return;  // beyond any view: the GL path clips it too
+    t.x[k] = int64_t(su) - int64_t(rect.x0) * 256;
+    t.y[k] = int64_t(sv) - int64_t(rect.y0) * 256;
+  }
+  const __int128 area = __int128(t.x[1] - t.x[0]) * (t.y[2] - t.y[0]) - __int128(t.x[2] - t.x[0]) * (t.y[1] - t.y[0]);
+  if (area == 0) return;
+  const bool ccw = area > 0;
+  if (!ccw) {
+    std::swap(t.x[1], t.x[2]);
+    std::swap(t.y[1], t.y[2]);
+  }
+  t.kind = !closed ? kOpen : (ccw != mirrored ? kClosedFront : kClosedBack);
+  // Texel i's centre is at 256 i + 128.
+  const auto first = [](int64_t lo) { return int32_t(std::clamp<int64_t>((lo - 128 + 255) >> 8, -1, 1 << 24)); };
+  const auto last = [](int64_t hi) { return int32_t(std::clamp<int64_t>((hi - 128) >> 8, -1, 1 << 24)); };
+  t.i0 = std::max(0, first(std::min({t.x[0], t.x[1], t.x[2]})));
+  t.i1 = std::min(int32_t(rect.width) - 1, last(std::max({t.x[0], t.x[1], t.x[2]})));
+  t.j0 = std::max(0, first(std::min({t.y[0], t.y[1], t.y[2]})));
+  t.j1 = std::min(int32_t(rect.height) - 1, last(std::max({t.y[0], t.y[1], t.y[2]})));
+  if (t.i0 > t.i1 || t.j0 > t.j1) return;
+  // q at the centre of region texel (i, j) = view texel (x0 + i, y0 + j).
+  t.q0 = s.q0 + s.ku * (double(rect.x0) + 0.5 - s.u0) + s.kv * (double(rect.y0) + 0.5 - s.v0);
+  t.ku = s.ku;
+  t.kv = s.kv;
+  t.qMin = s.qMin;
+  t.qMax = s.qMax;
+  out.push_back(t);
+}
+
+std::vector<RasterTriangle> CpuDepthRenderer::setUp(const ViewGeometry& geometry, const LightView& view,
+                                                    const RegionRect& rect) const {
+  const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
+  const double nearClip = 0.5 * view.near;
+  const bool mirrored = glm::determinant(glm::dmat3(view.viewFromWorld)) < 0;
+  const size_t closedCount = geometry.closedIndices.size() / 3;
+  const size_t count = closedCount + geometry.openIndices.size() / 3;
+  std::vector<RasterTriangle> out;
+  out.reserve(count);
+  for (size_t t = 0; t < count; ++t) {
+    const bool closed = t < closedCount;
+    const uint32_t* idx = closed ? &geometry.closedIndices[3 * t] : &geometry.openIndices[3 * (t - closedCount)];
+    glm::dvec3 p[3];
+    for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(geometry.positions[idx[k]]);
+    const TriangleSetup s = setUpTriangle(view, p[0], p[1], p[2]);
+    if (s.safe) {
+      addTriangle(out, s.u, s.v, s, closed, mirrored, rect);
+      continue;
+    }
+    // Clip at d = near / 2, where the GL renderer's homogeneous clipping cuts it, and fan the polygon.
+    glm::dvec3 poly[4];
+    int m = 0;
+    for (int k = 0; k < 3; ++k) {
+      const glm::dvec3 &a = p[k], &b = p[(k + 1) % 3];
+      const double da = -a.z - nearClip, db = -b.z - nearClip;
+      if (da >= 0) poly[m++] = a;
+      if ((da >= 0) != (db >= 0)) poly[m++] = a + (b - a) * (da / (da - db));
+    }
+    if (m < 3) continue;
+    double u[4], v[4];
+    for (int k = 0; k < m; ++k) {
+      const double d = -poly[k].z;
+      u[k] = n * (poly[k].x / d - view.xMin) / ex;
+      v[k] = n * (poly[k].y / d - view.yMin) / ey;
+    }
+    for (int k = 1; k + 1 < m; ++k) {
+      const double tu[3] = {u[0], u[k], u[k + 1]}, tv[3] = {v[0], v[k], v[k + 1]};
+      addTriangle(out, tu, tv, s, closed, mirrored, rect);
+    }
+  }
+  return out;
+}
+
+DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                                     const PeelSettings& peel, RenderStats* stats) {
+  const uint32_t n = view.resolution;
+  if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
+      uint64_t(rect.y0) + rect.height > n || rect.width > maxRegionSize() || rect.height > maxRegionSize())
+    throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.x0) + "," +
+                                                    std::to_string(rect.y0) + " " + std::to_string(rect.width) + "x" +
+                                                    std::to_string(rect.height) + " is empty, too large or outside the " +
+                                                    std::to_string(n) + "^2 view");
+  DepthRegion region;
+  region.rect = rect;
+  region.resolution = n;
+  const size_t texels = size_t(rect.width) * rect.height;
+  RenderStats local;
+  const Stopwatch phase;
+
+  const ViewGeometry culled = cullToRegion(geometry, rect);
+  local.trianglesSubmitted = culled.triangleCount();
+  region.enter.assign(texels, n);
+  region.exit.assign(texels, n);
+  if (view.empty || local.trianglesSubmitted == 0) {
+    if (stats) *stats = local;
+    return region;
+  }
+  const std::vector<RasterTriangle> triangles = setUp(culled, view, rect);
+  const DepthFunction depthOf(view);
+  // Comparisons run on a key that grows with depth: q itself (orthographic) or -q (perspective, q = 1/d), in
+  // float like the GL renderer's depth buffer, so surfaces that meet (a box standing on another) tie as there.
+  const double keySign = depthOf.mode >= 2 ? -1.0 : 1.0;
+  const auto keyOf = [&](double q) { return float(keySign * q); };
+  if (!slices_.matches(view, depthOf.mode)) slices_.build(view, depthOf);
+  const uint32_t width = rect.width;
+  // Row bands processed in parallel: every band owns its texels, so the result does not depend on scheduling.
+  constexpr uint32_t kBandRows = 32;
+  const uint32_t bands = (rect.height + kBandRows - 1) / kBandRows;
+  const auto forBands = [&](auto&& body) {
+    parallelFor(bands, [&](size_t b) {
+      const int32_t r0 = int32_t(b * kBandRows), r1 = int32_t(std::min<size_t>(rect.height, (b + 1) * kBandRows));
+      body(r0, r1);
+    }, 1);
+  };
+
+  // 1. Enter: the nearest surface and its kind.
+  std::vector<float>& enterKey = enterKey_;
+  std::vector<uint8_t>& kind = kind_;
+  enterKey.assign(texels, kInfinity);
+  kind.assign(texels, kNone);
+  forBands([&](int32_t r0, int32_t r1) {
+    for (const RasterTriangle& t : triangles)
+      scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+        float* keys = &enterKey[size_t(j) * width];
+        uint8_t* kinds = &kind[size_t(j) * width];
+        for (int32_t i = i0; i < i1; ++i) {
+          const float key = keyOf(std::clamp(rowQ + t.ku * i, t.qMin, t.qMax));
+          if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
+            keys[i] = key;
+            kinds[i] = t.kind;
+          }
+        }
+      });
+  });
+  local.enterMs = phase.ms();
+  const Stopwatch peelTime;
+
+  // 2. Lockstep peeling of the closed solids entered at a closed front face (docs/depth-maps.md).
+  std::vector<uint8_t>& state = state_;
+  std::vector<float>&frontCursor = frontCursor_, &backCursor = backCursor_, &nearestFront = nearestFront_,
+                     &nearestBack = nearestBack_;
+  std::vector<uint16_t>& backCount = backCount_;
+  state.assign(texels, kInactive);
+  size_t active = 0;
+  // Per row, the texels [activeBegin, activeEnd) hold every active one: later iterations, with few texels
+  // left inside, scan only those.
+  std::vector<int32_t> activeBegin(rect.height, 0), activeEnd(rect.height, 0);
+  const auto findActive = [&](int32_t j) {
+    const uint8_t* row = &state[size_t(j) * width];
+    int32_t lo = 0, hi = int32_t(width);
+    while (lo < hi && row[lo] != kActive) ++lo;
+    while (hi > lo && row[hi - 1] != kActive) --hi;
+    activeBegin[j] = lo;
+    activeEnd[j] = hi;
+  };
+  for (size_t i = 0; i < texels; ++i)
+    if (kind[i] == kClosedFront) {
+      state[i] = kActive;
+      ++active;
+    }
+  for (int32_t j = 0; j < int32_t(rect.height); ++j) findActive(j);
+  bool anyClosed = false;
+  for (const RasterTriangle& t : triangles) anyClosed |= t.kind != kOpen;
+  if (active > 0 && anyClosed) {
+    frontCursor = enterKey;
+    backCursor.resize(texels);
+    // Back faces at the enter depth itself (silhouettes, zero thickness) still count: the back cursor starts
+    // just before it.
+    for (size_t i = 0; i < texels; ++i) backCursor[i] = floatBefore(enterKey[i]);
+    nearestFront.resize(texels);
+    nearestBack.resize(texels);
+    backCount.resize(texels);
+    for (uint32_t iteration = 0; iteration < peel.maxPeels && active > 0; ++iteration) {
+      ++local.peelIterations;
+      const bool lastIteration = iteration + 1 == peel.maxPeels;
+      forBands([&](int32_t r0, int32_t r1) {
+        const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
+        std::fill(nearestFront.begin() + b0, nearestFront.begin() + b1, kInfinity);
+        std::fill(nearestBack.begin() + b0, nearestBack.begin() + b1, kInfinity);
+        std::fill(backCount.begin() + b0, backCount.begin() + b1, 0);
+        bool bandActive = false;
+        for (int32_t j = r0; j < r1; ++j) bandActive |= activeBegin[j] < activeEnd[j];
+        if (!bandActive) return;
+        for (const RasterTriangle& t : triangles) {
+          if (t.kind == kOpen) continue;
+          const bool front = t.kind == kClosedFront;
+          scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+            i0 = std::max(i0, activeBegin[j]);
+            i1 = std::min(i1, activeEnd[j]);
+            const size_t row = size_t(j) * width;
+            for (size_t at = row + size_t(i0); at < row + size_t(i1); ++at) {
+              if (state[at] != kActive) continue;
+              const float key = keyOf(std::clamp(rowQ + t.ku * double(at - row), t.qMin, t.qMax));
+              if (front) {
+                if (key > frontCursor[at] && key < nearestFront[at]) nearestFront[at] = key;
+              } else if (key > backCursor[at]) {
+                if (key < nearestBack[at]) {
+                  nearestBack[at] = key;
+                  backCount[at] = 1;
+                } else if (key == nearestBack[at] && backCount[at] < 0xFFFF) {
+                  ++backCount[at];
+                }
+              }
+            }
+          });
+        }
+        // Consume the nearest front and back layer (ties: back first, an earlier exit is the safe side).
+        for (size_t at = b0; at < b1; ++at) {
+          if (state[at] != kActive) continue;
+          const float f = nearestFront[at], b = nearestBack[at];
+          if (b == kInfinity) {
+            state[at] = kStuck;  // inside, and no closed back face before the far plane
+          } else if (f == kInfinity || b <= f || backCount[at] > 1) {
+            backCursor[at] = b;
+            state[at] = kExitFound;
+          } else {
+            frontCursor[at] = f;
+            backCursor[at] = b;
+            if (lastIteration) state[at] = kCapped;
+          }
+        }
+        for (int32_t j = r0; j < r1; ++j) findActive(j);
+      });
+      active = size_t(std::count(state.begin(), state.end(), uint8_t(kActive)));
+      // A handful of texels left is not worth an iteration: they keep the exit consumed so far.
+      if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
+    }
+  }
+
+  // 3. Integer slices.
+  forBands([&](int32_t r0, int32_t r1) {
+    for (int32_t j = r0; j < r1; ++j) {
+      uint32_t enterHint = 0, exitHint = 0;
+      for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+        if (kind[at] == kNone) continue;
+        enterHint = slices_.slice(enterKey[at], enterHint);
+        const uint32_t e = std::min(n - 1, enterHint);
+        region.enter[at] = e;
+        uint32_t x = e + 1;
+        if (kind[at] == kClosedFront && state[at] != kInactive) {
+          if (state[at] == kStuck) {
+            x = n;
+          } else {
+            exitHint = slices_.slice(std::max(frontCursor[at], backCursor[at]), exitHint);
+            x = std::min(n, std::max(e + 1, exitHint));
+          }
+        }
+        region.exit[at] = x;
+      }
+    }
+  });
+  for (size_t at = 0; at < texels; ++at)
+    local.texelsAtPeelCap += state[at] == kCapped || state[at] == kActive;
+  local.peelMs = peelTime.ms();
+  if (stats) *stats = local;
+  return region;
+}
+
+}  // namespace
+
+std::unique_ptr<DepthRenderer> createCpuDepthRenderer() { return std::make_unique<CpuDepthRenderer>(); }
+
+}  // namespace cpvs

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# A sharded bake on Slurm gives the same bytes as one cpvs-bake run.
+# Usage: bash tests/slurm_bake_test.sh BUILD_BIN_DIR [SCENE]
+# Starts the local one-node cluster (scripts/slurm-local.sh; installs Slurm if missing, so it needs root),
+# bakes SCENE (default: a generated city with 12 spot lights) at -r 256 in 4 shards through
+# scripts/slurm-bake.sh --wait, bakes it again in one process, and compares the two files. Stops the cluster
+# again if it was not running before. Exit 0 PASS, 1 FAIL.
+set -uo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+
+fail() {
+  echo "slurm_bake_test: FAIL: $*"
+  exit 1
+}
+[ $# -ge 1 ] && [ $# -le 2 ] || fail "usage: $0 BUILD_BIN_DIR [SCENE]"
+bin="$(realpath -m "$1")"
+[ -x "$bin/cpvs-bake" ] || fail "$bin/cpvs-bake not found"
+[ -x "$bin/cpvs-merge" ] || fail "$bin/cpvs-merge not found"
+
+tmp="$(mktemp -d)"
+if [ $# -eq 2 ]; then
+  scene="$(realpath -m "$2")"
+else
+  scene="$tmp/spots.glb"
+  "$bin/cpvs-scenegen" city-spots --triangles 5000 --lights 12 -o "$scene" >/dev/null || fail "cpvs-scenegen failed"
+fi
+[ -r "$scene" ] || fail "scene $scene not found"
+started=0
+cleanup() {
+  [ $started -eq 1 ] && bash "$root/scripts/slurm-local.sh" stop >/dev/null 2>&1
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+
+bash "$root/scripts/slurm-local.sh" status >/dev/null 2>&1 || started=1
+bash "$root/scripts/slurm-local.sh" start || fail "the local Slurm cluster did not start"
+eval "$(bash "$root/scripts/slurm-local.sh" env)"
+
+t0=$SECONDS
+bash "$root/scripts/slurm-bake.sh" -n 4 -o "$tmp/merged.cpvs" --bin "$bin" --workdir "$tmp/parts" \
+  --wait --timeout 240 "$scene" -r 256 || fail "the sharded bake on Slurm failed"
+t1=$SECONDS
+"$bin/cpvs-bake" "$scene" -r 256 -o "$tmp/single.cpvs" -q || fail "the single cpvs-bake run failed"
+
+cmp "$tmp/merged.cpvs" "$tmp/single.cpvs" ||
+  fail "the merged file ($(stat -c %s "$tmp/merged.cpvs") bytes) differs from the single run's ($(stat -c %s "$tmp/single.cpvs") bytes)"
+echo "slurm_bake_test: PASS: 4 shards on Slurm merged ($((t1 - t0)) s) equal one cpvs-bake run byte for byte ($(stat -c %s "$tmp/single.cpvs") bytes)"
