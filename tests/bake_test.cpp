@@ -410,7 +410,7 @@ TEST(BakeTool, FailedOrInterruptedBakeLeavesNoPartialFile) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     const std::string tool = toolPath("cpvs-bake"), scene = scenePath();
-    execl(tool.c_str(), tool.c_str(), scene.c_str(), "-o", fresh.c_str(), "--resolution", "2k", "--sun", "0.3,-1,0.2",
+    execl(tool.c_str(), tool.c_str(), scene.c_str(), "-o", fresh.c_str(), "--resolution", "16k", "--sun", "0.3,-1,0.2",
           "--quiet", static_cast<char*>(nullptr));
     _exit(127);
   }

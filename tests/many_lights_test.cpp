@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <map>
 #include <fstream>
 #include <memory>
 
@@ -13,6 +14,8 @@
 #include "libcpvs/bake/light_subsets.h"
 #include "libcpvs/bake/merge_parts.h"
 #include "libcpvs/base/error.h"
+#include "libcpvs/runtime/shadow_lookup.h"
+#include "libcpvs/views/view_fitting.h"
 #include "support/test_support.h"
 
 namespace cpvs {
@@ -204,6 +207,77 @@ TEST(ManyLights, WarnsAboutALightThatReachesNothingAndTinyRanges) {
   bool unitsWarned = false;
   for (const std::string& w : centimetres.warnings) unitsWarned |= w.find("same units") != std::string::npos;
   EXPECT_TRUE(unitsWarned);
+}
+
+TEST(ManyLights, VoxelSizeGivesEachLightTheResolutionItNeeds) {
+  Scene scene = streetScene();
+  scene.lights.push_back(test::spotLight("candle", {-24, 1.5, 2}, {0, -1, 0}, 0.5, 3));  // a small light
+  BakeSettings settings = smallSettings();
+  settings.resolution = 1024;  // the cap
+  settings.voxelSize = 0.05;
+  BakeReport report;
+  CpvsContent content;
+  SKIP_WITHOUT_OSMESA(content = bakeScene(scene, settings, &report));
+  std::map<std::string, uint32_t> resolution;
+  for (const BakedLight& l : content.lights)
+    for (const BakedView& v : l.views) {
+      EXPECT_EQ(v.view.resolution, l.views[0].view.resolution) << l.light.name;  // one N per light
+      resolution[l.light.name] = v.view.resolution;
+      if (v.view.empty) continue;
+      // Small enough, and not more than twice smaller than asked: the smallest power of two that does.
+      EXPECT_LE(largestVoxelSize(v.view), settings.voxelSize * 1.01) << l.light.name;
+      if (v.view.resolution > 8 && v.view.resolution < settings.resolution) {
+        EXPECT_GT(largestVoxelSize(v.view) * 2, settings.voxelSize * 0.99) << l.light.name;
+      }
+    }
+  EXPECT_LT(resolution["candle"], resolution["lamp0"]);
+  EXPECT_LE(resolution["lamp0"], 1024u);
+  EXPECT_EQ(resolution["skyward"], 8u);  // reaches nothing
+  // A voxel size too small for the cap: every light that reaches geometry gets the cap.
+  settings.voxelSize = 1e-6;
+  const CpvsContent capped = bakeScene(scene, settings);
+  EXPECT_EQ(capped.lights[0].views[0].view.resolution, 1024u);
+  // The setting is part of what the file says and hashes.
+  EXPECT_NE(content.settingsJson.find("\"voxel_size\":0.05"), std::string::npos) << content.settingsJson;
+  EXPECT_EQ(smallSettings().voxelSize, 0.0);
+  EXPECT_EQ(bakeScene(scene, smallSettings()).settingsJson.find("voxel_size"), std::string::npos);
+}
+
+// Outside a spot's cone the voxels are left free; every lookup inside the cone, PCF up to 33 x 33 at the cone's
+// very edge included, answers as the uncropped bake does.
+TEST(ManyLights, ConeCropChangesNoLookupAndSavesBytes) {
+  Scene scene;
+  test::addBox(scene, "ground", {-40, -1, -40}, {40, 0, 40});
+  for (int i = 0; i < 6; ++i)
+    test::addBox(scene, "post" + std::to_string(i), {-9.0 + 3 * i, 0, -1.0 + (i % 3)}, {-8.0 + 3 * i, 2.0 + i, 0.0 + (i % 3)});
+  test::classifyMeshes(scene);
+  scene.lights = {test::spotLight("lamp", {0, 12, 0}, {0.15, -1, 0.1}, 0.6, 40)};
+  BakeSettings cropped = smallSettings(), whole = smallSettings();
+  cropped.resolution = whole.resolution = 256;
+  whole.cropToCone = false;
+  BakeReport report;
+  CpvsContent a, b;
+  SKIP_WITHOUT_OSMESA(a = bakeScene(scene, cropped, &report));
+  b = bakeScene(scene, whole);
+  EXPECT_GT(report.lights[0].views[0].texelsOutsideCone, 0u);
+  EXPECT_LT(a.lights[0].views[0].dag.bytes(), b.lights[0].views[0].dag.bytes());
+  const Light& light = scene.lights[0];
+  const LightView& view = a.lights[0].views[0].view;
+  const DagView da = a.lights[0].views[0].dag.view(), db = b.lights[0].views[0].dag.view();
+  size_t inside = 0, edge = 0;
+  for (int k : {1, 9, 33})
+    for (double x = -20; x <= 20; x += 0.173)
+      for (double z = -20; z <= 20; z += 0.191) {
+        const glm::dvec3 p(x, 0, z), up(0, 1, 0);
+        if (!withinInfluence(light, p)) continue;
+        ++inside;
+        const glm::dvec3 d = glm::normalize(p - light.position);
+        edge += glm::dot(d, glm::normalize(light.direction)) < std::cos(light.outerConeAngle) + 0.01;
+        ASSERT_EQ(visibility(view, da, light, p, up, k), visibility(view, db, light, p, up, k))
+            << "K " << k << " at " << x << "," << z;
+      }
+  EXPECT_GT(inside, 10000u);
+  EXPECT_GT(edge, 100u);  // the cone's edge was sampled
 }
 
 TEST(ManyLights, ToolsSplitMergeAndLogOneLinePerLight) {

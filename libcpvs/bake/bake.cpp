@@ -9,6 +9,7 @@
 #include <xxhash.h>
 
 #include "libcpvs/bake/bake_cache.h"
+#include "libcpvs/bake/cone_crop.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/peak_memory.h"
@@ -45,6 +46,8 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
                       {"region", std::min(settings.regionSize, settings.resolution)},
                       {"ground", groundSheetsName(settings.ground)},
                       {"input_hash", hash}};
+  if (settings.voxelSize > 0) j["voxel_size"] = settings.voxelSize;
+  if (!settings.cropToCone) j["crop_to_cone"] = false;
   // A run that bakes only some lights says which: cpvs-merge checks and drops this key.
   if (part.size() != sceneLights) j["part"] = {{"lights", formatLightList(part)}, {"of", sceneLights}};
   return j.dump();
@@ -71,6 +74,9 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
                         settings.peel.maxPeels, std::min(settings.regionSize, settings.resolution),
                         uint64_t(settings.ground)};
   XXH3_64bits_update(state, s, sizeof s);
+  // Only when set, so that bakes without it keep their hash.
+  if (settings.voxelSize > 0) XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
+  if (!settings.cropToCone) XXH3_64bits_update(state, "uncropped", 9);
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
   return hash;
@@ -126,9 +132,15 @@ LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<
   return out;
 }
 
-std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world, uint32_t resolution) {
+std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world,
+                                                  const BakeSettings& settings) {
   std::vector<std::vector<LightView>> views;
-  for (const Light& light : scene.lights) views.push_back(makeLightViews(light, world, resolution));
+  for (const Light& light : scene.lights) {
+    views.push_back(makeLightViews(light, world, settings.resolution));
+    if (settings.voxelSize <= 0) continue;
+    const uint32_t n = resolutionForVoxelSize(views.back(), settings.voxelSize, settings.resolution);
+    if (n != settings.resolution) views.back() = makeLightViews(light, world, n);
+  }
   return views;
 }
 
@@ -191,7 +203,7 @@ std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& reque
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
-  return selectLights(scene, settings, world, viewsOfLights(scene, world, settings.resolution), costs);
+  return selectLights(scene, settings, world, viewsOfLights(scene, world, settings), costs);
 }
 
 namespace {
@@ -202,7 +214,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
-  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings.resolution);
+  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings);
   const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews, nullptr);
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
@@ -241,7 +253,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
                              "and range)");
     uint64_t cacheKey = 0;
     if (cache) {
-      cacheKey = lightBakeKey(settings, allViews[li], lightGeometry.views);
+      cacheKey = lightBakeKey(settings, baked.light, allViews[li], lightGeometry.views);
       std::string problem;
       if (std::optional<BakedLight> hit = cache->find(cacheKey, baked.light, &problem)) {
         if (hit->views.size() == allViews[li].size()) {
@@ -282,13 +294,25 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
             std::min({settings.regionSize, renderer->maxRegionSize(), view.resolution});
         const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
         DagBuilder builder(view.resolution, regionSize, settings.nodeReuse);
+        const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
         vr.regions = uint32_t(regions.size());
         // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
         // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
         BackgroundWork pending;
         for (size_t ri = 0; ri < regions.size(); ++ri) {
           RenderStats stats;
-          auto depth = std::make_shared<DepthRegion>(renderer->render(geometry, view, regions[ri], settings.peel, &stats));
+          std::shared_ptr<DepthRegion> depth;
+          if (crop.regionOutside(view, regions[ri])) {
+            depth = std::make_shared<DepthRegion>();
+            depth->rect = regions[ri];
+            depth->resolution = view.resolution;
+            depth->enter.assign(size_t(regions[ri].width) * regions[ri].height, 0);
+            depth->exit.assign(depth->enter.size(), view.resolution);
+            vr.texelsOutsideCone += depth->enter.size();
+          } else {
+            depth = std::make_shared<DepthRegion>(renderer->render(geometry, view, regions[ri], settings.peel, &stats));
+            vr.texelsOutsideCone += crop.freeOutside(view, *depth);
+          }
           vr.depthMs += stats.enterMs;
           vr.peelMs += stats.peelMs;
           vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);

@@ -14,7 +14,13 @@
 namespace cpvs {
 
 struct BakeSettings {
-  uint32_t resolution = 4096;
+  uint32_t resolution = 4096;  // N of every view; with voxelSize, the most any view gets
+  // > 0: each light gets the smallest power-of-two resolution whose voxels are at most this big, in scene
+  // units, at the farthest geometry it reaches (resolutionForVoxelSize): small lights do not pay for N.
+  double voxelSize = 0;
+  // Leave the voxels of a spot light's view outside its cone (plus a margin) free: they are never looked up
+  // (libcpvs/bake/cone_crop.h). Off only to measure it.
+  bool cropToCone = true;
   UndefinedMode undefinedMode = UndefinedMode::Kampe;
   bool nodeReuse = true;           // Kämpe et al. 2015, §3.2; off only to measure it
   unsigned threads = 2;            // tile chains and DAG building overlap with rendering when > 1
@@ -47,6 +53,7 @@ struct ViewReport {
   uint64_t trianglesSubmitted = 0;
   uint32_t peelIterations = 0;       // most iterations any region needed
   uint64_t texelsAtPeelCap = 0;
+  uint64_t texelsOutsideCone = 0;    // left free: outside a spot light's cone (and margin)
   uint64_t tileMasks = 0;            // chain entries over all tiles
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;

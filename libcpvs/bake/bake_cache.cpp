@@ -33,7 +33,7 @@ void hashVector(XXH3_state_t* state, const std::vector<T>& v) {
 
 }  // namespace
 
-uint64_t lightBakeKey(const BakeSettings& settings, const std::vector<LightView>& views,
+uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const std::vector<LightView>& views,
                       const std::vector<ViewGeometry>& geometry) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_64bits_reset(state);
@@ -43,6 +43,11 @@ uint64_t lightBakeKey(const BakeSettings& settings, const std::vector<LightView>
                         settings.peel.maxPeels, settings.peel.stopBelowPerMillion,
                         std::min(settings.regionSize, settings.resolution), uint64_t(settings.ground), views.size()};
   XXH3_64bits_update(state, s, sizeof s);
+  XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
+  const uint8_t crop = settings.cropToCone;
+  XXH3_64bits_update(state, &crop, 1);
+  const double cone[] = {double(light.type), light.type == LightType::Spot ? light.outerConeAngle : 0.0};
+  XXH3_64bits_update(state, cone, sizeof cone);
   for (size_t i = 0; i < views.size(); ++i) {
     const LightView& v = views[i];
     const double values[] = {double(v.projection), double(v.mapping), double(v.resolution), v.xMin, v.xMax,

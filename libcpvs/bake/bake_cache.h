@@ -14,9 +14,10 @@ namespace cpvs {
 struct BakeSettings;
 
 // What a light's DAGs depend on: the tool's version, the settings that shape the bytes, and per view its
-// mapping and the triangles that reach it (in view space, closed and open apart). The light's colour,
-// intensity and name are not part of it: they do not change a voxel.
-uint64_t lightBakeKey(const BakeSettings& settings, const std::vector<LightView>& views,
+// mapping and the triangles that reach it (in view space, closed and open apart), and a spot's cone (the voxels
+// outside it are left free). The light's colour, intensity and name are not part of it: they do not change a
+// voxel.
+uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const std::vector<LightView>& views,
                       const std::vector<ViewGeometry>& geometry);
 
 class BakeCache {

@@ -187,4 +187,25 @@ std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& w
   return views;
 }
 
+double largestVoxelSize(const LightView& view) {
+  const double n = view.resolution;
+  const double lateral = std::max(view.xMax - view.xMin, view.yMax - view.yMin);
+  if (view.projection == Projection::Orthographic) return std::max(lateral, view.far - view.near) / n;
+  const double depth = view.mapping == DepthMapping::Logarithmic ? view.far * std::log(view.far / view.near)
+                                                                 : view.far - view.near;
+  return std::max(view.far * lateral, depth) / n;
+}
+
+uint32_t resolutionForVoxelSize(const std::vector<LightView>& views, double voxelSize, uint32_t maxResolution) {
+  uint32_t needed = 8;
+  for (const LightView& view : views) {
+    if (view.empty) continue;
+    // Voxels shrink in proportion to 1/N: N * largestVoxelSize is the same at every resolution (up to the
+    // one-texel padding of the fit).
+    const double edges = largestVoxelSize(view) * view.resolution / voxelSize;
+    while (needed < maxResolution && double(needed) < edges) needed *= 2;
+  }
+  return std::min(needed, maxResolution);
+}
+
 }  // namespace cpvs

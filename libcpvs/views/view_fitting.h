@@ -13,4 +13,13 @@ namespace cpvs {
 // Directional: 1 orthographic; spot: 1 perspective (field of view from the outer cone); point: 6 cube faces.
 std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& geometry, uint32_t resolution);
 
+// The edge of the view's largest voxel in scene units: at the far plane (the farthest geometry the view holds),
+// the larger of its lateral extent and its depth (logarithmic slices are deepest there).
+double largestVoxelSize(const LightView& view);
+
+// The resolution that gives every one of `views` (fitted at `maxResolution`) voxels of at most `voxelSize`:
+// the smallest power of two that does, from 8 up to `maxResolution` (which caps it). Views without geometry
+// need 8.
+uint32_t resolutionForVoxelSize(const std::vector<LightView>& views, double voxelSize, uint32_t maxResolution);
+
 }  // namespace cpvs

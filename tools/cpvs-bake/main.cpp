@@ -28,8 +28,10 @@ struct Options {
   std::string scene;
   std::string output;
   std::string resolution = "4k";
+  double voxelSize = 0;
   std::string undefinedMode = "kampe";
   bool noNodeReuse = false;
+  bool noConeCrop = false;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::string backend = "cpu";
   std::string regionSize = "1k";
@@ -89,6 +91,7 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"triangles_submitted", v.trianglesSubmitted},
                        {"peel_iterations", v.peelIterations},
                        {"texels_at_peel_cap", v.texelsAtPeelCap},
+                       {"texels_outside_cone", v.texelsOutsideCone},
                        {"tile_masks", v.tileMasks},
                        {"nodes_per_level", v.nodesPerLevel},
                        {"nodes_built", v.nodesBuilt},
@@ -113,6 +116,7 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
           {"output", options.output},
           {"settings",
            {{"resolution", settings.resolution},
+            {"voxel_size", settings.voxelSize},
             {"undefined", undefinedModeName(settings.undefinedMode)},
             {"node_reuse", settings.nodeReuse},
             {"threads", settings.threads},
@@ -140,11 +144,17 @@ int run(int argc, char** argv) {
   app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
   app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
       ->capture_default_str();
+  app.add_option("--voxel-size", o.voxelSize,
+                 "Per light, the smallest resolution whose voxels are at most this big (scene units) at the farthest "
+                 "geometry it reaches; --resolution is then the most any light gets")
+      ->type_name("SIZE");
   o.lights.addTo(app);
   tools::addImportOptions(app, o.import);
   app.add_option("--undefined", o.undefinedMode,
                  "Free voxels inside closed solids: kampe (Kämpe et al. 2015, §3.4), sintorn (2014), none")
       ->capture_default_str();
+  app.add_flag("--no-cone-crop", o.noConeCrop,
+               "Bake a spot light's whole square view, also where it lies outside the cone (never looked up), to measure it");
   app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
   app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
   app.add_option("--backend", o.backend, "Depth rendering: cpu (default: the CPU rasteriser), osmesa (OpenGL on llvmpipe, no GPU or display) or egl (OpenGL on a GPU)")
@@ -187,8 +197,12 @@ int run(int argc, char** argv) {
 
   BakeSettings settings;
   settings.resolution = tools::forFlag("--resolution", [&] { return tools::parseResolution(o.resolution); });
+  if (o.voxelSize != 0 && !(o.voxelSize > 0 && o.voxelSize < 1e18))
+    throw Error(ErrorCategory::InvalidArgument, "--voxel-size must be a positive, finite size in scene units");
+  settings.voxelSize = o.voxelSize;
   settings.undefinedMode = tools::forFlag("--undefined", [&] { return parseUndefinedMode(o.undefinedMode); });
   settings.nodeReuse = !o.noNodeReuse;
+  settings.cropToCone = !o.noConeCrop;
   settings.threads = o.threads;
   settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   settings.regionSize = tools::forFlag("--region", [&] { return tools::parseResolution(o.regionSize); });
