@@ -312,6 +312,15 @@ TEST(ManyLights, ToolsSplitMergeAndLogOneLinePerLight) {
   const test::ToolResult badList = runTool(bake + " --lights 0,Nope -o " + dir + "/x.cpvs");
   EXPECT_NE(badList.exitCode, 0);
   EXPECT_NE(badList.output.find("--lights: light list '0,Nope': 'Nope'"), std::string::npos) << badList.output;
+  // cpvs-info tells the input hash a bake with the same options writes, before baking.
+  const test::ToolResult info = runTool(toolPath("cpvs-info") + " " + scene + " -r 64 --region 32 --json");
+  ASSERT_EQ(info.exitCode, 0) << info.output;
+  const auto file = CpvsFile::open(dir + "/whole.cpvs");
+  ASSERT_TRUE(file.ok());
+  const std::string hash = nlohmann::json::parse(file.value()->settingsJson())["input_hash"];
+  EXPECT_EQ(nlohmann::json::parse(info.output)["input_hash"], hash);
+  EXPECT_NE(nlohmann::json::parse(runTool(toolPath("cpvs-info") + " " + scene + " -r 128 --region 32 --json").output)
+                ["input_hash"], hash);
   // The report says which lights a run baked and how.
   std::ifstream in(dir + "/whole.json");
   const nlohmann::json report = nlohmann::json::parse(in);

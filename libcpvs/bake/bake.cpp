@@ -82,6 +82,12 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   return hash;
 }
 
+uint64_t sceneInputHash(const Scene& scene, const BakeSettings& requested) {
+  BakeSettings settings = requested;
+  settings.regionSize = regionSizeWithinBudget(requested);
+  return bakeInputHash(flatten(scene, settings.ground), scene.lights, settings);
+}
+
 uint64_t regionMemoryBytes(uint32_t regionSize) {
   // llvmpipe's colour, depth and stencil targets and read-back (about 40 bytes a texel, docs/depth-maps.md),
   // the enter/exit maps (8) and tile chains (up to about 16).

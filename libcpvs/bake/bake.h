@@ -95,6 +95,9 @@ struct BakeCallbacks {
 
 // Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
 uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings);
+// The input hash bakeScene(scene, settings) writes into its file (every light of the scene counts, whichever
+// lights the settings select), so a pipeline can tell before baking whether a file is up to date.
+uint64_t sceneInputHash(const Scene& scene, const BakeSettings& settings);
 
 // Bytes a region of `regionSize` x `regionSize` texels takes while it is baked (GL buffers, depth maps, tile
 // chains), as the memory budget counts it.

@@ -16,6 +16,7 @@
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
+#include "tools/common/bake_options.h"
 #include "tools/common/cli.h"
 #include "tools/common/ground_json.h"
 #include "tools/common/progress.h"
@@ -27,17 +28,9 @@ using namespace cpvs;
 struct Options {
   std::string scene;
   std::string output;
-  std::string resolution = "4k";
-  double voxelSize = 0;
-  std::string undefinedMode = "kampe";
-  bool noNodeReuse = false;
-  bool noConeCrop = false;
+  tools::BakeShapeOptions shape;
   unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::string backend = "cpu";
-  std::string regionSize = "1k";
-  uint32_t maxPeels = 2;
-  std::string maxMemory;
-  std::string ground = "auto";
   std::string report;
   std::string dumpDepth;
   bool quiet = false;
@@ -142,37 +135,12 @@ int run(int argc, char** argv) {
   tools::addStandardFlags(app, "cpvs-bake");
   app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
   app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
-  app.add_option("-r,--resolution", o.resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
-      ->capture_default_str();
-  app.add_option("--voxel-size", o.voxelSize,
-                 "Per light, the smallest resolution whose voxels are at most this big (scene units) at the farthest "
-                 "geometry it reaches; --resolution is then the most any light gets")
-      ->type_name("SIZE");
+  o.shape.addTo(app);
   o.lights.addTo(app);
   tools::addImportOptions(app, o.import);
-  app.add_option("--undefined", o.undefinedMode,
-                 "Free voxels inside closed solids: kampe (Kämpe et al. 2015, §3.4), sintorn (2014), none")
-      ->capture_default_str();
-  app.add_flag("--no-cone-crop", o.noConeCrop,
-               "Bake a spot light's whole square view, also where it lies outside the cone (never looked up), to measure it");
-  app.add_flag("--no-node-reuse", o.noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
   app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
   app.add_option("--backend", o.backend, "Depth rendering: cpu (default: the CPU rasteriser), osmesa (OpenGL on llvmpipe, no GPU or display) or egl (OpenGL on a GPU)")
       ->capture_default_str();
-  app.add_option("--region", o.regionSize, "Largest region rendered at once (power of two); bounds memory")
-      ->capture_default_str();
-  app.add_option("--max-memory", o.maxMemory,
-                 "Memory budget (e.g. 2G): smaller regions where they help, else stop with exit 4 before the system "
-                 "runs out (the process's resident memory is checked after every region)")
-      ->type_name("SIZE");
-  app.add_option("--max-peels", o.maxPeels, "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits are set early (never wrong, less compression)")
-      ->capture_default_str();
-  app.add_option("--ground", o.ground,
-                 "auto: an open mesh that is a height field spanning the scene (a terrain, a ground plane) is the "
-                 "top of solid ground, so the voxels under it are free (docs/depth-maps.md); off: every open mesh "
-                 "is a sheet with air on both sides")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "off"}));
   app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
   app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
   app.add_option("--lights", o.lightList,
@@ -193,25 +161,12 @@ int run(int argc, char** argv) {
   if (o.output.empty() && o.dumpDepth.empty())
     throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
   if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");
-  if (o.maxPeels < 1 || o.maxPeels > 1024) throw Error(ErrorCategory::InvalidArgument, "--max-peels must be in 1..1024");
-
   BakeSettings settings;
-  settings.resolution = tools::forFlag("--resolution", [&] { return tools::parseResolution(o.resolution); });
-  if (o.voxelSize != 0 && !(o.voxelSize > 0 && o.voxelSize < 1e18))
-    throw Error(ErrorCategory::InvalidArgument, "--voxel-size must be a positive, finite size in scene units");
-  settings.voxelSize = o.voxelSize;
-  settings.undefinedMode = tools::forFlag("--undefined", [&] { return parseUndefinedMode(o.undefinedMode); });
-  settings.nodeReuse = !o.noNodeReuse;
-  settings.cropToCone = !o.noConeCrop;
+  o.shape.applyTo(settings);
   settings.threads = o.threads;
   settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
-  settings.regionSize = tools::forFlag("--region", [&] { return tools::parseResolution(o.regionSize); });
-  settings.peel.maxPeels = o.maxPeels;
   if (!o.shard.empty()) settings.shard = tools::forFlag("--shard", [&] { return parseShard(o.shard); });
   settings.cacheFolder = o.cache;
-  if (!o.maxMemory.empty())
-    settings.maxMemoryBytes = tools::forFlag("--max-memory", [&] { return tools::parseByteSize(o.maxMemory); });
-  settings.ground = tools::forFlag("--ground", [&] { return parseGroundSheets(o.ground); });
 
   // Every output is opened before the work: a path that cannot be written fails now, not after the bake.
   std::optional<tools::AtomicFile> cpvsFile, reportFile;

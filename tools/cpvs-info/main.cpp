@@ -13,6 +13,7 @@
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
+#include "tools/common/bake_options.h"
 #include "tools/common/ground_json.h"
 #include "tools/cpvs-info/info_common.h"
 
@@ -73,7 +74,13 @@ nlohmann::ordered_json groundJson(const WorldGeometry& world) {
   return sheets;
 }
 
-void printJson(const Scene& scene, const WorldGeometry& world, const Totals& totals) {
+std::string hex16(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+void printJson(const Scene& scene, const WorldGeometry& world, const Totals& totals, uint64_t inputHash) {
   nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
   for (const Mesh& mesh : scene.meshes)
     meshes.push_back({{"name", mesh.name},
@@ -107,12 +114,16 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
         {"openTriangles", totals.worldTriangles - totals.closedWorldTriangles},
         {"lights", scene.lights.size()}}},
       {"groundSheets", groundJson(world)},
-      {"warnings", scene.warnings}};
+      {"warnings", scene.warnings},
+      // What a cpvs-bake with the same lights and bake options writes into its file's BAKE block.
+      {"input_hash", hex16(inputHash)}};
   std::cout << report.dump(2) << "\n";
 }
 
 int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOptions,
-               const cpvs::ImportOptions& import, bool json) {
+               const cpvs::ImportOptions& import, const cpvs::tools::BakeShapeOptions& shape, bool json) {
+  cpvs::BakeSettings settings;
+  shape.applyTo(settings);
   Scene scene = cpvs::importGltf(path, import);
   lightOptions.applyTo(scene);
   for (const std::string& warning : scene.warnings) std::cerr << kTool << ": warning: " << warning << "\n";
@@ -122,10 +133,13 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
   // The scene's own triangles: a ground sheet's counts as open (as its mesh is), its closing ones not at all.
   totals.worldTriangles = world.sceneTriangleCount();
   totals.closedWorldTriangles = world.closedMeshTriangleCount();
-  if (json)
-    printJson(scene, world, totals);
-  else
+  const uint64_t inputHash = cpvs::sceneInputHash(scene, settings);
+  if (json) {
+    printJson(scene, world, totals, inputHash);
+  } else {
     printText(scene, world, totals);
+    std::cout << "input hash (of a cpvs-bake with these lights and bake options): " << hex16(inputHash) << "\n";
+  }
   return 0;
 }
 
@@ -176,10 +190,13 @@ int main(int argc, char** argv) {
   lightOptions.addTo(app);
   cpvs::ImportOptions importOptions;
   cpvs::tools::addImportOptions(app, importOptions);
+  // The options that shape a bake's bytes, for the input hash a bake with them would write.
+  cpvs::tools::BakeShapeOptions shape;
+  shape.addTo(app);
   if (const auto done = cpvs::tools::parseCommandLine(app, argc, argv)) return *done;
   return cpvs::tools::runMain(kTool, [&] {
     const InputKind kind = sniff(input);
-    if (kind == InputKind::Scene) return printScene(input, lightOptions, importOptions, json);
+    if (kind == InputKind::Scene) return printScene(input, lightOptions, importOptions, shape, json);
     if (lightOptions.any() || !lightOptions.excludedMeshes.empty())
       throw cpvs::Error(cpvs::ErrorCategory::InvalidArgument, input + ": --sun, --spot, --point and --exclude-mesh apply to "
                                                "scenes; a .cpvs file holds the lights it was baked with");

@@ -1,0 +1,55 @@
+#include "tools/common/bake_options.h"
+
+#include "libcpvs/base/error.h"
+#include "tools/common/cli.h"
+
+namespace cpvs::tools {
+
+void BakeShapeOptions::addTo(CLI::App& app) {
+  app.add_option("-r,--resolution", resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
+      ->capture_default_str();
+  app.add_option("--voxel-size", voxelSize,
+                 "Per light, the smallest resolution whose voxels are at most this big (scene units) at the farthest "
+                 "geometry it reaches; --resolution is then the most any light gets")
+      ->type_name("SIZE");
+  app.add_option("--undefined", undefinedMode,
+                 "Free voxels inside closed solids: kampe (Kämpe et al. 2015, §3.4), sintorn (2014), none")
+      ->capture_default_str();
+  app.add_flag("--no-cone-crop", noConeCrop,
+               "Bake a spot light's whole square view, also where it lies outside the cone (never looked up), to "
+               "measure it");
+  app.add_flag("--no-node-reuse", noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
+  app.add_option("--region", regionSize, "Largest region rendered at once (power of two); bounds memory")
+      ->capture_default_str();
+  app.add_option("--max-memory", maxMemory,
+                 "Memory budget (e.g. 2G): smaller regions where they help, else stop with exit 4 before the system "
+                 "runs out (the process's resident memory is checked after every region)")
+      ->type_name("SIZE");
+  app.add_option("--max-peels", maxPeels,
+                 "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits "
+                 "are set early (never wrong, less compression)")
+      ->capture_default_str();
+  app.add_option("--ground", ground,
+                 "auto: an open mesh that is a height field spanning the scene (a terrain, a ground plane) is the "
+                 "top of solid ground, so the voxels under it are free (docs/depth-maps.md); off: every open mesh "
+                 "is a sheet with air on both sides")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "off"}));
+}
+
+void BakeShapeOptions::applyTo(BakeSettings& settings) const {
+  if (maxPeels < 1 || maxPeels > 1024) throw Error(ErrorCategory::InvalidArgument, "--max-peels must be in 1..1024");
+  if (voxelSize != 0 && !(voxelSize > 0 && voxelSize < 1e18))
+    throw Error(ErrorCategory::InvalidArgument, "--voxel-size must be a positive, finite size in scene units");
+  settings.resolution = forFlag("--resolution", [&] { return parseResolution(resolution); });
+  settings.voxelSize = voxelSize;
+  settings.undefinedMode = forFlag("--undefined", [&] { return parseUndefinedMode(undefinedMode); });
+  settings.nodeReuse = !noNodeReuse;
+  settings.cropToCone = !noConeCrop;
+  settings.regionSize = forFlag("--region", [&] { return parseResolution(regionSize); });
+  settings.peel.maxPeels = maxPeels;
+  if (!maxMemory.empty()) settings.maxMemoryBytes = forFlag("--max-memory", [&] { return parseByteSize(maxMemory); });
+  settings.ground = forFlag("--ground", [&] { return parseGroundSheets(ground); });
+}
+
+}  // namespace cpvs::tools
