@@ -1,15 +1,16 @@
 // End-to-end golden bytes: cpvs-bake on the shipped Tiny scene at N = 64, with a sun and a spot given
 // on the command line (so the result does not depend on the scene's own lights) and every setting spelled out
 // (so it does not depend on the tool's defaults), must reproduce
-// tests/golden/tiny_scene_bake64_v2.cpvs byte for byte — with one thread and with two. This pins the whole
-// pipeline (import, views, depth rendering on OSMesa, masks, DAG, container) where format_test pins the
-// container alone with synthetic content.
+// tests/golden/tiny_scene_bake64_v2.cpvs (OpenGL on OSMesa) and tests/golden/tiny_scene_bake64_v2_cpu.cpvs
+// (the CPU rasteriser) byte for byte — with one thread and with two. This pins the whole pipeline (import,
+// views, depth rendering, masks, DAG, container) where format_test pins the container alone with synthetic
+// content.
 //
 // The bytes change when the pipeline's output legitimately changes (a DAG construction change, a new format
 // version) and also when the tool version changes (it is recorded in the BAKE block). After checking that the
 // change is intended (cpvs-info on old and new file shows what moved), regenerate with:
 //   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
-// and commit the new tests/golden/tiny_scene_bake64_v2.cpvs. A change in the container layout must also bump
+// and commit the new tests/golden/tiny_scene_bake64_v2*.cpvs. A change in the container layout must also bump
 // the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v2.cpvs.
 // tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0, and
 // tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs the same DAGs by cpvs 0.2 in format 2.0 (before
@@ -37,12 +38,14 @@ using test::toolPath;
 
 // Every setting that the bytes depend on is spelled out, so that a change of a default does not move them.
 constexpr const char* kBakeArguments =
-    " --resolution 64 --undefined kampe --max-peels 16 --ground auto --backend osmesa --quiet"
+    " --resolution 64 --undefined kampe --max-peels 16 --ground auto --quiet"
     " --sun 0.3,-1,0.2 --spot 0,5,0,0,-1,0,0.6,20";
 
-const std::string& goldenPath() {
-  static const std::string path = sourcePath("tests/golden/tiny_scene_bake64_v2.cpvs");
-  return path;
+// One golden file per rasteriser: OpenGL on llvmpipe and the CPU rasteriser (the default).
+const std::string& goldenPath(const std::string& backend = "osmesa") {
+  static const std::string gl = sourcePath("tests/golden/tiny_scene_bake64_v2.cpvs");
+  static const std::string cpu = sourcePath("tests/golden/tiny_scene_bake64_v2_cpu.cpvs");
+  return backend == "cpu" ? cpu : gl;
 }
 
 Bytes readFile(const std::string& path) {
@@ -79,24 +82,28 @@ std::string firstDifference(const Bytes& golden, const Bytes& baked) {
   }
 }
 
-TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) {
+void expectPinnedBytes(const std::string& backend) {
   const std::string dir = tempDir();
-  const Bytes baked = bake(dir, " --threads 2");
+  const std::string path = goldenPath(backend);
+  const Bytes baked = bake(dir, " --threads 2 --backend " + backend);
   ASSERT_FALSE(baked.empty());
   if (const char* update = std::getenv("CPVS_UPDATE_GOLDEN"); update && std::string(update) == "1") {
-    std::filesystem::create_directories(std::filesystem::path(goldenPath()).parent_path());
-    std::ofstream(goldenPath(), std::ios::binary | std::ios::trunc)
+    std::filesystem::create_directories(std::filesystem::path(path).parent_path());
+    std::ofstream(path, std::ios::binary | std::ios::trunc)
         .write(reinterpret_cast<const char*>(baked.data()), std::streamsize(baked.size()));
-    GTEST_SKIP() << "wrote " << goldenPath() << " (" << baked.size() << " bytes)";
+    GTEST_SKIP() << "wrote " << path << " (" << baked.size() << " bytes)";
   }
-  const Bytes golden = readFile(goldenPath());
-  ASSERT_FALSE(golden.empty()) << goldenPath() << " is missing; run with CPVS_UPDATE_GOLDEN=1 to create it";
-  EXPECT_TRUE(baked == golden) << "cpvs-bake no longer reproduces " << goldenPath() << ": "
-                               << firstDifference(golden, baked)
+  const Bytes golden = readFile(path);
+  ASSERT_FALSE(golden.empty()) << path << " is missing; run with CPVS_UPDATE_GOLDEN=1 to create it";
+  EXPECT_TRUE(baked == golden) << "cpvs-bake no longer reproduces " << path << ": " << firstDifference(golden, baked)
                                << ". If the change is intended, regenerate it (see the top of golden_test.cpp).";
   // One thread gives the same bytes.
-  EXPECT_TRUE(bake(dir, " --threads 1") == golden) << "--threads 1 differs from the golden file";
+  EXPECT_TRUE(bake(dir, " --threads 1 --backend " + backend) == golden) << "--threads 1 differs from " << path;
 }
+
+TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) { expectPinnedBytes("osmesa"); }
+
+TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytesOnTheCpuRasteriser) { expectPinnedBytes("cpu"); }
 
 TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
   const auto current = orThrow(CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs")));

@@ -278,6 +278,15 @@ TEST(ManyLights, ConeCropChangesNoLookupAndSavesBytes) {
       }
   EXPECT_GT(inside, 10000u);
   EXPECT_GT(edge, 100u);  // the cone's edge was sampled
+
+  // A cone wider than the view's 85-degree cap covers the whole view: nothing may be cropped.
+  for (const double outer : {1.50, 1.5707963267948966}) {
+    Scene wide = scene;
+    wide.lights = {test::spotLight("flood", {0, 3, 0}, {0, -1, 0}, outer, 40)};
+    BakeReport wideReport;
+    bakeScene(wide, cropped, &wideReport);
+    EXPECT_EQ(wideReport.lights[0].views[0].texelsOutsideCone, 0u) << outer;
+  }
 }
 
 TEST(ManyLights, ToolsSplitMergeAndLogOneLinePerLight) {

@@ -589,9 +589,12 @@ TEST(Regions, SplitCoversTheViewOnce) {
   EXPECT_THROW(splitIntoRegions(16, 0), Error);
 }
 
-TEST(Regions, SplitRenderingGivesIdenticalSlices) {
-  REQUIRE_RENDERER(r, RasterBackend::OSMesa);
-  const std::pair<SceneId, LightId> cases[] = {{SceneId::TorusKnot, LightId::Spot}, {SceneId::Nested, LightId::Directional}};
+class SplitRendering : public ::testing::TestWithParam<RasterBackend> {};
+
+TEST_P(SplitRendering, GivesIdenticalSlices) {
+  REQUIRE_RENDERER(r, GetParam());
+  const std::pair<SceneId, LightId> cases[] = {{SceneId::TorusKnot, LightId::Spot}, {SceneId::Nested, LightId::Directional},
+                                               {SceneId::Terrain, LightId::Spot}};
   for (auto [scene, light] : cases) {
     const ViewSetup& s = setup(scene, light, 512);
     RenderStats wholeStats;
@@ -621,6 +624,9 @@ TEST(Regions, SplitRenderingGivesIdenticalSlices) {
     }
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Regions, SplitRendering, ::testing::Values(RasterBackend::OSMesa, RasterBackend::Cpu),
+                         [](const auto& info) { return std::string(rasterBackendName(info.param)); });
 
 TEST(Regions, RejectsRegionsOutsideTheViewOrTooLarge) {
   REQUIRE_RENDERER(r, RasterBackend::OSMesa);

@@ -47,7 +47,9 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
                       {"ground", groundSheetsName(settings.ground)},
                       {"input_hash", hash}};
   if (settings.voxelSize > 0) j["voxel_size"] = settings.voxelSize;
-  if (!settings.cropToCone) j["crop_to_cone"] = false;
+  j["crop_to_cone"] = settings.cropToCone;
+  // The rasterisers agree on all but a few texels, not on every byte.
+  j["backend"] = rasterBackendName(settings.backend);
   // A run that bakes only some lights says which: cpvs-merge checks and drops this key.
   if (part.size() != sceneLights) j["part"] = {{"lights", formatLightList(part)}, {"of", sceneLights}};
   return j.dump();
@@ -74,9 +76,9 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
                         settings.peel.maxPeels, std::min(settings.regionSize, settings.resolution),
                         uint64_t(settings.ground)};
   XXH3_64bits_update(state, s, sizeof s);
-  // Only when set, so that bakes without it keep their hash.
   if (settings.voxelSize > 0) XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
-  if (!settings.cropToCone) XXH3_64bits_update(state, "uncropped", 9);
+  const uint64_t more[] = {uint64_t(settings.cropToCone), uint64_t(settings.backend)};
+  XXH3_64bits_update(state, more, sizeof more);
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
   return hash;
@@ -144,8 +146,19 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
   for (const Light& light : scene.lights) {
     views.push_back(makeLightViews(light, world, settings.resolution));
     if (settings.voxelSize <= 0) continue;
-    const uint32_t n = resolutionForVoxelSize(views.back(), settings.voxelSize, settings.resolution);
-    if (n != settings.resolution) views.back() = makeLightViews(light, world, n);
+    uint32_t n = resolutionForVoxelSize(views.back(), settings.voxelSize, settings.resolution);
+    // The estimate scales the fit at the largest N; the fit's padding grows at small N, so check and double.
+    while (n < settings.resolution) {
+      std::vector<LightView> fitted = makeLightViews(light, world, n);
+      double largest = 0;
+      for (const LightView& v : fitted)
+        if (!v.empty) largest = std::max(largest, largestVoxelSize(v));
+      if (largest <= settings.voxelSize) {
+        views.back() = std::move(fitted);
+        break;
+      }
+      n *= 2;
+    }
   }
   return views;
 }
@@ -153,6 +166,8 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
 std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& settings, const WorldGeometry& world,
                                    const std::vector<std::vector<LightView>>& views, std::vector<double>* costs) {
   std::vector<uint32_t> chosen = settings.lights;
+  std::sort(chosen.begin(), chosen.end());
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
   if (chosen.empty())
     for (uint32_t i = 0; i < scene.lights.size(); ++i) chosen.push_back(i);
   for (const uint32_t i : chosen)
@@ -285,6 +300,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
         describeDag(baked.views[vi].dag, vr);
         lightReport.views.push_back(vr);
         ++doneViews;
+        if (callbacks.progress) callbacks.progress(double(doneViews) / double(totalViews));
         continue;
       }
       BakedView bakedView{view, {}};
@@ -361,7 +377,13 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
       ++doneViews;
       if (callbacks.progress) callbacks.progress(double(doneViews) / double(totalViews));
     }
-    if (cache && !fromCache) cache->store(cacheKey, baked);
+    if (cache && !fromCache) {
+      try {
+        cache->store(cacheKey, baked);
+      } catch (const Error& e) {  // the bake itself is fine: only later runs lose the entry
+        rep.warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
+      }
+    }
     lightReport.ms = lightTime.ms();
     content.lights.push_back(std::move(baked));
     rep.lights.push_back(std::move(lightReport));

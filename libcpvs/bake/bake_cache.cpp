@@ -5,6 +5,7 @@
 #include <system_error>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -44,8 +45,8 @@ uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const st
                         std::min(settings.regionSize, settings.resolution), uint64_t(settings.ground), views.size()};
   XXH3_64bits_update(state, s, sizeof s);
   XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
-  const uint8_t crop = settings.cropToCone;
-  XXH3_64bits_update(state, &crop, 1);
+  const uint8_t more[] = {uint8_t(settings.cropToCone), uint8_t(settings.backend)};
+  XXH3_64bits_update(state, more, sizeof more);
   const double cone[] = {double(light.type), light.type == LightType::Spot ? light.outerConeAngle : 0.0};
   XXH3_64bits_update(state, cone, sizeof cone);
   for (size_t i = 0; i < views.size(); ++i) {
@@ -103,6 +104,7 @@ void BakeCache::store(uint64_t key, const BakedLight& baked) const {
   std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex(key) + "-XXXXXX")).string();
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot write a bake cache entry");
+  ::fchmod(fd, 0644);  // a cache folder is often shared by a team's build machines
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);

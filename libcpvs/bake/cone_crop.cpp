@@ -8,10 +8,12 @@ namespace cpvs {
 ConeCrop coneCropOf(const Light& light, const LightView& view) {
   ConeCrop crop;
   if (light.type != LightType::Spot || view.projection != Projection::Perspective || view.resolution == 0) return crop;
-  // The runtime's cone (cell_lanes.h insideSpot) caps the angle at pi/2; views cap it at 85 degrees.
-  const double outer = std::min(light.outerConeAngle, 85.0 * 3.14159265358979323846 / 180.0);
+  // The runtime's cone (cell_lanes.h insideSpot) is the outer angle up to pi/2 (views stop at 85 degrees, so a
+  // wider cone covers the whole view and nothing is cropped).
+  const double kHalfPi = 1.57079632679489661923;
+  if (!(light.outerConeAngle < kHalfPi)) return crop;
   const double texel = std::max(view.xMax - view.xMin, view.yMax - view.yMin) / view.resolution;
-  crop.radius = std::tan(outer) + kConeMarginTexels * texel;
+  crop.radius = std::tan(light.outerConeAngle) + kConeMarginTexels * texel;
   // Only worth it when some corner of the view lies outside.
   const double corner = std::hypot(std::max(std::abs(view.xMin), std::abs(view.xMax)),
                                    std::max(std::abs(view.yMin), std::abs(view.yMax)));

@@ -28,6 +28,10 @@ std::vector<uint32_t> partLights(const NamedPart& part, const nlohmann::json& se
       !p["of"].is_number_unsigned())
     fail(part.name + ": the settings block's \"part\" key is malformed (expected {\"lights\": \"0-3,7\", \"of\": N})");
   sceneLights = p["of"].get<size_t>();
+  constexpr size_t kMostLights = 1u << 24;
+  if (sceneLights < held || sceneLights > kMostLights)
+    fail(part.name + ": the settings block's part says the scene has " + std::to_string(sceneLights) +
+         " light(s), but the file holds " + std::to_string(held) + " (at most " + std::to_string(kMostLights) + ")");
   const std::vector<Light> placeholders(sceneLights);  // unnamed: the list holds indices only
   std::vector<uint32_t> lights;
   try {

@@ -39,7 +39,10 @@ inline float floatBefore(float x) {
 // counter-clockwise), the depth plane, and what it is.
 struct RasterTriangle {
   int64_t x[3], y[3];
-  double q0, ku, kv, qMin, qMax;  // q at texel (i, j) of the region: q0 + ku i + kv j, clamped
+  // q at region texel (i, j), i.e. view texel (X, Y) = (x0 + i, y0 + j): q0 + kv (Y + dv) + ku (X + du), clamped
+  // to [qMin, qMax]; evaluated in view coordinates, so a texel's depth does not depend on the region split.
+  double q0, ku, kv, du, dv, qMin, qMax;
+  int32_t x0, y0;
   Kind kind;
   int32_t i0, i1, j0, j1;         // covered texels lie in [i0, i1] x [j0, j1] (region coordinates)
 };
@@ -82,8 +85,8 @@ void clipSpan(Wide w, Wide step, Wide threshold, int64_t& lo, int64_t& hi) {
 }
 
 // Calls fn(j, iBegin, iEnd, rowQ) for each row j in [rowBegin, rowEnd) the triangle covers: texels (i, j) with i
-// in [iBegin, iEnd), each at depth q = clamp(rowQ + t.ku i, t.qMin, t.qMax). Spans come from the edge functions
-// solved exactly in integers, so the coverage is the per-texel test's.
+// in [iBegin, iEnd), each at depth depthAt(t, rowQ, i). Spans come from the edge functions solved exactly in
+// integers, so the coverage is the per-texel test's.
 template <class Wide, class Fn>
 void scanTriangle(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
   const Edge<Wide> edges[3] = {{t.x[0], t.y[0], t.x[1], t.y[1]}, {t.x[1], t.y[1], t.x[2], t.y[2]},
@@ -97,8 +100,12 @@ void scanTriangle(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&
       const Wide w = e.a * 128 + e.b * py + e.c;
       clipSpan<Wide>(w, e.a * 256, e.threshold, lo, hi);
     }
-    if (lo <= hi) fn(j, int32_t(lo), int32_t(hi) + 1, t.q0 + t.kv * j);
+    if (lo <= hi) fn(j, int32_t(lo), int32_t(hi) + 1, t.q0 + t.kv * (double(t.y0 + j) + t.dv));
   }
+}
+
+inline double depthAt(const RasterTriangle& t, double rowQ, int64_t i) {
+  return std::clamp(rowQ + t.ku * (double(t.x0 + i) + t.du), t.qMin, t.qMax);
 }
 
 template <class Fn>
@@ -203,10 +210,13 @@ void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const d
   t.j0 = std::max(0, first(std::min({t.y[0], t.y[1], t.y[2]})));
   t.j1 = std::min(int32_t(rect.height) - 1, last(std::max({t.y[0], t.y[1], t.y[2]})));
   if (t.i0 > t.i1 || t.j0 > t.j1) return;
-  // q at the centre of region texel (i, j) = view texel (x0 + i, y0 + j).
-  t.q0 = s.q0 + s.ku * (double(rect.x0) + 0.5 - s.u0) + s.kv * (double(rect.y0) + 0.5 - s.v0);
+  t.q0 = s.q0;
   t.ku = s.ku;
   t.kv = s.kv;
+  t.du = 0.5 - s.u0;
+  t.dv = 0.5 - s.v0;
+  t.x0 = int32_t(rect.x0);
+  t.y0 = int32_t(rect.y0);
   t.qMin = s.qMin;
   t.qMax = s.qMax;
   out.push_back(t);
@@ -308,7 +318,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
         float* keys = &enterKey[size_t(j) * width];
         uint8_t* kinds = &kind[size_t(j) * width];
         for (int32_t i = i0; i < i1; ++i) {
-          const float key = keyOf(std::clamp(rowQ + t.ku * i, t.qMin, t.qMax));
+          const float key = keyOf(depthAt(t, rowQ, i));
           if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
             keys[i] = key;
             kinds[i] = t.kind;
@@ -374,7 +384,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
             const size_t row = size_t(j) * width;
             for (size_t at = row + size_t(i0); at < row + size_t(i1); ++at) {
               if (state[at] != kActive) continue;
-              const float key = keyOf(std::clamp(rowQ + t.ku * double(at - row), t.qMin, t.qMax));
+              const float key = keyOf(depthAt(t, rowQ, int64_t(at - row)));
               if (front) {
                 if (key > frontCursor[at] && key < nearestFront[at]) nearestFront[at] = key;
               } else if (key > backCursor[at]) {

@@ -1,6 +1,6 @@
 #pragma once
-// Renders enter and exit depth maps of one region of a light view with OpenGL 4.5 core
-// (OSMesa by default, EGL as an option), docs/depth-maps.md
+// Renders enter and exit depth maps of one region of a light view: on the CPU (cpu_depth_renderer.h, the
+// default) or with OpenGL 4.5 core (OSMesa, or EGL on a GPU), docs/depth-maps.md
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -37,8 +37,8 @@ struct RenderStats {
 
 class DepthRenderer {
 public:
-  // Opens a GL 4.5 core context on the backend. Throws Error(NotSupported) when the backend's library or a
-  // suitable context is not available on this machine.
+  // The CPU rasteriser, or a GL 4.5 core context on the backend. Throws Error(NotSupported) when a GL
+  // backend's library or a suitable context is not available on this machine.
   static std::unique_ptr<DepthRenderer> create(RasterBackend backend);
   virtual ~DepthRenderer() = default;
 
