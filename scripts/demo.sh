@@ -12,12 +12,12 @@ scene="$root/data/scenes/SubpassSceneOpaque/subpass_scene_opaque.gltf"
 rm -rf "$out"
 mkdir -p "$out"
 
-echo
-echo "== The scene =="
-"$bin/cpvs-info" "$scene"
-
 # The scene is authored with -Y up, so a sun that travels "down" travels toward +Y.
 lights=(--sun 0.35,1,0.25 --spot 0,-8,0,0.2,1,0.1,0.7,30)
+
+echo
+echo "== The scene (and the input hash the bake below will record) =="
+"$bin/cpvs-info" "$scene" "${lights[@]}" --resolution 4k
 
 echo
 echo "== Baking at 4k (a sun and a spot light) =="
