@@ -4,10 +4,12 @@ cube faces each) at 2k; per-light time and bytes as distributions, peak memory, 
 
     python3 benchmarks/many_lights.py [--bin build/bin] [--out out/many-lights] [--doc docs/many-lights]
                                       [--lights 165] [--spot-resolution 8k] [--point-resolution 2k]
-                                      [--backend cpu] [--threads N] [--only spots|points]
+                                      [--backend cpu] [--threads N] [--only spots|points] [--report-only]
 
 Writes DOC/spots.json, DOC/points.json (every light's figures), DOC/spots.svg, DOC/points.svg (per-light time
 and bytes, as Kämpe et al. 2016 plot them) and prints the markdown tables that docs/many-lights.md quotes.
+--report-only summarises the bake reports of an earlier run again (OUT/*-report.json), keeping that run's wall
+time, machine and load average, without baking.
 Python 3 standard library only."""
 
 import argparse
@@ -68,7 +70,12 @@ def summarise(report, wall_s):
         for v in l["views"]:
             for k, ms in v["phases_ms"].items():
                 phases[k] = phases.get(k, 0.0) + ms
-    return {"lights": len(lights), "views": sum(len(l["views"]) for l in lights), "wall_s": wall_s,
+    views = [v for l in lights for v in l["views"]]
+    texels = [float(v["resolution"]) ** 2 for v in views]
+    per_view = {"triangles_submitted": percentiles([v["triangles_submitted"] for v in views]),
+                "fraction_outside_cone": percentiles([v.get("texels_outside_cone", 0) / t for v, t in zip(views, texels)]),
+                "fraction_at_peel_cap": percentiles([v["texels_at_peel_cap"] / t for v, t in zip(views, texels)])}
+    return {"lights": len(lights), "views": len(views), "wall_s": wall_s, "per_view": per_view,
             "total_ms": report["total_ms"], "peak_rss_bytes": report["peak_rss_bytes"],
             "file_bytes": report["file_bytes"], "ms_per_light": percentiles(per_ms),
             "bytes_per_light": percentiles(per_bytes),
@@ -122,6 +129,12 @@ def table(summary, label):
              "| file | %.1f MB |" % (summary["file_bytes"] / 1e6),
              "| smallest ratio 16-bit shadow map / light | %.0fx |" % summary["smallest_ratio_to_shadow_map"],
              "| peak RSS | %.0f MB |" % (summary["peak_rss_bytes"] / 1e6),
+             "| per view: triangles submitted median / max | %.0f / %.0f |" %
+             (summary["per_view"]["triangles_submitted"]["median"], summary["per_view"]["triangles_submitted"]["max"]),
+             "| per view: texels left free outside the cone, median | %.1f %% |" %
+             (100 * summary["per_view"]["fraction_outside_cone"]["median"]),
+             "| per view: texels still inside a solid at the peel cap, median | %.1f %% |" %
+             (100 * summary["per_view"]["fraction_at_peel_cap"]["median"]),
              "| phases (CPU-side sums; masks and DAG overlap rendering) | %s |" %
              ", ".join("%s %.0f %%" % (k, 100 * v / total) for k, v in sorted(ph.items(), key=lambda kv: -kv[1]))]
     return "\n".join(lines)
@@ -138,7 +151,21 @@ def main():
     ap.add_argument("--backend", default="cpu")
     ap.add_argument("--threads", type=int, default=os.cpu_count())
     ap.add_argument("--only", choices=["spots", "points"])
+    ap.add_argument("--report-only", action="store_true")
     a = ap.parse_args()
+    if a.report_only:
+        for name in [a.only] if a.only else ["spots", "points"]:
+            doc_json = os.path.join(a.doc, name + ".json")
+            with open(doc_json) as f:
+                earlier = json.load(f)
+            with open(os.path.join(a.out, name + "-report.json")) as f:
+                summary = summarise(json.load(f), earlier["wall_s"])
+            for key in ("machine", "command", "load_average_before", "load_average_after"):
+                summary[key] = earlier[key]
+            with open(doc_json, "w") as f:
+                json.dump(summary, f, indent=1)
+            print(table(summary, name))
+        return
     os.makedirs(a.out, exist_ok=True)
     os.makedirs(a.doc, exist_ok=True)
     scene = os.path.join(a.out, "city-spots.glb")

@@ -2,8 +2,17 @@
 // The .cpvs format's version and layout constants, shared by the reader (formats/cpvs/cpvs_file.h) and the
 // writer (libcpvs/bake/cpvs_writer.h). The byte-level spec is docs/format.md.
 #include <cstdint>
+#include <cstdio>
+#include <string>
 
 namespace cpvs {
+
+// An XXH3-64 checksum or input hash as files, reports and messages write it: 16 lowercase hex digits.
+inline std::string hex64(uint64_t value) {
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
 
 // Same-major rule: a reader of 2.x opens every 2.y file. A minor version may add section types (readers skip
 // the ones they do not know) and append fields to light and view records (readers read the prefix they know,

@@ -33,12 +33,6 @@ struct ReadFailure {
   std::string message;
 };
 
-std::string hex(uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
-
 std::string typeName(uint32_t type) {
   std::string s(4, ' ');
   for (int i = 0; i < 4; ++i) s[i] = char(uint8_t(type >> (8 * i)));
@@ -147,7 +141,7 @@ std::vector<uint64_t> validateDag(const Reader& r, const std::string& what, Chil
       const uint32_t header = nodes[offset];
       if (buildForm && ((header >> 16) != 0 || (header & (header >> 1) & 0x5555u) != 0))
         r.fail(what + ": DAG level " + std::to_string(l) + " node at word " + std::to_string(offset) +
-               ": invalid header 0x" + hex(header).substr(8) + " (child codes must be 0..2, high bits zero)");
+               ": invalid header 0x" + hex64(header).substr(8) + " (child codes must be 0..2, high bits zero)");
       const unsigned k = unitCount(header);
       if (k > units - offset)
         r.fail(what + ": DAG level " + std::to_string(l) + " node at " + unit + " " + std::to_string(offset) +

@@ -1,8 +1,6 @@
 #include "libcpvs/bake/bake.h"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 #include <optional>
 
 #include <nlohmann/json.hpp>
@@ -34,8 +32,6 @@ ShadowDag allLitDag(uint32_t resolution) {
 
 std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const std::vector<uint32_t>& part,
                          size_t sceneLights) {
-  char hash[17];
-  std::snprintf(hash, sizeof hash, "%016llx", static_cast<unsigned long long>(inputHash));
   // Only what determines the bytes of the result: no timestamps, no thread count, no paths.
   nlohmann::json j = {{"tool", "cpvs-bake"},
                       {"tool_version", kVersion},
@@ -45,7 +41,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
                       {"max_peels", settings.peel.maxPeels},
                       {"region", std::min(settings.regionSize, settings.resolution)},
                       {"ground", groundSheetsName(settings.ground)},
-                      {"input_hash", hash}};
+                      {"input_hash", hex64(inputHash)}};
   if (settings.voxelSize > 0) j["voxel_size"] = settings.voxelSize;
   j["crop_to_cone"] = settings.cropToCone;
   // The rasterisers agree on all but a few texels, not on every byte.
@@ -163,8 +159,10 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
   return views;
 }
 
+// settings.lights (or every light), then its shard, balanced by each light's estimated cost: every light index
+// ends in exactly one shard.
 std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& settings, const WorldGeometry& world,
-                                   const std::vector<std::vector<LightView>>& views, std::vector<double>* costs) {
+                                   const std::vector<std::vector<LightView>>& views) {
   std::vector<uint32_t> chosen = settings.lights;
   std::sort(chosen.begin(), chosen.end());
   chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
@@ -174,34 +172,23 @@ std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& setti
     if (i >= scene.lights.size())
       throw Error(ErrorCategory::InvalidArgument, "light index " + std::to_string(i) + " is out of range: the scene has " +
                                                       std::to_string(scene.lights.size()) + " light(s)");
-  if (settings.shard.count <= 1 && !costs) return chosen;
+  if (settings.shard.count <= 1) return chosen;
   std::vector<double> cost(scene.lights.size(), 0.0);
   for (const uint32_t i : chosen) cost[i] = gatherLightGeometry(world, views[i], settings.regionSize).cost;
-  if (costs) *costs = cost;
-  return settings.shard.count <= 1 ? chosen : shardLights(chosen, cost, settings.shard);
+  return shardLights(chosen, cost, settings.shard);
 }
 
 // Lights whose range is tiny against the scene usually mean a unit mismatch (a level in centimetres, lights in
 // metres): every shadow would be baked into a speck.
 void warnAboutRanges(const Scene& scene, const WorldGeometry& world, std::vector<std::string>& warnings) {
-  if (world.positions.empty()) return;
-  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
-  for (const glm::dvec3& p : world.positions) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
-  const double diagonal = glm::length(hi - lo);
-  double largest = 0;
-  size_t local = 0;
+  if (world.bounds.empty()) return;
+  const double diagonal = glm::length(world.bounds.extent());
+  // The largest range of the spot and point lights (infinite when one is unlimited; -1 when there are none).
+  double largest = -1;
   for (const Light& l : scene.lights)
-    if (l.type != LightType::Directional && std::isfinite(l.range)) {
-      largest = std::max(largest, l.range);
-      ++local;
-    }
+    if (l.type != LightType::Directional) largest = std::max(largest, l.range);
   constexpr double kTinyFraction = 0.01;
-  if (local > 0 && local == size_t(std::count_if(scene.lights.begin(), scene.lights.end(), [](const Light& l) {
-        return l.type != LightType::Directional;
-      })) && largest < kTinyFraction * diagonal) {
+  if (largest >= 0 && largest < kTinyFraction * diagonal) {
     char text[400];
     std::snprintf(text, sizeof text,
                   "every spot and point light's range is under 1 %% of the scene's size (largest range %.4g, scene "
@@ -218,17 +205,6 @@ void describeDag(const ShadowDag& dag, ViewReport& vr) {
   vr.bytes = dag.bytes();
 }
 
-}  // namespace
-
-std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& requested, std::vector<double>* costs) {
-  BakeSettings settings = requested;
-  settings.regionSize = regionSizeWithinBudget(requested);
-  const WorldGeometry world = flatten(scene, settings.ground);
-  return selectLights(scene, settings, world, viewsOfLights(scene, world, settings), costs);
-}
-
-namespace {
-
 CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                           const BakeCallbacks& callbacks) {
   BakeSettings settings = requested;
@@ -236,7 +212,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
   const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings);
-  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews, nullptr);
+  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews);
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
 
@@ -325,11 +301,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
           RenderStats stats;
           std::shared_ptr<DepthRegion> depth;
           if (crop.regionOutside(view, regions[ri])) {
-            depth = std::make_shared<DepthRegion>();
-            depth->rect = regions[ri];
-            depth->resolution = view.resolution;
-            depth->enter.assign(size_t(regions[ri].width) * regions[ri].height, 0);
-            depth->exit.assign(depth->enter.size(), view.resolution);
+            depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, regions[ri]));
             vr.texelsOutsideCone += depth->enter.size();
           } else {
             depth = std::make_shared<DepthRegion>(renderer->render(geometry, view, regions[ri], settings.peel, &stats));

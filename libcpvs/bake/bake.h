@@ -106,11 +106,6 @@ uint64_t regionMemoryBytes(uint32_t regionSize);
 // quarter of maxMemoryBytes.
 uint32_t regionSizeWithinBudget(const BakeSettings& settings);
 
-// The lights a run with `settings` bakes: settings.lights (or every light), then its shard. Shards are balanced by
-// an estimate of each light's cost (its views' occupied regions and triangles); every light index ends in exactly
-// one shard.
-std::vector<uint32_t> lightsToBake(const Scene& scene, const BakeSettings& settings, std::vector<double>* costs = nullptr);
-
 // Bakes the scene's lights that `settings` selects (every light by default). A run that bakes only some of them
 // writes a part: its settings block names the lights it holds and how many the scene has, and cpvs-merge joins
 // parts into the file one run would write. Throws Error (NotSupported when the backend is missing).

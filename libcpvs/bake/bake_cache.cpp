@@ -19,12 +19,6 @@
 namespace cpvs {
 namespace {
 
-std::string hex(uint64_t value) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
-  return text;
-}
-
 template <class T>
 void hashVector(XXH3_state_t* state, const std::vector<T>& v) {
   const uint64_t count = v.size();
@@ -73,7 +67,7 @@ BakeCache::BakeCache(std::string folder) : folder_(std::move(folder)) {
 }
 
 std::string BakeCache::pathOf(uint64_t key) const {
-  return (std::filesystem::path(folder_) / (hex(key) + ".cpvs")).string();
+  return (std::filesystem::path(folder_) / (hex64(key) + ".cpvs")).string();
 }
 
 std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std::string* problem) const {
@@ -88,8 +82,8 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
   if (!opened.ok()) return reject(opened.outcome().message());
   const CpvsFile& file = *opened.value();
   nlohmann::json settings = nlohmann::json::parse(file.settingsJson(), nullptr, false);
-  if (!settings.is_object() || settings.value("cache_key", std::string()) != hex(key) || file.lights().size() != 1)
-    return reject(path + ": not a cache entry for key " + hex(key));
+  if (!settings.is_object() || settings.value("cache_key", std::string()) != hex64(key) || file.lights().size() != 1)
+    return reject(path + ": not a cache entry for key " + hex64(key));
   BakedLight baked = bakedLightOf(file.lights()[0]);
   baked.light = light;
   return baked;
@@ -98,10 +92,10 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
 void BakeCache::store(uint64_t key, const BakedLight& baked) const {
   CpvsContent content;
   content.lights.push_back(baked);
-  content.settingsJson = nlohmann::json{{"cache_key", hex(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
+  content.settingsJson = nlohmann::json{{"cache_key", hex64(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
   const std::string bytes = writeCpvs(content);
   const std::string path = pathOf(key);
-  std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex(key) + "-XXXXXX")).string();
+  std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex64(key) + "-XXXXXX")).string();
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot write a bake cache entry");
   ::fchmod(fd, 0644);  // a cache folder is often shared by a team's build machines

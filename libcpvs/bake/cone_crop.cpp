@@ -31,6 +31,15 @@ bool ConeCrop::regionOutside(const LightView& view, const RegionRect& rect) cons
   return a * a + b * b > radius * radius;
 }
 
+DepthRegion ConeCrop::freeRegion(const LightView& view, const RegionRect& rect) {
+  DepthRegion region;
+  region.rect = rect;
+  region.resolution = view.resolution;
+  region.enter.assign(size_t(rect.width) * rect.height, 0);
+  region.exit.assign(region.enter.size(), view.resolution);
+  return region;
+}
+
 uint64_t ConeCrop::freeOutside(const LightView& view, DepthRegion& region) const {
   if (!active) return 0;
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;

@@ -20,6 +20,8 @@ struct ConeCrop {
   double radius = 0;       // in the view's lateral units (x/d, y/d): tan(outer cone) plus the margin
   // Whether no texel of the region lies within the radius: the region needs no rendering at all.
   bool regionOutside(const LightView& view, const RegionRect& rect) const;
+  // A region all free, for one wholly outside (nothing rendered).
+  static DepthRegion freeRegion(const LightView& view, const RegionRect& rect);
   // Leaves every texel of `region` outside the radius free (enter 0, exit N: all voxels but the first may be
   // either); returns how many.
   uint64_t freeOutside(const LightView& view, DepthRegion& region) const;

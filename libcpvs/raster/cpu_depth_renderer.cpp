@@ -353,9 +353,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       ++active;
     }
   for (int32_t j = 0; j < int32_t(rect.height); ++j) findActive(j);
-  bool anyClosed = false;
-  for (const RasterTriangle& t : triangles) anyClosed |= t.kind != kOpen;
-  if (active > 0 && anyClosed) {
+  if (active > 0) {  // a texel entered at a closed front face: there are closed triangles to peel
     frontCursor = enterKey;
     backCursor.resize(texels);
     // Back faces at the enter depth itself (silhouettes, zero thickness) still count: the back cursor starts

@@ -28,11 +28,6 @@ namespace {
 using nlohmann::ordered_json;
 using namespace cpvsformat;
 
-std::string hex64(uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
-  return buf;
-}
 
 uint64_t loadLE(const uint8_t* p, int n) {
   uint64_t v = 0;

@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "formats/cpvs/cpvs_format.h"
 #include "formats/gltf/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
@@ -74,12 +75,6 @@ nlohmann::ordered_json groundJson(const WorldGeometry& world) {
   return sheets;
 }
 
-std::string hex16(uint64_t value) {
-  char text[17];
-  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
-  return text;
-}
-
 void printJson(const Scene& scene, const WorldGeometry& world, const Totals& totals, uint64_t inputHash) {
   nlohmann::ordered_json meshes = nlohmann::ordered_json::array();
   for (const Mesh& mesh : scene.meshes)
@@ -116,7 +111,7 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
       {"groundSheets", groundJson(world)},
       {"warnings", scene.warnings},
       // What a cpvs-bake with the same lights and bake options writes into its file's BAKE block.
-      {"input_hash", hex16(inputHash)}};
+      {"input_hash", cpvs::hex64(inputHash)}};
   std::cout << report.dump(2) << "\n";
 }
 
@@ -138,7 +133,7 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
     printJson(scene, world, totals, inputHash);
   } else {
     printText(scene, world, totals);
-    std::cout << "input hash (of a cpvs-bake with these lights and bake options): " << hex16(inputHash) << "\n";
+    std::cout << "input hash (of a cpvs-bake with these lights and bake options): " << cpvs::hex64(inputHash) << "\n";
   }
   return 0;
 }
