@@ -136,16 +136,13 @@ LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<
   return out;
 }
 
-// The views of the lights `which` (indices), indexed like the scene's lights (the others stay empty).
 std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world,
-                                                  const BakeSettings& settings, const std::vector<uint32_t>& which) {
-  std::vector<std::vector<LightView>> all(scene.lights.size());
-  for (const uint32_t i : which) {
-    const Light& light = scene.lights[i];
-    std::vector<LightView>& views = all[i];
-    views = makeLightViews(light, world, settings.resolution);
+                                                  const BakeSettings& settings) {
+  std::vector<std::vector<LightView>> views;
+  for (const Light& light : scene.lights) {
+    views.push_back(makeLightViews(light, world, settings.resolution));
     if (settings.voxelSize <= 0) continue;
-    uint32_t n = resolutionForVoxelSize(views, settings.voxelSize, settings.resolution);
+    uint32_t n = resolutionForVoxelSize(views.back(), settings.voxelSize, settings.resolution);
     // The estimate scales the fit at the largest N; the fit's padding grows at small N, so check and double.
     while (n < settings.resolution) {
       std::vector<LightView> fitted = makeLightViews(light, world, n);
@@ -153,17 +150,19 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
       for (const LightView& v : fitted)
         if (!v.empty) largest = std::max(largest, largestVoxelSize(v));
       if (largest <= settings.voxelSize) {
-        views = std::move(fitted);
+        views.back() = std::move(fitted);
         break;
       }
       n *= 2;
     }
   }
-  return all;
+  return views;
 }
 
-// settings.lights (or every light), sorted, without repeats, checked against the scene.
-std::vector<uint32_t> listedLights(const Scene& scene, const BakeSettings& settings) {
+// settings.lights (or every light), then its shard, balanced by each light's estimated cost: every light index
+// ends in exactly one shard.
+std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& settings, const WorldGeometry& world,
+                                   const std::vector<std::vector<LightView>>& views) {
   std::vector<uint32_t> chosen = settings.lights;
   std::sort(chosen.begin(), chosen.end());
   chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
@@ -173,16 +172,10 @@ std::vector<uint32_t> listedLights(const Scene& scene, const BakeSettings& setti
     if (i >= scene.lights.size())
       throw Error(ErrorCategory::InvalidArgument, "light index " + std::to_string(i) + " is out of range: the scene has " +
                                                       std::to_string(scene.lights.size()) + " light(s)");
-  return chosen;
-}
-
-// The listed lights' shard, balanced by each light's estimated cost: every light ends in exactly one shard.
-std::vector<uint32_t> shardOf(const std::vector<uint32_t>& listed, const BakeSettings& settings,
-                              const WorldGeometry& world, const std::vector<std::vector<LightView>>& views) {
-  if (settings.shard.count <= 1) return listed;
-  std::vector<double> cost(views.size(), 0.0);
-  for (const uint32_t i : listed) cost[i] = gatherLightGeometry(world, views[i], settings.regionSize).cost;
-  return shardLights(listed, cost, settings.shard);
+  if (settings.shard.count <= 1) return chosen;
+  std::vector<double> cost(scene.lights.size(), 0.0);
+  for (const uint32_t i : chosen) cost[i] = gatherLightGeometry(world, views[i], settings.regionSize).cost;
+  return shardLights(chosen, cost, settings.shard);
 }
 
 // Lights whose range is tiny against the scene usually mean a unit mismatch (a level in centimetres, lights in
@@ -218,9 +211,8 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
-  const std::vector<uint32_t> listed = listedLights(scene, settings);
-  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings, listed);
-  const std::vector<uint32_t> chosen = shardOf(listed, settings, world, allViews);
+  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings);
+  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews);
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
 
