@@ -22,6 +22,7 @@ BELOW["libcpvs/reference"] = BELOW["libcpvs/scene"] | {"libcpvs/reference"}
 BELOW["libcpvs/eval"] = BELOW["libcpvs/bake"] | BELOW["libcpvs/reference"] | {"libcpvs/eval"}
 BELOW["formats/gltf"] = BELOW["libcpvs/scene"] | {"formats/gltf"}
 BELOW["formats/io"] = BELOW["libcpvs/base"] | {"formats/io"}
+BELOW["libcpvs/preview"] = BELOW["libcpvs/eval"] | BELOW["formats/io"] | {"libcpvs/preview"}
 BELOW["examples/lookup"] = RUNTIME
 
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)

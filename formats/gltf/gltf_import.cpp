@@ -647,6 +647,8 @@ private:
       fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
     }
 
+    if (node.camera >= 0) placeCamera(index, node.camera, worldFromLocal);
+
     const auto extension = node.extensions.find(kLightsExtension);
     if (extension == node.extensions.end()) return;
     const tinygltf::Value& reference = extension->second;
@@ -664,6 +666,55 @@ private:
     if (!(length > 0.0) || !std::isfinite(length)) fail(describeNode(index) + ": the light's transform is degenerate");
     light.direction = direction / length;
     scene_.lights.push_back(light);
+  }
+
+  // A perspective camera on a node (orthographic ones are skipped with a warning). Name: the camera's, else
+  // the node's, else "camera<i>".
+  void placeCamera(int nodeIndex, int cameraIndex, const glm::dmat4& worldFromLocal) {
+    const std::string what = describeNode(nodeIndex) + ": camera " + std::to_string(cameraIndex);
+    if (size_t(cameraIndex) >= model_.cameras.size()) fail(what + " does not exist");
+    const tinygltf::Camera& source = model_.cameras[size_t(cameraIndex)];
+    if (source.type != "perspective") {
+      warn(what + " is " + (source.type.empty() ? "of no type" : source.type) + ", not perspective; skipped");
+      return;
+    }
+    const tinygltf::PerspectiveCamera& p = source.perspective;
+    if (!(p.yfov > 0 && p.yfov < 3.14159) || !(p.znear > 0) || !(p.aspectRatio >= 0) ||
+        !(p.zfar == 0 || p.zfar > p.znear))
+      fail(what + ": yfov must be in (0, pi), znear > 0, aspectRatio >= 0 and zfar 0 or > znear");
+    Camera camera;
+    const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
+    camera.name = !source.name.empty() ? source.name
+                                       : (!node.name.empty() ? node.name : "camera" + std::to_string(cameraIndex));
+    camera.eye = glm::dvec3(worldFromLocal * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+    const glm::dvec3 forward = glm::dmat3(worldFromLocal) * glm::dvec3(0.0, 0.0, -1.0);
+    const glm::dvec3 up = glm::dmat3(worldFromLocal) * glm::dvec3(0.0, 1.0, 0.0);
+    const glm::dvec3 side = glm::cross(forward, up);
+    if (!(glm::length(side) > 0.0) || !std::isfinite(glm::length(side)) || !std::isfinite(camera.eye.x + camera.eye.y + camera.eye.z))
+      fail(what + ": the node's transform is degenerate");
+    camera.forward = glm::normalize(forward);
+    camera.up = glm::normalize(glm::cross(side, forward));
+    camera.yfov = p.yfov;
+    camera.aspectRatio = p.aspectRatio;
+    camera.znear = p.znear;
+    camera.zfar = p.zfar;
+    scene_.cameras.push_back(camera);
+  }
+
+  // The base colour factor of a primitive's material (white without one).
+  glm::vec4 baseColorOf(const tinygltf::Primitive& primitive, const std::string& where) const {
+    if (primitive.material < 0) return glm::vec4(1.0f);
+    if (size_t(primitive.material) >= model_.materials.size())
+      fail(where + ": material " + std::to_string(primitive.material) + " does not exist");
+    const std::vector<double>& f = model_.materials[size_t(primitive.material)].pbrMetallicRoughness.baseColorFactor;
+    glm::vec4 color(1.0f);
+    for (size_t c = 0; c < 4 && c < f.size(); ++c) {
+      if (!(f[c] >= 0.0 && f[c] <= 1.0))
+        fail(where + ": material " + std::to_string(primitive.material) + " baseColorFactor[" + std::to_string(c) +
+             "] is not in [0, 1]");
+      color[int(c)] = float(f[c]);
+    }
+    return color;
   }
 
   // The cpvs meshes made of a glTF mesh's triangle primitives, decoded on first use.
@@ -727,6 +778,7 @@ private:
       return std::nullopt;
     }
     mesh.indices = std::move(triangles.indices);
+    mesh.baseColor = baseColorOf(primitive, where);
     return mesh;
   }
 

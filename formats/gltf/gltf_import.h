@@ -25,6 +25,9 @@ namespace cpvs {
 // * Lights: KHR_lights_punctual lights placed by nodes of the scene, in world space (position = node
 //   origin, direction = node's local -Z), with the extension's defaults. Name: the light's name, else the
 //   node's, else "light<i>". A light used by several nodes gives several lights.
+// * Materials: each Mesh keeps its material's baseColorFactor (what cpvs-view shades with; textures are
+//   not decoded). Cameras: perspective cameras placed by nodes of the scene, in world space (eye = node
+//   origin, looking along the node's -Z with +Y up); orthographic ones are skipped with a warning.
 // * Anything that cannot be imported correctly (unreadable file, index or accessor out of range, NaN/Inf
 //   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
 //   triangle) throws Error(ErrorCategory::InvalidInput) naming the file and the element. Things that are

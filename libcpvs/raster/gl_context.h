@@ -83,11 +83,17 @@ namespace cpvs::gl {
   X(PFNGLBINDBUFFERBASEPROC, BindBufferBase)                                          \
   X(PFNGLGETBUFFERSUBDATAPROC, GetBufferSubData)
 
-// Entry points beyond GL 3.3 (compute shaders, tests/glsl_walk_test.cpp): left null where the context lacks
-// them, so that a 3.3 context still opens for the depth renderer.
+// Entry points beyond GL 3.3 (compute shaders: cpvs-view's passes, tests/glsl_walk_test.cpp) and a few the
+// depth renderer does not use: left null where the context lacks them, so that a 3.3 context still opens
+// for the depth renderer.
 #define CPVS_GL_OPTIONAL_FUNCTIONS(X)                                                 \
   X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute)                                        \
-  X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)
+  X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)                                            \
+  X(PFNGLGETQUERYOBJECTUI64VPROC, GetQueryObjectui64v)                                \
+  X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                                      \
+  X(PFNGLUNIFORM3FPROC, Uniform3f)                                                    \
+  X(PFNGLUNIFORM1DPROC, Uniform1d)                                                    \
+  X(PFNGLBUFFERSUBDATAPROC, BufferSubData)
 
 struct Functions {
 #define CPVS_GL_MEMBER(type, name) type name = nullptr;

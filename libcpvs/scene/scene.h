@@ -35,6 +35,8 @@ struct Mesh {
   uint64_t boundaryEdges = 0;      // edges used by one triangle
   uint64_t nonManifoldEdges = 0;   // edges used by more than two triangles
   uint64_t inconsistentEdges = 0;  // edges whose two triangles run the same way
+  // The material's base colour factor (linear RGBA; white without a material): what cpvs-view shades with.
+  glm::vec4 baseColor{1.0f};
   size_t triangleCount() const { return indices.size() / 3; }
 };
 
@@ -45,11 +47,23 @@ struct Instance {
   std::string node;
 };
 
+// A perspective camera placed by a node (glTF: looking along the node's -Z with +Y up), world space.
+struct Camera {
+  std::string name;
+  glm::dvec3 eye{0.0};
+  glm::dvec3 forward{0.0, 0.0, -1.0};  // unit
+  glm::dvec3 up{0.0, 1.0, 0.0};        // unit, perpendicular to forward
+  double yfov = 0.8;                   // radians
+  double aspectRatio = 0;              // 0: the image's
+  double znear = 0.01, zfar = 0;       // zfar 0: infinite
+};
+
 struct Scene {
   std::string source;  // file it came from, for messages
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
   std::vector<Light> lights;
+  std::vector<Camera> cameras;
   std::vector<std::string> warnings;
 };
 

@@ -12,7 +12,6 @@
 #include "libcpvs/version.h"
 
 namespace cpvs::tools {
-namespace {
 
 std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected) {
   std::vector<double> values;
@@ -31,6 +30,8 @@ std::vector<double> parseNumbers(const std::string& option, const std::string& t
                                      " comma-separated numbers, got " + std::to_string(values.size()));
   return values;
 }
+
+namespace {
 
 glm::dvec3 unitDirection(const std::string& option, const std::string& text, double x, double y, double z) {
   const glm::dvec3 d(x, y, z);

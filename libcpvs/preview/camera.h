@@ -1,0 +1,36 @@
+#pragma once
+// Where cpvs-view looks from: a perspective camera (a glTF camera, one given on the command line, or a
+// default framing of the scene) and the matrices the G-buffer pass draws with.
+#include <optional>
+#include <string>
+
+#include <glm/glm.hpp>
+
+#include "libcpvs/scene/scene.h"
+
+namespace cpvs {
+
+struct PreviewCamera {
+  glm::dvec3 eye{0.0, 0.0, 1.0};
+  glm::dvec3 target{0.0};
+  glm::dvec3 up{0.0, 1.0, 0.0};
+  double yfov = 0.8;  // radians
+  double znear = 0, zfar = 0;  // 0: from the scene's bounds (near = 1e-4 of the distance to the far side)
+};
+
+// A glTF camera (its aspect ratio is ignored: the image's size decides). The target is one unit ahead.
+PreviewCamera cameraFromScene(const Camera& camera);
+// Looks at the centre of `bounds` from the side (from +X+Z, above by half the height: a three-quarter view,
+// `up` being the scene's up axis), far enough that the whole box fits the vertical and horizontal field.
+PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up = {0.0, 1.0, 0.0},
+                            double yfov = 0.8);
+// Fills znear / zfar where they are 0 from the bounds (depth precision is the G-buffer's only need).
+PreviewCamera withClipPlanes(PreviewCamera camera, const Bounds& bounds);
+// Throws Error(InvalidArgument) naming the problem: eye equal to target, up parallel to the view direction,
+// a non-finite value, a field of view outside (0, 180) degrees.
+void checkCamera(const PreviewCamera& camera);
+
+// OpenGL clip space from world space (right-handed, camera looking along -Z, depth -1..1).
+glm::dmat4 clipFromWorld(const PreviewCamera& camera, double aspect);
+
+}  // namespace cpvs

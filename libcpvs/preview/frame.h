@@ -1,0 +1,83 @@
+#pragma once
+// What cpvs-view renders: the settings of one frame and everything the frame's passes produced (kept for the
+// report, the overlays and the tests). Pixel rows are OpenGL's: row 0 is the bottom of the image; the image
+// writers flip them.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "libcpvs/runtime/shadow_lookup.h"
+
+namespace cpvs {
+
+enum class ShadowMode : uint8_t { Gpu, Cpu, RayTraced, None };
+enum class Overlay : uint8_t { None, LightsPerTile, Difference, ShadowCount };
+// Parse "gpu" / "cpu" / "raytraced" / "none" and "none" / "lights-per-tile" / "difference" / "shadow-count";
+// throw Error(InvalidArgument) listing the choices.
+ShadowMode parseShadowMode(const std::string& name);
+const char* shadowModeName(ShadowMode mode);
+Overlay parseOverlay(const std::string& name);
+const char* overlayName(Overlay overlay);
+
+inline constexpr uint32_t kTileSize = 8;
+
+struct FrameSettings {
+  uint32_t width = 1920, height = 1080;
+  int pcfKernel = 9;  // the paper's 9 x 9
+  double biasMargin = kDefaultBiasMargin;
+  ShadowMode shadows = ShadowMode::Gpu;
+  // Also trace every (pixel, light) pair with Embree and shade that frame: the error figures, and the
+  // difference overlay (which turns this on).
+  bool compareWithRays = false;
+  // GPU shadows: keep each pair's voxel, verdict and count (Frame::cells), for tests.
+  bool recordCells = false;
+};
+
+// Per tile (row-major over tilesX x tilesY, tile row 0 at the bottom), the indices of the lights whose bounds
+// meet the tile's pixels, in light order: tile t's are lights[offsets[t] .. offsets[t + 1]).
+struct TileLists {
+  uint32_t tilesX = 0, tilesY = 0;
+  std::vector<uint32_t> offsets;  // tiles + 1
+  std::vector<uint32_t> lights;
+  size_t tiles() const { return size_t(tilesX) * tilesY; }
+};
+
+// A (pixel, light) pair's GPU lookup: voxel and verdict (0 zero, 1 lit, 2 voxel) | shadowed count << 2.
+struct PairCell {
+  int32_t x = 0, y = 0, z = 0, verdictAndCount = 0;
+};
+
+struct PassTime {
+  std::string pass;
+  double milliseconds = 0;
+  bool gpuTimer = true;  // GL timer query; false: CPU wall time
+};
+
+struct Frame {
+  uint32_t width = 0, height = 0;
+  // G-buffer: world position (w = 1 covered, 0 background), normal facing the camera, base colour.
+  std::vector<glm::vec4> positions, normals, baseColors;
+  TileLists lists;
+  // Per pair: index (lists.offsets[tile] + slot) * 64 + (y % 8) * 8 + x % 8.
+  std::vector<float> visibility;
+  std::vector<float> rayVisibility;  // compareWithRays: Embree's answer per pair
+  std::vector<PairCell> cells;       // recordCells
+  std::vector<glm::vec4> radiance;   // linear, w = covered
+  std::vector<glm::vec4> rayRadiance;  // compareWithRays
+  std::vector<glm::uvec2> stats;     // per pixel: lights listed, lights reaching it that shadow it
+  std::vector<PassTime> passes;
+  size_t uploadedBytes = 0;  // lights, views, DAGs and geometry (once per renderer) plus this frame's uploads
+
+  size_t pixel(uint32_t x, uint32_t y) const { return size_t(y) * width + x; }
+  size_t tileOf(uint32_t x, uint32_t y) const { return size_t(y / kTileSize) * lists.tilesX + x / kTileSize; }
+  size_t pairIndex(uint32_t x, uint32_t y, uint32_t slot) const {
+    return (size_t(lists.offsets[tileOf(x, y)]) + slot) * 64 + (y % kTileSize) * kTileSize + x % kTileSize;
+  }
+  double milliseconds(const std::string& pass) const;  // 0 when the pass did not run
+};
+
+}  // namespace cpvs

@@ -1,0 +1,39 @@
+#pragma once
+// The lights, their views and their DAGs as the GPU passes read them (libcpvs/runtime/lookup_records.glsl):
+// plain arrays of doubles and uints, every view's node units and leaves appended to two shared buffers.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/runtime/shadow_lookup.h"
+
+namespace cpvs {
+
+struct GpuSceneRecords {
+  std::vector<double> lightReals;   // CPVS_LIGHT_REALS per light
+  std::vector<uint32_t> lightWords; // CPVS_LIGHT_WORDS per light
+  std::vector<double> viewReals;    // CPVS_MAP_REALS per view
+  std::vector<uint32_t> viewWords;  // CPVS_VIEW_WORDS per view
+  std::vector<uint32_t> nodes;      // u16 units, two per uint (each view starts on a whole uint)
+  std::vector<uint64_t> leaves;
+  size_t lightCount() const;
+  size_t bytes() const;
+};
+
+// Throws Error(RuntimeFailure) when a buffer would exceed what 32-bit indices address.
+GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights);
+
+// The record layout, mirrored from lookup_records.glsl (gpu_scene.cpp checks the two agree at compile time of
+// the shaders: the preview's shaders include that file).
+namespace gpu_layout {
+inline constexpr uint32_t kMapReals = 24, kViewWords = 40, kLightReals = 16, kLightWords = 12;
+inline constexpr uint32_t kMapXMin = 12, kMapResolution = 22;
+inline constexpr uint32_t kLightPosition = 0, kLightDirection = 3, kLightRange = 6, kLightCosOuter = 7,
+                          kLightSinOuter = 8, kLightCosInner = 9, kLightColor = 10, kLightIntensity = 13;
+inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightFaceView = 4;
+inline constexpr uint32_t kViewFlags = 0, kViewNodeBase = 1, kViewLeafBase = 2, kViewRootCode = 3,
+                          kViewResolution = 4, kViewChildBase = 8;
+inline constexpr uint32_t kFlagOrthographic = 1, kFlagLinear = 2, kFlagEmpty = 4;
+}  // namespace gpu_layout
+
+}  // namespace cpvs

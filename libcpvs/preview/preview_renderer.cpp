@@ -1,0 +1,540 @@
+#include "libcpvs/preview/preview_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <optional>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
+#include "libcpvs/preview/glsl_sources.h"
+#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/raster/gl_context.h"
+#include "libcpvs/raster/gl_program.h"
+#include "libcpvs/reference/shadow_reference.h"
+
+namespace cpvs {
+
+ShadowMode parseShadowMode(const std::string& name) {
+  if (name == "gpu") return ShadowMode::Gpu;
+  if (name == "cpu") return ShadowMode::Cpu;
+  if (name == "raytraced") return ShadowMode::RayTraced;
+  if (name == "none") return ShadowMode::None;
+  throw Error(ErrorCategory::InvalidArgument, "unknown shadow mode '" + name + "' (expected gpu, cpu, raytraced or none)");
+}
+
+const char* shadowModeName(ShadowMode mode) {
+  switch (mode) {
+    case ShadowMode::Gpu: return "gpu";
+    case ShadowMode::Cpu: return "cpu";
+    case ShadowMode::RayTraced: return "raytraced";
+    case ShadowMode::None: return "none";
+  }
+  return "?";
+}
+
+Overlay parseOverlay(const std::string& name) {
+  if (name == "none") return Overlay::None;
+  if (name == "lights-per-tile") return Overlay::LightsPerTile;
+  if (name == "difference") return Overlay::Difference;
+  if (name == "shadow-count") return Overlay::ShadowCount;
+  throw Error(ErrorCategory::InvalidArgument,
+              "unknown overlay '" + name + "' (expected none, lights-per-tile, difference or shadow-count)");
+}
+
+const char* overlayName(Overlay overlay) {
+  switch (overlay) {
+    case Overlay::None: return "none";
+    case Overlay::LightsPerTile: return "lights-per-tile";
+    case Overlay::Difference: return "difference";
+    case Overlay::ShadowCount: return "shadow-count";
+  }
+  return "?";
+}
+
+double Frame::milliseconds(const std::string& pass) const {
+  for (const PassTime& p : passes)
+    if (p.pass == pass) return p.milliseconds;
+  return 0;
+}
+
+namespace {
+
+constexpr uint32_t kMaxImageEdge = 16384;
+// Bindings shared with the shaders (scene_buffers.glsl, light_lists.comp, shading.comp).
+enum Binding : GLuint {
+  kTileBounds = 0, kLightReals = 1, kLightWords = 2, kTileCounts = 3, kTileOffsets = 4, kTileLights = 5,
+  kViewReals = 6, kViewWords = 7, kDagNodes = 8, kDagLeaves = 9, kVisibility = 10, kCells = 11, kRadiance = 12,
+  kStats = 13,
+};
+
+std::string computeSource(std::initializer_list<const char*> parts) {
+  std::string s = "#version 450\n";
+  for (const char* p : parts) s += p;
+  return s;
+}
+
+// Buffers owned by the renderer, deleted with it.
+struct Buffers {
+  const gl::Context* context = nullptr;
+  std::vector<GLuint> names;
+  GLuint add(GLuint b) {
+    names.push_back(b);
+    return b;
+  }
+  void release() {
+    if (!names.empty()) context->gl().DeleteBuffers(GLsizei(names.size()), names.data());
+    names.clear();
+  }
+};
+
+}  // namespace
+
+struct PreviewRenderer::State {
+  std::unique_ptr<gl::Context> context;
+  std::vector<LightShadow> lights;
+  std::vector<Light> lightList;
+  unsigned threads = 0;
+  const Scene* scene = nullptr;
+  std::optional<ShadowReference> reference;  // built on first use
+  size_t triangles = 0, staticBytes = 0;
+
+  GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
+         shadowProgram = 0, recordingShadowProgram = 0, shadingProgram = 0;
+  GLuint vertexArray = 0, vertexBuffer = 0;
+  GLsizei vertexCount = 0;
+  GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;
+  // Render targets, resized with the image.
+  uint32_t targetWidth = 0, targetHeight = 0;
+  GLuint framebuffer = 0, textures[4] = {};  // position, normal, base colour, depth
+
+  const gl::Functions& gl() const { return context->gl(); }
+
+  void createTargets(uint32_t w, uint32_t h) {
+    const gl::Functions& g = gl();
+    if (framebuffer) {
+      g.DeleteFramebuffers(1, &framebuffer);
+      g.DeleteTextures(4, textures);
+    }
+    g.GenFramebuffers(1, &framebuffer);
+    g.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    g.GenTextures(4, textures);
+    for (int i = 0; i < 4; ++i) {
+      g.BindTexture(GL_TEXTURE_2D, textures[i]);
+      g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      g.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      if (i < 3) {
+        g.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, GLsizei(w), GLsizei(h), 0, GL_RGBA, GL_FLOAT, nullptr);
+        g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0 + GLenum(i), GL_TEXTURE_2D, textures[i], 0);
+      } else {
+        g.TexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT32F, GLsizei(w), GLsizei(h), 0, GL_DEPTH_COMPONENT,
+                     GL_FLOAT, nullptr);
+        g.FramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, textures[i], 0);
+      }
+    }
+    const GLenum draw[] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+    g.DrawBuffers(3, draw);
+    if (g.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error(ErrorCategory::RuntimeFailure, "the G-buffer framebuffer is incomplete on " + context->description());
+    gl::checkError(*context, "creating the " + std::to_string(w) + "x" + std::to_string(h) + " G-buffer");
+    targetWidth = w;
+    targetHeight = h;
+  }
+
+  std::vector<glm::vec4> readTexture(int attachment, uint32_t w, uint32_t h) const {
+    const gl::Functions& g = gl();
+    std::vector<glm::vec4> out(size_t(w) * h);
+    g.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+    g.ReadBuffer(GL_COLOR_ATTACHMENT0 + GLenum(attachment));
+    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    g.ReadPixels(0, 0, GLsizei(w), GLsizei(h), GL_RGBA, GL_FLOAT, out.data());
+    gl::checkError(*context, "reading back the G-buffer");
+    return out;
+  }
+
+  const ShadowReference& rays() {
+    if (!reference) reference.emplace(flatten(*scene));
+    return *reference;
+  }
+};
+
+PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> lights, RasterBackend backend,
+                                 unsigned threads)
+    : state_(std::make_unique<State>()) {
+  State& s = *state_;
+  s.scene = &scene;
+  s.threads = threads;
+  s.lights = std::move(lights);
+  for (const LightShadow& l : s.lights) s.lightList.push_back(l.light());
+  if (backend == RasterBackend::Cpu)
+    throw Error(ErrorCategory::InvalidArgument, "cpvs-view renders with OpenGL: the backend is osmesa or egl");
+  s.context = backend == RasterBackend::EGL ? gl::createEGLContext() : gl::createOSMesaContext();
+  if (!gl::hasComputeShaders(*s.context))
+    throw Error(ErrorCategory::NotSupported, "cpvs-view needs OpenGL 4.3 compute shaders with 64-bit floats; " +
+                                                 s.context->description() + " lacks them");
+  gl::CurrentContext current(*s.context);
+  const gl::Context& c = *s.context;
+  const std::string version = "#version 450\n";
+  s.gbufferProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::gbuffer_vert},
+                                         {GL_FRAGMENT_SHADER, version + glsl::gbuffer_frag}}, "G-buffer");
+  s.boundsProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::tile_bounds_comp})}}, "tile bounds");
+  s.countProgram = gl::linkProgram(
+      c, {{GL_COMPUTE_SHADER, computeSource({"#define COUNT_PASS\n", glsl::lookup_records_glsl, glsl::light_cull_glsl,
+                                             glsl::light_lists_comp})}}, "light count");
+  s.fillProgram = gl::linkProgram(
+      c, {{GL_COMPUTE_SHADER, computeSource({glsl::lookup_records_glsl, glsl::light_cull_glsl, glsl::light_lists_comp})}},
+      "light list");
+  s.prefixProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::prefix_sum_comp})}}, "prefix sum");
+  const char* tileGroup = "layout(local_size_x = 8, local_size_y = 8) in;\n";
+  for (bool record : {false, true})
+    (record ? s.recordingShadowProgram : s.shadowProgram) = gl::linkProgram(
+        c, {{GL_COMPUTE_SHADER, computeSource({record ? "#define RECORD_CELLS\n" : "", tileGroup, glsl::lookup_records_glsl,
+                                               glsl::scene_buffers_glsl, glsl::lookup_cell_glsl, glsl::dag_walk_glsl_h,
+                                               glsl::cpvs_shadows_comp})}},
+        record ? "CPVS shadow (recording)" : "CPVS shadow");
+  s.shadingProgram = gl::linkProgram(
+      c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
+                                             glsl::shading_comp})}}, "shading");
+
+  // The scene's triangles, one vertex each corner: world position, face normal, base colour (floats).
+  std::vector<float> vertices;
+  for (const Instance& instance : scene.instances) {
+    const Mesh& mesh = scene.meshes[instance.mesh];
+    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+      glm::dvec3 p[3];
+      for (int k = 0; k < 3; ++k)
+        p[k] = glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(mesh.positions[mesh.indices[3 * t + k]]), 1.0));
+      const glm::dvec3 cross = glm::cross(p[1] - p[0], p[2] - p[0]);
+      const double length = glm::length(cross);
+      if (!(length > 0) || !std::isfinite(length)) continue;  // degenerate: covers no pixel
+      const glm::vec3 n(cross / length);
+      for (int k = 0; k < 3; ++k) {
+        const glm::vec3 q(p[k]);
+        vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
+                                         mesh.baseColor.b, mesh.baseColor.a});
+      }
+      ++s.triangles;
+    }
+  }
+  const gl::Functions& g = s.gl();
+  g.GenVertexArrays(1, &s.vertexArray);
+  g.BindVertexArray(s.vertexArray);
+  g.GenBuffers(1, &s.vertexBuffer);
+  g.BindBuffer(GL_ARRAY_BUFFER, s.vertexBuffer);
+  g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STATIC_DRAW);
+  constexpr GLsizei stride = 10 * sizeof(float);
+  g.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
+  g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
+  g.VertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));
+  for (GLuint a = 0; a < 3; ++a) g.EnableVertexAttribArray(a);
+  g.BindVertexArray(0);
+  s.vertexCount = GLsizei(vertices.size() / 10);
+  gl::checkError(c, "uploading " + std::to_string(s.triangles) + " triangles");
+
+  const GpuSceneRecords records = packGpuScene(s.lights);
+  GLint maxBlock = 0;
+  g.GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
+  const size_t largest = std::max(records.nodes.size() * 4, records.leaves.size() * 8);
+  if (maxBlock > 0 && largest > size_t(uint32_t(maxBlock)))
+    throw Error(ErrorCategory::RuntimeFailure, "the DAGs need a " + std::to_string(largest >> 20) +
+                                                   " MiB storage buffer; " + c.description() + " allows " +
+                                                   std::to_string(uint32_t(maxBlock) >> 20) + " MiB");
+  s.lightReals = gl::createStorageBuffer(c, records.lightReals.data(), records.lightReals.size() * 8);
+  s.lightWords = gl::createStorageBuffer(c, records.lightWords.data(), records.lightWords.size() * 4);
+  s.viewReals = gl::createStorageBuffer(c, records.viewReals.data(), records.viewReals.size() * 8);
+  s.viewWords = gl::createStorageBuffer(c, records.viewWords.data(), records.viewWords.size() * 4);
+  s.dagNodes = gl::createStorageBuffer(c, records.nodes.data(), records.nodes.size() * 4);
+  s.dagLeaves = gl::createStorageBuffer(c, records.leaves.data(), records.leaves.size() * 8);
+  s.staticBytes = records.bytes() + vertices.size() * sizeof(float);
+}
+
+void PreviewRenderer::warmUp() {
+  // Tiny frames through every pass: llvmpipe compiles a shader on its first use, and again for textures whose
+  // sides are or are not powers of two (a first 320x240 frame's shadow pass took 323 ms, the next 18 ms).
+  Bounds bounds;
+  for (const Instance& instance : state_->scene->instances)
+    for (const glm::vec3& p : state_->scene->meshes[instance.mesh].positions)
+      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  for (const auto& [w, h] : {std::pair{16u, 16u}, {24u, 24u}, {16u, 24u}, {24u, 16u}}) {
+    FrameSettings tiny;
+    tiny.width = w;
+    tiny.height = h;
+    render(defaultCamera(bounds, 1.0), tiny);
+  }
+}
+
+PreviewRenderer::~PreviewRenderer() = default;  // GL objects go with the context
+
+const std::string& PreviewRenderer::contextDescription() const { return state_->context->description(); }
+const std::vector<LightShadow>& PreviewRenderer::lights() const { return state_->lights; }
+size_t PreviewRenderer::sceneTriangles() const { return state_->triangles; }
+size_t PreviewRenderer::staticUploadBytes() const { return state_->staticBytes; }
+
+namespace {
+
+// Every (pixel, listed light) pair grouped by light: the pair indices and the surface points.
+struct PairsOfLight {
+  std::vector<size_t> pairs;
+  std::vector<SurfacePoint> points;
+};
+
+std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
+  std::vector<PairsOfLight> byLight(lightCount);
+  for (uint32_t y = 0; y < f.height; ++y)
+    for (uint32_t x = 0; x < f.width; ++x) {
+      const size_t i = f.pixel(x, y);
+      if (f.positions[i].w == 0.0f) continue;
+      const size_t tile = f.tileOf(x, y);
+      for (uint32_t slot = 0; slot < f.lists.offsets[tile + 1] - f.lists.offsets[tile]; ++slot) {
+        PairsOfLight& l = byLight[f.lists.lights[f.lists.offsets[tile] + slot]];
+        l.pairs.push_back(f.pairIndex(x, y, slot));
+        l.points.push_back({glm::dvec3(glm::vec3(f.positions[i])), glm::dvec3(glm::vec3(f.normals[i]))});
+      }
+    }
+  return byLight;
+}
+
+}  // namespace
+
+Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSettings& settings) {
+  State& s = *state_;
+  if (settings.width == 0 || settings.height == 0 || settings.width > kMaxImageEdge || settings.height > kMaxImageEdge)
+    throw Error(ErrorCategory::InvalidArgument, "image size " + std::to_string(settings.width) + "x" +
+                                                    std::to_string(settings.height) + " is not in 1..16384 per side");
+  if (const Outcome k = checkPcfKernel(settings.pcfKernel); !k) throw Error(k.category(), k.message());
+  checkCamera(requested);
+  Bounds bounds;
+  for (const Instance& instance : s.scene->instances)
+    for (const glm::vec3& p : s.scene->meshes[instance.mesh].positions)
+      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  const PreviewCamera camera = withClipPlanes(requested, bounds);
+
+  const gl::Context& c = *s.context;
+  const gl::Functions& g = s.gl();
+  gl::CurrentContext current(*s.context);
+  if (s.targetWidth != settings.width || s.targetHeight != settings.height) s.createTargets(settings.width, settings.height);
+  gl::checkError(c, "preparing the frame");
+  Frame f;
+  f.width = settings.width;
+  f.height = settings.height;
+  f.lists.tilesX = (f.width + kTileSize - 1) / kTileSize;
+  f.lists.tilesY = (f.height + kTileSize - 1) / kTileSize;
+  const GLsizei tiles = GLsizei(f.lists.tiles());
+  f.uploadedBytes = s.staticBytes;
+  Buffers frameBuffers{&c, {}};
+  struct Release {
+    Buffers& b;
+    ~Release() { b.release(); }
+  } release{frameBuffers};
+  gl::PassTimer timer(c);
+  const bool gpuTimer = timer.usesGpuTimer();
+  auto timed = [&](const std::string& pass, auto&& work) {
+    timer.begin();
+    work();
+    timer.end();
+    f.passes.push_back({pass, timer.milliseconds(), gpuTimer});
+  };
+  auto bindBuffer = [&](Binding binding, GLuint buffer) { g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, buffer); };
+  auto bindTexture = [&](GLuint unit, GLuint texture) {
+    g.ActiveTexture(GL_TEXTURE0 + unit);
+    g.BindTexture(GL_TEXTURE_2D, texture);
+  };
+  auto setSizes = [&](GLuint program) {
+    g.Uniform2i(g.GetUniformLocation(program, "imageSize_"), GLint(f.width), GLint(f.height));
+    g.Uniform2i(g.GetUniformLocation(program, "tileCount"), GLint(f.lists.tilesX), GLint(f.lists.tilesY));
+    g.Uniform1i(g.GetUniformLocation(program, "tiles"), tiles);
+  };
+
+  // 1. G-buffer.
+  const double aspect = double(f.width) / double(f.height);
+  timed("gbuffer", [&] {
+    g.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
+    g.Viewport(0, 0, GLsizei(f.width), GLsizei(f.height));
+    const GLfloat zero[4] = {0, 0, 0, 0}, one = 1.0f;
+    for (GLint i = 0; i < 3; ++i) g.ClearBufferfv(GL_COLOR, i, zero);
+    g.ClearBufferfv(GL_DEPTH, 0, &one);
+    g.Enable(GL_DEPTH_TEST);
+    g.DepthFunc(GL_LESS);
+    g.DepthMask(GL_TRUE);
+    g.Disable(GL_CULL_FACE);
+    g.Disable(GL_BLEND);
+    g.UseProgram(s.gbufferProgram);
+    const glm::mat4 matrix(clipFromWorld(camera, aspect));
+    g.UniformMatrix4fv(g.GetUniformLocation(s.gbufferProgram, "clipFromWorld"), 1, GL_FALSE, &matrix[0][0]);
+    g.BindVertexArray(s.vertexArray);
+    g.DrawArrays(GL_TRIANGLES, 0, s.vertexCount);
+    g.BindVertexArray(0);
+  });
+  gl::checkError(c, "rendering the G-buffer");
+
+  // 2. Tile bounds.
+  const GLuint tileBounds = frameBuffers.add(gl::createStorageBuffer(c, nullptr, size_t(tiles) * 32));
+  timed("tile_bounds", [&] {
+    g.UseProgram(s.boundsProgram);
+    setSizes(s.boundsProgram);
+    bindTexture(0, s.textures[0]);
+    bindBuffer(kTileBounds, tileBounds);
+    g.DispatchCompute(GLuint((tiles + 63) / 64), 1, 1);
+    g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  });
+
+  // 3. Light lists: count, prefix sum, (the total read back to size the list), fill.
+  const GLuint counts = frameBuffers.add(gl::createStorageBuffer(c, nullptr, size_t(tiles) * 4));
+  const GLuint offsets = frameBuffers.add(gl::createStorageBuffer(c, nullptr, size_t(tiles + 1) * 4));
+  GLuint lists = 0;
+  uint32_t totalPairs = 0;
+  timed("light_lists", [&] {
+    for (GLuint program : {s.countProgram, s.prefixProgram}) {
+      g.UseProgram(program);
+      setSizes(program);
+      g.Uniform1i(g.GetUniformLocation(program, "lightCount"), GLint(s.lights.size()));
+      for (auto [binding, buffer] : {std::pair{kTileBounds, tileBounds}, {kLightReals, s.lightReals},
+                                     {kLightWords, s.lightWords}, {kTileCounts, counts}, {kTileOffsets, offsets}})
+        bindBuffer(binding, buffer);
+      g.DispatchCompute(program == s.prefixProgram ? 1 : GLuint((tiles + 63) / 64), 1, 1);
+      g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+    }
+    f.lists.offsets.resize(size_t(tiles) + 1);
+    gl::readStorageBuffer(c, offsets, f.lists.offsets.data(), f.lists.offsets.size() * 4);
+    totalPairs = f.lists.offsets.back();
+    lists = frameBuffers.add(gl::createStorageBuffer(c, nullptr, size_t(totalPairs) * 4));
+    g.UseProgram(s.fillProgram);
+    setSizes(s.fillProgram);
+    g.Uniform1i(g.GetUniformLocation(s.fillProgram, "lightCount"), GLint(s.lights.size()));
+    bindBuffer(kTileLights, lists);
+    g.DispatchCompute(GLuint((tiles + 63) / 64), 1, 1);
+    g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+  });
+  gl::checkError(c, "building the tile light lists");
+  f.lists.lights.resize(totalPairs);
+  gl::readStorageBuffer(c, lists, f.lists.lights.data(), f.lists.lights.size() * 4);
+  f.positions = s.readTexture(0, f.width, f.height);
+  f.normals = s.readTexture(1, f.width, f.height);
+  f.baseColors = s.readTexture(2, f.width, f.height);
+
+  // 4. Shadows: one visibility per (list entry, pixel of the tile).
+  const size_t pairSlots = size_t(totalPairs) * 64;
+  const GLuint visibility = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pairSlots * 4));
+  const GLuint cells = settings.recordCells ? frameBuffers.add(gl::createStorageBuffer(c, nullptr, pairSlots * 16)) : 0;
+  auto bindSceneBuffers = [&](GLuint program) {
+    setSizes(program);
+    bindTexture(0, s.textures[0]);
+    bindTexture(1, s.textures[1]);
+    bindTexture(2, s.textures[2]);
+    for (auto [binding, buffer] : {std::pair{kLightReals, s.lightReals}, {kLightWords, s.lightWords},
+                                   {kTileOffsets, offsets}, {kTileLights, lists}, {kViewReals, s.viewReals},
+                                   {kViewWords, s.viewWords}, {kDagNodes, s.dagNodes}, {kDagLeaves, s.dagLeaves},
+                                   {kVisibility, visibility}})
+      bindBuffer(binding, buffer);
+  };
+  std::optional<std::vector<PairsOfLight>> pairs;
+  auto pairsOfLights = [&]() -> const std::vector<PairsOfLight>& {
+    if (!pairs) pairs = pairsByLight(f, s.lights.size());
+    return *pairs;
+  };
+  const unsigned threads = s.threads ? s.threads : unsigned(tbb::this_task_arena::max_concurrency());
+  tbb::task_arena arena(int(std::max(1u, threads)));
+  auto rayVisibility = [&]() {
+    std::vector<float> out(pairSlots, 0.0f);
+    const ShadowReference& reference = s.rays();
+    const auto& byLight = pairsOfLights();
+    arena.execute([&] {
+      parallelFor(byLight.size(), [&](size_t l) {
+        std::vector<uint8_t> answers;
+        reference.visibilityPackets(s.lights[l].light(), byLight[l].points, answers);
+        for (size_t i = 0; i < answers.size(); ++i) out[byLight[l].pairs[i]] = float(answers[i]);
+      }, 1);
+    });
+    return out;
+  };
+  switch (settings.shadows) {
+    case ShadowMode::Gpu: {
+      const GLuint program = settings.recordCells ? s.recordingShadowProgram : s.shadowProgram;
+      timed("shadows", [&] {
+        g.UseProgram(program);
+        bindSceneBuffers(program);
+        if (cells) bindBuffer(kCells, cells);
+        g.Uniform1i(g.GetUniformLocation(program, "pcfKernel"), settings.pcfKernel);
+        g.Uniform1d(g.GetUniformLocation(program, "biasMargin"), settings.biasMargin);
+        g.DispatchCompute(f.lists.tilesX, f.lists.tilesY, 1);
+        g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+      });
+      gl::checkError(c, "running the CPVS shadow pass");
+      f.visibility.resize(pairSlots);
+      gl::readStorageBuffer(c, visibility, f.visibility.data(), pairSlots * 4);
+      if (cells) {
+        f.cells.resize(pairSlots);
+        gl::readStorageBuffer(c, cells, f.cells.data(), pairSlots * 16);
+      }
+      break;
+    }
+    case ShadowMode::Cpu: {
+      const auto& byLight = pairsOfLights();
+      Stopwatch clock;
+      f.visibility.assign(pairSlots, 0.0f);
+      LookupOptions options;
+      options.pcfKernel = settings.pcfKernel;
+      options.biasMargin = settings.biasMargin;
+      arena.execute([&] {
+        parallelFor(byLight.size(), [&](size_t l) {
+          std::vector<float> answers(byLight[l].points.size());
+          const Outcome o = s.lights[l].visibility(byLight[l].points, options, answers);
+          if (!o) throw Error(o.category(), o.message());
+          for (size_t i = 0; i < answers.size(); ++i) f.visibility[byLight[l].pairs[i]] = answers[i];
+        }, 1);
+      });
+      f.passes.push_back({"shadows", clock.ms(), false});
+      break;
+    }
+    case ShadowMode::RayTraced: {
+      pairsOfLights();
+      s.rays();  // the BVH is built once, outside the timing
+      Stopwatch clock;
+      f.visibility = rayVisibility();
+      f.passes.push_back({"shadows", clock.ms(), false});
+      break;
+    }
+    case ShadowMode::None: f.visibility.assign(pairSlots, 1.0f); break;
+  }
+  if (settings.shadows != ShadowMode::Gpu) {
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, visibility);
+    if (pairSlots) g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(pairSlots * 4), f.visibility.data());
+    f.uploadedBytes += pairSlots * 4;
+  }
+
+  // 5. Shading.
+  const size_t pixels = size_t(f.width) * f.height;
+  const GLuint radiance = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pixels * 16));
+  const GLuint stats = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pixels * 8));
+  auto dispatchShading = [&] {
+    g.UseProgram(s.shadingProgram);
+    bindSceneBuffers(s.shadingProgram);
+    bindBuffer(kRadiance, radiance);
+    bindBuffer(kStats, stats);
+    g.Uniform3f(g.GetUniformLocation(s.shadingProgram, "eye"), float(camera.eye.x), float(camera.eye.y), float(camera.eye.z));
+    g.Uniform1f(g.GetUniformLocation(s.shadingProgram, "specular"), 0.25f);
+    g.DispatchCompute(f.lists.tilesX, f.lists.tilesY, 1);
+    g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+  };
+  timed("shading", dispatchShading);
+  f.stats.resize(pixels);
+  gl::readStorageBuffer(c, stats, f.stats.data(), pixels * 8);
+  f.radiance.resize(pixels);
+  gl::readStorageBuffer(c, radiance, f.radiance.data(), pixels * 16);
+  gl::checkError(c, "shading");
+
+  if (settings.compareWithRays) {
+    f.rayVisibility = settings.shadows == ShadowMode::RayTraced ? f.visibility : rayVisibility();
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, visibility);
+    if (pairSlots) g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(pairSlots * 4), f.rayVisibility.data());
+    dispatchShading();
+    f.rayRadiance.resize(pixels);
+    gl::readStorageBuffer(c, radiance, f.rayRadiance.data(), pixels * 16);
+    gl::checkError(c, "shading the ray-traced frame");
+  }
+  g.UseProgram(0);
+  return f;
+}
+
+}  // namespace cpvs

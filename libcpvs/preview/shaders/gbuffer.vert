@@ -1,0 +1,14 @@
+// G-buffer pass: world-space triangles (float) with their face normal and base colour per vertex.
+layout(location = 0) in vec3 worldPosition;
+layout(location = 1) in vec3 faceNormal;
+layout(location = 2) in vec4 baseColor;
+uniform mat4 clipFromWorld;
+out vec3 vPosition;
+flat out vec3 vNormal;
+flat out vec4 vColor;
+void main() {
+  gl_Position = clipFromWorld * vec4(worldPosition, 1.0);
+  vPosition = worldPosition;
+  vNormal = faceNormal;
+  vColor = baseColor;
+}

@@ -1,0 +1,367 @@
+// cpvs-view's renderer (libcpvs/preview): the GPU's lookups against the CPU runtime on every (pixel, light)
+// pair, the tile light lists against brute force, reference images per shadow mode and overlay, and the tool.
+// Skipped where no OpenGL 4.3 context with compute shaders exists (OSMesa's llvmpipe has one).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "formats/gltf/gltf_import.h"
+#include "formats/io/png_image.h"
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/baked_from_file.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/preview/camera.h"
+#include "libcpvs/preview/frame_image.h"
+#include "libcpvs/preview/light_lists.h"
+#include "libcpvs/preview/preview_renderer.h"
+#include "libcpvs/runtime/file_shadows.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using test::runTool;
+using test::sourcePath;
+using test::toolPath;
+
+// A scene, its bake (kept in memory as a file) and a renderer over it; never destroyed (Mesa tears its state
+// down in its own exit handlers).
+struct Baked {
+  std::string name;
+  Scene scene;
+  std::unique_ptr<CpvsFile> file;
+  PreviewRenderer* renderer = nullptr;
+  std::string unavailable;
+};
+
+Baked* bake(const std::string& name, Scene scene, uint32_t resolution) {
+  auto* b = new Baked;
+  b->name = name;
+  b->scene = std::move(scene);
+  BakeSettings settings;
+  settings.resolution = resolution;
+  settings.threads = 2;
+  const std::string bytes = writeCpvs(bakeScene(b->scene, settings));
+  b->file = orThrow(CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, name));
+  std::vector<LightShadow> lights;
+  for (const CpvsFile::LightEntry& e : b->file->lights()) lights.push_back(orThrow(lightShadowOf(e)));
+  try {
+    b->renderer = new PreviewRenderer(b->scene, std::move(lights), RasterBackend::OSMesa, 2);
+  } catch (const Error& e) {
+    if (e.category() != ErrorCategory::NotSupported) throw;
+    b->unavailable = e.what();
+  }
+  return b;
+}
+
+// The TorusKnot under a sun, a spot and a point light.
+Baked& torusKnot() {
+  static Baked* b = [] {
+    Scene scene = importGltf(sourcePath("data/scenes/TorusKnot/torusknot.gltf"));
+    scene.lights = {test::sunLight("sun", {0.3, -1.0, 0.2}), test::spotLight("spot", {5, 60, 0}, {0, -1, 0}, 0.6, 150),
+                    test::pointLight("point", {20, 25, 15}, 120)};
+    return bake("TorusKnot", std::move(scene), 256);
+  }();
+  return *b;
+}
+
+// A generated city (cpvs-scenegen city-spots: 9 spot lights) with a sun and a point light added.
+Baked& city() {
+  static Baked* b = [] {
+    const std::string path = test::tempDir() + "/preview_city.glb";
+    const test::ToolResult r = runTool(toolPath("cpvs-scenegen") + " city-spots --triangles 5000 --lights 9 -o " + path);
+    if (r.exitCode != 0) throw std::runtime_error("cpvs-scenegen failed: " + r.output);
+    Scene scene = importGltf(path);
+    // A dim sun and a point light as bright as the spots, so that every kind shows in the images.
+    scene.lights.push_back(test::sunLight("sun", {0.4, -1.0, 0.3}));
+    scene.lights.back().intensity = 0.01f;
+    scene.lights.push_back(test::pointLight("point", {-60, 50, 40}, 300));
+    scene.lights.back().intensity = 1500.0f;
+    return bake("city", std::move(scene), 256);
+  }();
+  return *b;
+}
+
+// The shipped two-light scene, for the reference images.
+Baked& tiny() {
+  static Baked* b = bake("Tiny", importGltf(sourcePath("data/scenes/Tiny/tiny.gltf")), 256);
+  return *b;
+}
+
+Bounds boundsOf(const Scene& scene) {
+  Bounds bounds;
+  for (const Instance& instance : scene.instances)
+    for (const glm::vec3& p : scene.meshes[instance.mesh].positions)
+      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  return bounds;
+}
+
+std::vector<Light> lightsOf(const Baked& b) {
+  std::vector<Light> lights;
+  for (const LightShadow& l : b.renderer->lights()) lights.push_back(l.light());
+  return lights;
+}
+
+#define REQUIRE_RENDERER(b)                                                        \
+  if (!(b).unavailable.empty()) GTEST_SKIP() << "no GL compute context: " << (b).unavailable
+
+// ---- GPU = CPU ------------------------------------------------------------------------------------------
+
+// Every (pixel, listed light) pair: the GPU's verdict and voxel against the CPU's lookupCell on the same
+// G-buffer point; the GPU's count against the CPU's walk of the GPU's voxel; the visibility against the
+// CPU runtime's batch answer.
+void checkGpuEqualsCpu(Baked& b, const PreviewCamera& camera, int pcf) {
+  FrameSettings settings;
+  settings.width = 192;
+  settings.height = 128;
+  settings.pcfKernel = pcf;
+  settings.recordCells = true;
+  const Frame gpu = b.renderer->render(camera, settings);
+  settings.recordCells = false;
+  settings.shadows = ShadowMode::Cpu;
+  const Frame cpu = b.renderer->render(camera, settings);
+  ASSERT_EQ(gpu.lists.lights, cpu.lists.lights);
+  LookupOptions options;
+  options.pcfKernel = pcf;
+  const auto& lights = b.renderer->lights();
+  size_t pairs = 0, voxelPairs = 0, sameVoxel = 0, offByOne = 0, countChecked = 0, sameVisibility = 0;
+  std::map<int, size_t> verdicts;
+  for (uint32_t y = 0; y < gpu.height; ++y)
+    for (uint32_t x = 0; x < gpu.width; ++x) {
+      const size_t i = gpu.pixel(x, y);
+      if (gpu.positions[i].w == 0.0f) continue;
+      const glm::dvec3 p(glm::vec3(gpu.positions[i])), n(glm::vec3(gpu.normals[i]));
+      const size_t tile = gpu.tileOf(x, y);
+      for (uint32_t slot = 0; slot < gpu.lists.offsets[tile + 1] - gpu.lists.offsets[tile]; ++slot) {
+        const LightShadow& light = lights[gpu.lists.lights[gpu.lists.offsets[tile] + slot]];
+        const size_t pair = gpu.pairIndex(x, y, slot);
+        const PairCell& g = gpu.cells[pair];
+        const int verdict = g.verdictAndCount & 3;
+        ++pairs;
+        ++verdicts[verdict];
+        sameVisibility += gpu.visibility[pair] == cpu.visibility[pair];
+        const int view = light.viewIndex(p);
+        int expected = 0;
+        LookupCell cell;
+        if (view >= 0) {
+          cell = lookupCell(ViewMapping(light.views()[size_t(view)]), p, n, options);
+          if (light.views()[size_t(view)].empty || light.dags()[size_t(view)].resolution < 8)
+            cell.kind = LookupCell::Kind::Lit;
+          expected = cell.kind == LookupCell::Kind::Voxel ? 2 : cell.kind == LookupCell::Kind::Lit ? 1 : 0;
+        }
+        ASSERT_EQ(verdict, expected) << b.name << " pixel " << x << "," << y << " light " << light.light().name;
+        if (verdict != 2) continue;
+        ++voxelPairs;
+        const int dx = std::abs(g.x - cell.x), dy = std::abs(g.y - cell.y), dz = std::abs(g.z - cell.z);
+        if (dx == 0 && dy == 0 && dz == 0) ++sameVoxel;
+        else ++offByOne;
+        ASSERT_LE(std::max({dx, dy, dz}), 1) << b.name << " pixel " << x << "," << y << " light " << light.light().name;
+        // The walk: the CPU's count over the GPU's own voxel.
+        const uint32_t count = shadowedTexels(light.dags()[size_t(view)], g.x, g.y, uint32_t(g.z), pcf);
+        ASSERT_EQ(uint32_t(g.verdictAndCount >> 2), count) << b.name << " pixel " << x << "," << y;
+        ++countChecked;
+      }
+    }
+  std::printf("[ pairs    ] %s K=%d: %zu pairs (%zu zero, %zu lit, %zu voxel), voxel equal on %zu, one off on %zu, "
+              "visibility equal on %zu\n",
+              b.name.c_str(), pcf, pairs, verdicts[0], verdicts[1], verdicts[2], sameVoxel, offByOne, sameVisibility);
+  EXPECT_GT(voxelPairs, pairs / 10) << "too few lookups reach a DAG to test anything";
+  EXPECT_GE(double(sameVoxel), 0.9999 * double(voxelPairs));
+  EXPECT_EQ(countChecked, voxelPairs);
+  // Where the voxels agree the answers must too (llvmpipe: all of them).
+  EXPECT_GE(sameVisibility + offByOne, pairs);
+}
+
+TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnTheTorusKnot) {
+  Baked& b = torusKnot();
+  REQUIRE_RENDERER(b);
+  const Bounds bounds = boundsOf(b.scene);
+  checkGpuEqualsCpu(b, defaultCamera(bounds, 1.5), 9);
+  checkGpuEqualsCpu(b, defaultCamera(bounds, 1.5, {0, 1, 0}, 0.5), 1);
+}
+
+TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
+  Baked& b = city();
+  REQUIRE_RENDERER(b);
+  // Down a street into the first spot light's pool of light, then the whole city.
+  const Light& spot = b.scene.lights.front();
+  PreviewCamera street;
+  street.target = spot.position + spot.direction * (spot.position.y / -spot.direction.y);
+  street.eye = street.target + glm::dvec3(90, 45, 70);
+  checkGpuEqualsCpu(b, street, 9);
+  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5), 3);
+}
+
+// ---- light lists ----------------------------------------------------------------------------------------
+
+void checkLightLists(Baked& b, const PreviewCamera& camera) {
+  FrameSettings settings;
+  settings.width = 200;  // not a multiple of 8: partial tiles at the edges
+  settings.height = 150;
+  settings.shadows = ShadowMode::None;
+  const Frame f = b.renderer->render(camera, settings);
+  const std::vector<Light> lights = lightsOf(b);
+  const TileLists brute = bruteForceLightLists(f.positions, f.width, f.height, lights);
+  ASSERT_EQ(f.lists.offsets, brute.offsets) << b.name;
+  ASSERT_EQ(f.lists.lights, brute.lights) << b.name;
+  const auto missing = missingLights(f.positions, f.width, f.height, f.lists, lights);
+  ASSERT_TRUE(missing.empty()) << b.name << ": pixel " << missing.front().first << " misses light "
+                               << lights[missing.front().second].name;
+  const LightListStats stats = lightListStats(f, lights.size());
+  std::printf("[ lists    ] %s: %zu covered tiles, %.2f lights per tile (max %u), %llu pairs culled of %llu\n",
+              b.name.c_str(), stats.coveredTiles, stats.meanLightsPerTile, stats.maxLightsPerTile,
+              (unsigned long long)stats.pairsCulled, (unsigned long long)(stats.pairsCulled + stats.pairsListed));
+  if (lights.size() > 3) EXPECT_GT(stats.pairsCulled, 0u) << "the culling culls nothing";
+}
+
+TEST(Preview, LightListsEqualBruteForceAndMissNoLight) {
+  for (Baked* b : {&city(), &torusKnot()}) {
+    REQUIRE_RENDERER(*b);
+    const Bounds bounds = boundsOf(b->scene);
+    checkLightLists(*b, defaultCamera(bounds, 200.0 / 150.0));
+    PreviewCamera low = defaultCamera(bounds, 200.0 / 150.0, {0, 1, 0}, 1.2);
+    low.eye = bounds.center() + glm::dvec3(0.3, 0.05, 0.2) * glm::length(bounds.extent());
+    checkLightLists(*b, low);
+  }
+}
+
+// ---- reference images -----------------------------------------------------------------------------------
+
+// Rendered the way cpvs-view writes a PNG (automatic exposure, the overlay drawn over the tone-mapped image).
+RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
+  FrameSettings settings;
+  settings.width = settings.height = 256;
+  settings.pcfKernel = 5;
+  settings.shadows = mode;
+  settings.compareWithRays = overlay == Overlay::Difference;
+  PreviewCamera camera = defaultCamera(boundsOf(b.scene), 1.0);
+  const Frame f = b.renderer->render(camera, settings);
+  return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f, f.radiance)), overlay);
+}
+
+// Compares with tests/golden/preview/NAME.png: at most 0.5 % of the pixels may differ by more than 4 of 255 in
+// a channel (rasterisation ties and float rounding in another Mesa; the same Mesa gives the same bytes). With
+// CPVS_UPDATE_REFERENCE_IMAGES=1 the reference is rewritten instead (a renderer change that alters images
+// commits them with it). The image and its difference go to the build folder for a look.
+void compareWithReference(const RgbImage& image, const std::string& name) {
+  const std::string reference = sourcePath("tests/golden/preview/" + name + ".png");
+  const std::string outDir = std::string(CPVS_BINARY_DIR) + "/preview-images";
+  std::filesystem::create_directories(outDir);
+  std::ofstream(outDir + "/" + name + ".png", std::ios::binary) << encodePng(image);
+  if (const char* update = std::getenv("CPVS_UPDATE_REFERENCE_IMAGES"); update && std::string(update) == "1") {
+    std::filesystem::create_directories(std::filesystem::path(reference).parent_path());
+    std::ofstream(reference, std::ios::binary) << encodePng(image);
+    return;
+  }
+  const RgbImage expected = readPng(reference);
+  ASSERT_EQ(expected.width, image.width);
+  ASSERT_EQ(expected.height, image.height);
+  RgbImage difference = image;
+  size_t differing = 0;
+  int largest = 0;
+  for (size_t i = 0; i < image.pixels.size(); i += 3) {
+    int d = 0;
+    for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(int(image.pixels[i + c]) - int(expected.pixels[i + c])));
+    differing += d > 4;
+    largest = std::max(largest, d);
+    for (int c = 0; c < 3; ++c) difference.pixels[i + c] = uint8_t(std::min(255, d * 8));
+  }
+  std::ofstream(outDir + "/" + name + ".difference.png", std::ios::binary) << encodePng(difference);
+  const double percent = 100.0 * double(differing) / double(image.width * image.height);
+  std::printf("[ image    ] %s: %.3f %% of pixels differ by > 4, largest difference %d\n", name.c_str(), percent, largest);
+  EXPECT_LE(percent, 0.5) << name << ": see " << outDir;
+}
+
+// The shipped Tiny scene (a sun and a spot) and the generated city (spots, a point light, a dim sun).
+TEST(PreviewImages, EveryShadowModeMatchesItsReference) {
+  for (Baked* b : {&tiny(), &city()}) {
+    REQUIRE_RENDERER(*b);
+    for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::Cpu, ShadowMode::RayTraced, ShadowMode::None})
+      compareWithReference(renderImage(*b, mode, Overlay::None), b->name + "_" + shadowModeName(mode));
+  }
+}
+
+TEST(PreviewImages, EveryOverlayMatchesItsReference) {
+  for (Baked* b : {&tiny(), &city()}) {
+    REQUIRE_RENDERER(*b);
+    for (Overlay overlay : {Overlay::LightsPerTile, Overlay::Difference, Overlay::ShadowCount})
+      compareWithReference(renderImage(*b, ShadowMode::Gpu, overlay), b->name + "_" + overlayName(overlay));
+  }
+}
+
+TEST(PreviewImages, ShadowsChangeTheImage) {
+  // The reference comparison must be able to fail: lighting without shadows is not the shadowed image.
+  Baked& b = tiny();
+  REQUIRE_RENDERER(b);
+  const RgbImage shadowed = renderImage(b, ShadowMode::Gpu, Overlay::None), unshadowed = renderImage(b, ShadowMode::None, Overlay::None);
+  size_t differing = 0;
+  for (size_t i = 0; i < shadowed.pixels.size(); ++i) differing += std::abs(int(shadowed.pixels[i]) - int(unshadowed.pixels[i])) > 16;
+  EXPECT_GT(differing, shadowed.pixels.size() / 1000);  // the tiny scene's two shadows: about 0.4 % of the values
+}
+
+// ---- against the rays -----------------------------------------------------------------------------------
+
+TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {
+  Baked& b = torusKnot();
+  REQUIRE_RENDERER(b);
+  FrameSettings settings;
+  settings.width = 160;
+  settings.height = 120;
+  settings.pcfKernel = 1;
+  settings.compareWithRays = true;
+  const Frame f = b.renderer->render(defaultCamera(boundsOf(b.scene), 160.0 / 120.0), settings);
+  const RayErrors e = errorsAgainstRays(f, autoExposure(f, f.radiance));
+  std::printf("[ rays     ] TorusKnot at 256: %.3f %% wrong pixels, %llu of %llu pairs, RMSE %.4f\n", e.wrongPixelPercent(),
+              (unsigned long long)e.wrongPairs, (unsigned long long)e.pairs, e.rmse);
+  EXPECT_GT(e.coveredPixels, 1000u);
+  EXPECT_LT(e.wrongPixelPercent(), 3.0);
+  EXPECT_LT(e.rmse, 0.05);
+}
+
+// ---- the tool -------------------------------------------------------------------------------------------
+
+TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
+  const std::string dir = test::tempDir() + "/preview_tool";
+  std::filesystem::create_directories(dir);
+  const std::string scene = sourcePath("data/scenes/Tiny/tiny.gltf");
+  ASSERT_EQ(runTool(toolPath("cpvs-bake") + " " + scene + " --resolution 64 -q -o " + dir + "/tiny.cpvs").exitCode, 0);
+  const test::ToolResult view = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -o " + dir +
+                                        "/tiny.png --size 64x48 --pcf 3 --report " + dir + "/report.json");
+  if (view.exitCode == 5) GTEST_SKIP() << view.output;
+  ASSERT_EQ(view.exitCode, 0) << view.output;
+  const RgbImage image = readPng(dir + "/tiny.png");
+  EXPECT_EQ(image.width, 64u);
+  EXPECT_EQ(image.height, 48u);
+  std::ifstream report(dir + "/report.json");
+  const std::string text((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
+  for (const char* key : {"\"gbuffer\"", "\"tile_bounds\"", "\"light_lists\"", "\"shadows\"", "\"shading\"",
+                          "\"mean_lights_per_tile\"", "\"uploaded_bytes\"", "\"matches\": true"})
+    EXPECT_NE(text.find(key), std::string::npos) << key << " missing from the report:\n" << text;
+
+  // Another scene: refused with exit code 2, naming both files; nothing written.
+  const std::string other = sourcePath("data/scenes/TorusKnot/torusknot.gltf");
+  const test::ToolResult refused = runTool(toolPath("cpvs-view") + " " + other + " " + dir + "/tiny.cpvs -o " + dir +
+                                           "/other.png --size 64x48");
+  EXPECT_EQ(refused.exitCode, 2) << refused.output;
+  EXPECT_NE(refused.output.find("was not baked from"), std::string::npos) << refused.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/other.png"));
+  // Usage errors: exit code 1.
+  for (const char* args : {" --size 0x10", " --pcf 4", " --shadows fast", " --overlay heat", " -o x.jpg"}) {
+    const test::ToolResult bad = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -o " + dir +
+                                         "/bad.png" + args);
+    EXPECT_EQ(bad.exitCode, 1) << args << ": " << bad.output;
+  }
+}
+
+}  // namespace
+}  // namespace cpvs

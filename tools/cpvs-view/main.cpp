@@ -1,0 +1,304 @@
+// cpvs-view: renders a baked .cpvs on its scene, headless: G-buffer, tile light lists, CPVS shadows walked on
+// the GPU (or the CPU runtime's, or Embree's rays), KHR_lights_punctual shading, to a PNG or EXR, with
+// overlays and a timed report (docs/viewer.md).
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "formats/gltf/gltf_import.h"
+#include "formats/io/exr_image.h"
+#include "formats/io/png_image.h"
+#include "libcpvs/bake/baked_from_file.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/preview/camera.h"
+#include "libcpvs/preview/frame_image.h"
+#include "libcpvs/preview/preview_renderer.h"
+#include "libcpvs/raster/depth_renderer.h"
+#include "libcpvs/runtime/file_shadows.h"
+#include "libcpvs/version.h"
+#include "tools/common/atomic_file.h"
+#include "tools/common/cli.h"
+
+namespace {
+
+using namespace cpvs;
+using json = nlohmann::ordered_json;
+
+struct Options {
+  std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
+  std::string shadows = "gpu", overlay = "none", backend = "osmesa";
+  double fov = 0, exposure = 0;
+  int pcf = 9, orbit = 0;
+  unsigned threads = 0;
+  bool compare = false, noSceneCheck = false, quiet = false;
+};
+
+glm::dvec3 vec3Of(const std::string& flag, const std::string& text) {
+  const auto v = tools::parseNumbers(flag, text, 3);
+  return {v[0], v[1], v[2]};
+}
+
+void parseSize(const std::string& text, uint32_t& w, uint32_t& h) {
+  unsigned a = 0, b = 0;
+  char x = 0, rest = 0;
+  if (std::sscanf(text.c_str(), "%u%c%u%c", &a, &x, &b, &rest) != 3 || x != 'x' || a == 0 || b == 0 || a > 16384 ||
+      b > 16384)
+    throw Error(ErrorCategory::InvalidArgument, "--size '" + text + "': expected WIDTHxHEIGHT, each 1..16384");
+  w = a;
+  h = b;
+}
+
+json cameraJson(const PreviewCamera& c) {
+  return {{"eye", {c.eye.x, c.eye.y, c.eye.z}},
+          {"target", {c.target.x, c.target.y, c.target.z}},
+          {"up", {c.up.x, c.up.y, c.up.z}},
+          {"fov_degrees", c.yfov * 180.0 / M_PI}};
+}
+
+json passesJson(const Frame& f) {
+  json passes = json::object();
+  for (const PassTime& p : f.passes) passes[p.pass] = p.milliseconds;
+  return passes;
+}
+
+// The cameras of a --path file: [{"eye": [x, y, z], "target": [x, y, z], "up": [x, y, z]?, "fov": degrees?}, ...].
+std::vector<PreviewCamera> readPath(const std::string& path, const PreviewCamera& base) {
+  std::ifstream in(path);
+  if (!in) throw Error(ErrorCategory::InvalidInput, path + ": cannot open the camera path");
+  const json j = json::parse(in, nullptr, false);
+  if (!j.is_array() || j.empty()) throw Error(ErrorCategory::InvalidInput, path + ": expected a non-empty JSON array of cameras");
+  std::vector<PreviewCamera> cameras;
+  for (size_t i = 0; i < j.size(); ++i) {
+    const std::string where = path + ": camera " + std::to_string(i);
+    auto vec = [&](const char* key, glm::dvec3 fallback, bool required) {
+      if (!j[i].is_object() || !j[i].contains(key)) {
+        if (required) throw Error(ErrorCategory::InvalidInput, where + ": \"" + key + "\" is missing");
+        return fallback;
+      }
+      const json& v = j[i][key];
+      if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
+        throw Error(ErrorCategory::InvalidInput, where + ": \"" + key + "\" is not an array of 3 numbers");
+      return glm::dvec3(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+    };
+    PreviewCamera c = base;
+    c.eye = vec("eye", {}, true);
+    c.target = vec("target", {}, true);
+    c.up = vec("up", base.up, false);
+    if (j[i].contains("fov")) {
+      if (!j[i]["fov"].is_number()) throw Error(ErrorCategory::InvalidInput, where + ": \"fov\" is not a number");
+      c.yfov = j[i]["fov"].get<double>() * M_PI / 180.0;
+    }
+    try {
+      checkCamera(c);
+    } catch (const Error& e) {
+      throw Error(ErrorCategory::InvalidInput, where + ": " + e.what());
+    }
+    cameras.push_back(c);
+  }
+  return cameras;
+}
+
+// N cameras on a circle around the base camera's target, at its distance and height.
+std::vector<PreviewCamera> orbit(const PreviewCamera& base, int n) {
+  std::vector<PreviewCamera> cameras;
+  const glm::dvec3 up = glm::normalize(base.up), offset = base.eye - base.target;
+  const glm::dvec3 height = glm::dot(offset, up) * up, radial = offset - height;
+  const glm::dvec3 side = glm::cross(up, radial);
+  for (int i = 0; i < n; ++i) {
+    const double a = 2.0 * M_PI * i / n;
+    PreviewCamera c = base;
+    c.eye = base.target + height + radial * std::cos(a) + side * std::sin(a);
+    cameras.push_back(c);
+  }
+  return cameras;
+}
+
+void writeImage(const std::string& path, const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
+                Overlay overlay) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (ext == ".exr" || ext == ".EXR") {
+    writeExr(path, linearImage(frame, radiance, exposure));
+    return;
+  }
+  tools::AtomicFile out(path);
+  out.write(encodePng(withOverlay(frame, toneMapped(frame, radiance, exposure), overlay)));
+  out.commit();
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  CLI::App app{"cpvs-view: render a baked .cpvs on its scene (headless, OpenGL 4.5 through OSMesa or EGL): G-buffer,\n"
+               "tile light lists, CPVS shadows walked on the GPU with KxK PCF, KHR_lights_punctual shading. The\n"
+               "lights are the file's; the scene gives the geometry and the materials' base colours."};
+  tools::addStandardFlags(app, "cpvs-view");
+  app.add_option("scene", o.scene, "The glTF scene the file was baked from (.gltf / .glb)")->required();
+  app.add_option("cpvs", o.file, "The baked shadows (.cpvs)")->required();
+  app.add_option("-o,--output", o.output, "Image to write: .png (tone-mapped sRGB, with the overlay) or .exr (linear)");
+  app.add_option("--camera", o.cameraName, "A camera of the glTF file, by name");
+  app.add_option("--eye", o.eye, "Camera position X,Y,Z (with --target; default: a view framing the scene)")->type_name("X,Y,Z");
+  app.add_option("--target", o.target, "The point the camera looks at X,Y,Z")->type_name("X,Y,Z");
+  app.add_option("--up", o.up, "Up direction X,Y,Z (default 0,1,0, glTF's)")->type_name("X,Y,Z");
+  app.add_option("--fov", o.fov, "Vertical field of view in degrees (default 45.8, or the glTF camera's)");
+  app.add_option("--size", o.size, "Image size WIDTHxHEIGHT (default 1920x1080)");
+  app.add_option("--pcf", o.pcf, "PCF kernel K (odd, 1..255; default 9, the paper's 9x9)");
+  app.add_option("--shadows", o.shadows, "gpu (CPVS walked in a compute shader; default), cpu (the CPU runtime's batch "
+                                         "lookups), raytraced (Embree shadow rays) or none");
+  app.add_option("--overlay", o.overlay, "none, lights-per-tile, difference (against Embree) or shadow-count");
+  app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE and % wrong pixels in the report");
+  app.add_option("--exposure", o.exposure, "Exposure in stops over the automatic one (default 0)");
+  app.add_option("--path", o.path, "Render a camera path: a JSON array of {\"eye\", \"target\", \"up\"?, \"fov\"?}");
+  app.add_option("--orbit", o.orbit, "Render N frames orbiting the camera's target (instead of --path)");
+  app.add_option("--frames", o.frames, "Folder for the numbered frames of --path / --orbit (frame_0000.png, ...)");
+  app.add_option("--report", o.report, "JSON report: pass times, light-list figures, bytes uploaded, error against rays");
+  app.add_option("--backend", o.backend, "osmesa (default; llvmpipe on the CPU) or egl (a GPU)");
+  app.add_option("--threads", o.threads, "Threads for --shadows cpu / raytraced (default: all cores)");
+  app.add_flag("--no-scene-check", o.noSceneCheck, "Render even when the file's input hash says it was baked from another scene");
+  app.add_flag("-q,--quiet", o.quiet, "No summary on stderr");
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
+
+  FrameSettings settings;
+  tools::forFlag("--size", [&] { parseSize(o.size, settings.width, settings.height); });
+  settings.pcfKernel = o.pcf;
+  if (const Outcome k = checkPcfKernel(o.pcf); !k) throw Error(ErrorCategory::InvalidArgument, "--pcf: " + k.message());
+  settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
+  const Overlay overlay = tools::forFlag("--overlay", [&] { return parseOverlay(o.overlay); });
+  settings.compareWithRays = o.compare || overlay == Overlay::Difference;
+  const RasterBackend backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
+  const bool animated = !o.path.empty() || o.orbit > 0;
+  if (animated && o.frames.empty()) throw Error(ErrorCategory::InvalidArgument, "--path / --orbit need --frames DIR");
+  if (!animated && o.output.empty()) throw Error(ErrorCategory::InvalidArgument, "-o OUT.png or OUT.exr is required");
+  if (!o.path.empty() && o.orbit > 0) throw Error(ErrorCategory::InvalidArgument, "--path and --orbit exclude each other");
+  if (o.orbit < 0 || o.orbit > 100000) throw Error(ErrorCategory::InvalidArgument, "--orbit: N must be in 1..100000");
+  if (!o.output.empty()) {
+    const std::string ext = std::filesystem::path(o.output).extension().string();
+    if (ext != ".png" && ext != ".exr" && ext != ".PNG" && ext != ".EXR")
+      throw Error(ErrorCategory::InvalidArgument, "-o '" + o.output + "': the name must end in .png or .exr");
+  }
+  if (!o.cameraName.empty() && (!o.eye.empty() || !o.target.empty()))
+    throw Error(ErrorCategory::InvalidArgument, "--camera excludes --eye / --target");
+  if (o.eye.empty() != o.target.empty()) throw Error(ErrorCategory::InvalidArgument, "--eye and --target go together");
+  if (o.fov != 0 && !(o.fov > 0 && o.fov < 180)) throw Error(ErrorCategory::InvalidArgument, "--fov: degrees in (0, 180)");
+  if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
+  std::unique_ptr<tools::AtomicFile> reportFile;
+  if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
+
+  Scene scene = importGltf(o.scene);
+  const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(o.file));
+  const BakedFromCheck check = checkBakedFrom(scene, *file);
+  if (check.checked && !check.matches && !o.noSceneCheck)
+    throw Error(ErrorCategory::InvalidInput,
+                o.file + " was not baked from " + o.scene + ": the file records input hash " + hex64(check.recordedHash) +
+                    ", the scene with the file's lights and settings gives " + hex64(check.sceneHash) +
+                    " (rebake, or pass --no-scene-check to render anyway)");
+  if (!check.checked && !o.quiet)
+    std::fprintf(stderr, "cpvs-view: warning: cannot check that %s was baked from %s: %s\n", o.file.c_str(),
+                 o.scene.c_str(), check.reason.c_str());
+  std::vector<LightShadow> lights;
+  for (const CpvsFile::LightEntry& entry : file->lights()) lights.push_back(orThrow(lightShadowOf(entry)));
+
+  // The camera: a glTF camera, the command line's, or a default framing.
+  Bounds bounds;
+  for (const Instance& instance : scene.instances)
+    for (const glm::vec3& p : scene.meshes[instance.mesh].positions)
+      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  const double aspect = double(settings.width) / settings.height;
+  const glm::dvec3 up = o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
+  PreviewCamera camera;
+  if (!o.cameraName.empty()) {
+    const Camera* found = nullptr;
+    std::string names;
+    for (const Camera& c : scene.cameras) {
+      if (c.name == o.cameraName) found = &c;
+      names += (names.empty() ? "" : ", ") + c.name;
+    }
+    if (!found)
+      throw Error(ErrorCategory::InvalidArgument, "--camera '" + o.cameraName + "': the scene's cameras are " +
+                                                      (names.empty() ? "none" : names));
+    camera = cameraFromScene(*found);
+  } else if (!o.eye.empty()) {
+    camera.eye = vec3Of("--eye", o.eye);
+    camera.target = vec3Of("--target", o.target);
+    camera.up = up;
+  } else {
+    camera = defaultCamera(bounds, aspect, up);
+  }
+  if (o.fov > 0) camera.yfov = o.fov * M_PI / 180.0;
+  tools::forFlag("camera", [&] { checkCamera(camera); });
+  std::vector<PreviewCamera> cameras = {camera};
+  if (!o.path.empty()) cameras = readPath(o.path, camera);
+  if (o.orbit > 0) cameras = orbit(camera, o.orbit);
+  if (animated) std::filesystem::create_directories(o.frames);
+
+  PreviewRenderer renderer(scene, std::move(lights), backend, o.threads);
+  renderer.warmUp();
+  json report = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", o.scene}, {"cpvs", o.file},
+                 {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
+                 {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
+                 {"overlay", overlayName(overlay)}, {"lights", renderer.lights().size()},
+                 {"scene_triangles", renderer.sceneTriangles()},
+                 {"baked_from", {{"checked", check.checked}, {"matches", check.matches}, {"reason", check.reason}}}};
+  json frames = json::array();
+  std::map<std::string, std::pair<double, double>> sums;  // pass -> (sum, max)
+  double exposure = 0;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    const Frame frame = renderer.render(cameras[i], settings);
+    if (i == 0) exposure = autoExposure(frame, frame.radiance) * std::exp2(o.exposure);  // one exposure per path
+    const std::string image = animated ? (std::filesystem::path(o.frames) / ("frame_" + std::string(4 - std::min<size_t>(4, std::to_string(i).size()), '0') + std::to_string(i) + ".png")).string()
+                                       : o.output;
+    writeImage(image, frame, frame.radiance, exposure, overlay);
+    const LightListStats lists = lightListStats(frame, renderer.lights().size());
+    json entry = {{"image", image}, {"camera", cameraJson(cameras[i])}, {"passes_ms", passesJson(frame)},
+                  {"gpu_timers", frame.passes.empty() || frame.passes.front().gpuTimer},
+                  {"light_lists", {{"covered_tiles", lists.coveredTiles}, {"mean_lights_per_tile", lists.meanLightsPerTile},
+                                   {"max_lights_per_tile", lists.maxLightsPerTile}, {"pairs_listed", lists.pairsListed},
+                                   {"pairs_culled", lists.pairsCulled}}},
+                  {"uploaded_bytes", {{"once", renderer.staticUploadBytes()}, {"this_frame", frame.uploadedBytes - renderer.staticUploadBytes()}}},
+                  {"exposure", exposure}};
+    if (settings.compareWithRays) {
+      const RayErrors e = errorsAgainstRays(frame, exposure);
+      entry["against_rays"] = {{"rmse", e.rmse}, {"wrong_pixels_percent", e.wrongPixelPercent()},
+                               {"wrong_pixels", e.wrongPixels}, {"covered_pixels", e.coveredPixels},
+                               {"wrong_pairs", e.wrongPairs}, {"pairs", e.pairs}};
+    }
+    for (const PassTime& p : frame.passes) {
+      auto& s = sums[p.pass];
+      s.first += p.milliseconds;
+      s.second = std::max(s.second, p.milliseconds);
+    }
+    if (!o.quiet) {
+      std::string line;
+      for (const PassTime& p : frame.passes) {
+        char item[64];
+        std::snprintf(item, sizeof item, "%s%s %.1f ms", line.empty() ? "" : ", ", p.pass.c_str(), p.milliseconds);
+        line += item;
+      }
+      std::fprintf(stderr, "cpvs-view: %s (%ux%u, %zu lights, %.1f per tile): %s\n", image.c_str(), settings.width,
+                   settings.height, renderer.lights().size(), lists.meanLightsPerTile, line.c_str());
+      if (settings.compareWithRays)
+        std::fprintf(stderr, "cpvs-view: against Embree rays: %.4f%% wrong pixels, RMSE %.4f\n",
+                     entry["against_rays"]["wrong_pixels_percent"].get<double>(), entry["against_rays"]["rmse"].get<double>());
+    }
+    frames.push_back(std::move(entry));
+  }
+  report["frames"] = frames;
+  json summary = json::object();
+  for (const auto& [pass, s] : sums) summary[pass] = {{"mean_ms", s.first / double(cameras.size())}, {"max_ms", s.second}};
+  report["summary"] = summary;
+  if (reportFile) {
+    reportFile->write(report.dump(2) + "\n");
+    reportFile->commit();
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return cpvs::tools::runMain("cpvs-view", [&] { return run(argc, argv); }); }
