@@ -633,6 +633,38 @@ TEST(ImportGltf, MatrixTransformAndLightDefaults) {
   expectNear(spot.direction, {0, 0, -1});
 }
 
+TEST(ImportGltf, CamerasAndBaseColours) {
+  GltfBuilder gltf = quadScene();
+  gltf.root()["materials"] = json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.25, 1.0, 1.0}}}}}});
+  gltf.root()["meshes"][0]["primitives"][0]["material"] = 0;
+  gltf.root()["cameras"] = json::array({{{"type", "perspective"}, {"name", "Overview"},
+                                         {"perspective", {{"yfov", 0.7}, {"znear", 0.1}, {"zfar", 500.0}}}},
+                                        {{"type", "orthographic"}, {"orthographic", {{"xmag", 1}, {"ymag", 1}, {"znear", 0}, {"zfar", 1}}}}});
+  // Rotated a quarter turn about +Y: looks along -X with +Y up.
+  gltf.addNode({{"translation", {1, 2, 3}}, {"rotation", {0, 0.7071067811865476, 0, 0.7071067811865476}}, {"camera", 0}});
+  gltf.addNode({{"camera", 1}});
+  const std::string dir = test::tempDir();
+  const Scene scene = importGltf(gltf.write(dir, "cameras"));
+  EXPECT_EQ(scene.meshes[0].baseColor, glm::vec4(0.5f, 0.25f, 1.0f, 1.0f));
+  ASSERT_EQ(scene.cameras.size(), 1u);  // the orthographic one is skipped with a warning
+  const Camera& c = scene.cameras[0];
+  EXPECT_EQ(c.name, "Overview");
+  expectNear(c.eye, {1, 2, 3});
+  expectNear(c.forward, {-1, 0, 0});
+  expectNear(c.up, {0, 1, 0});
+  EXPECT_DOUBLE_EQ(c.yfov, 0.7);
+  EXPECT_DOUBLE_EQ(c.zfar, 500.0);
+  bool warned = false;
+  for (const std::string& w : scene.warnings) warned |= w.find("orthographic") != std::string::npos;
+  EXPECT_TRUE(warned);
+
+  gltf.root()["cameras"][0]["perspective"]["yfov"] = -1.0;
+  expectInvalid(gltf.write(dir, "bad_camera"), "yfov must be in (0, pi)");
+  gltf.root()["cameras"][0]["perspective"]["yfov"] = 0.7;
+  gltf.root()["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = {2.0, 0.0, 0.0, 1.0};
+  expectInvalid(gltf.write(dir, "bad_colour"), "baseColorFactor[0] is not in [0, 1]");
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Malformed input: every case is an Error(InputInvalid) that names the file, never a crash
 

@@ -35,6 +35,8 @@ struct FrameSettings {
   bool compareWithRays = false;
   // GPU shadows: keep each pair's voxel, verdict and count (Frame::cells), for tests.
   bool recordCells = false;
+  // Lights switched off (indices into the renderer's lights): in no tile's list, so neither shaded nor looked up.
+  std::vector<uint32_t> disabledLights;
 };
 
 // Per tile (row-major over tilesX x tilesY, tile row 0 at the bottom), the indices of the lights whose bounds

@@ -30,7 +30,7 @@ inline constexpr uint32_t kMapReals = 24, kViewWords = 40, kLightReals = 16, kLi
 inline constexpr uint32_t kMapXMin = 12, kMapResolution = 22;
 inline constexpr uint32_t kLightPosition = 0, kLightDirection = 3, kLightRange = 6, kLightCosOuter = 7,
                           kLightSinOuter = 8, kLightCosInner = 9, kLightColor = 10, kLightIntensity = 13;
-inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightFaceView = 4;
+inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightDisabled = 3, kLightFaceView = 4;
 inline constexpr uint32_t kViewFlags = 0, kViewNodeBase = 1, kViewLeafBase = 2, kViewRootCode = 3,
                           kViewResolution = 4, kViewChildBase = 8;
 inline constexpr uint32_t kFlagOrthographic = 1, kFlagLinear = 2, kFlagEmpty = 4;

@@ -105,6 +105,8 @@ struct PreviewRenderer::State {
   GLuint vertexArray = 0, vertexBuffer = 0;
   GLsizei vertexCount = 0;
   GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;
+  std::vector<uint32_t> lightWordsData;  // as uploaded; the disabled flags change between frames
+  std::vector<uint32_t> disabled;        // the flags last uploaded
   // Render targets, resized with the image.
   uint32_t targetWidth = 0, targetHeight = 0;
   GLuint framebuffer = 0, textures[4] = {};  // position, normal, base colour, depth
@@ -242,6 +244,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
                                                    std::to_string(uint32_t(maxBlock) >> 20) + " MiB");
   s.lightReals = gl::createStorageBuffer(c, records.lightReals.data(), records.lightReals.size() * 8);
   s.lightWords = gl::createStorageBuffer(c, records.lightWords.data(), records.lightWords.size() * 4);
+  s.lightWordsData = records.lightWords;
   s.viewReals = gl::createStorageBuffer(c, records.viewReals.data(), records.viewReals.size() * 8);
   s.viewWords = gl::createStorageBuffer(c, records.viewWords.data(), records.viewWords.size() * 4);
   s.dagNodes = gl::createStorageBuffer(c, records.nodes.data(), records.nodes.size() * 4);
@@ -304,6 +307,10 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
                                                     std::to_string(settings.height) + " is not in 1..16384 per side");
   if (const Outcome k = checkPcfKernel(settings.pcfKernel); !k) throw Error(k.category(), k.message());
   checkCamera(requested);
+  for (uint32_t l : settings.disabledLights)
+    if (l >= s.lights.size())
+      throw Error(ErrorCategory::InvalidArgument, "light " + std::to_string(l) + " to switch off does not exist (" +
+                                                      std::to_string(s.lights.size()) + " lights)");
   Bounds bounds;
   for (const Instance& instance : s.scene->instances)
     for (const glm::vec3& p : s.scene->meshes[instance.mesh].positions)
@@ -314,6 +321,14 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
   const gl::Functions& g = s.gl();
   gl::CurrentContext current(*s.context);
   if (s.targetWidth != settings.width || s.targetHeight != settings.height) s.createTargets(settings.width, settings.height);
+  std::vector<uint32_t> disabled(s.lights.size(), 0);
+  for (uint32_t l : settings.disabledLights) disabled[l] = 1;
+  if (disabled != s.disabled && !s.lights.empty()) {
+    for (size_t l = 0; l < s.lights.size(); ++l) s.lightWordsData[l * gpu_layout::kLightWords + gpu_layout::kLightDisabled] = disabled[l];
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, s.lightWords);
+    g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(s.lightWordsData.size() * 4), s.lightWordsData.data());
+    s.disabled = disabled;
+  }
   gl::checkError(c, "preparing the frame");
   Frame f;
   f.width = settings.width;

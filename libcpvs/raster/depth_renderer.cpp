@@ -27,6 +27,7 @@
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/raster/gl_context.h"
+#include "libcpvs/raster/gl_program.h"
 #include "libcpvs/raster/triangle_setup.h"
 
 namespace cpvs {
@@ -378,53 +379,10 @@ private:
     bool peel = false;  // the peel state (front/back layers, cursors and counts) exists
   };
 
-  void checkError(const char* what) const {
-    const GLenum e = context_->gl().GetError();
-    if (e == GL_NO_ERROR) return;
-    char code[16];
-    std::snprintf(code, sizeof code, "0x%04X", unsigned(e));
-    const std::string message = std::string("OpenGL error ") + code +
-                                (e == GL_OUT_OF_MEMORY ? " (out of memory)" : "") + " while " + what + " on " +
-                                context_->description();
-    throw Error(ErrorCategory::RuntimeFailure, message);
-  }
-
-  GLuint compile(GLenum type, const std::string& source, const char* name) const {
-    const gl::Functions& g = context_->gl();
-    const GLuint shader = g.CreateShader(type);
-    const char* text = source.c_str();
-    g.ShaderSource(shader, 1, &text, nullptr);
-    g.CompileShader(shader);
-    GLint ok = 0;
-    g.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-      char log[4096] = {};
-      g.GetShaderInfoLog(shader, sizeof log, nullptr, log);
-      g.DeleteShader(shader);
-      throw Error(ErrorCategory::RuntimeFailure, std::string("cannot compile the ") + name + " shader: " + log);
-    }
-    return shader;
-  }
+  void checkError(const std::string& what) const { gl::checkError(*context_, what); }
 
   GLuint link(const std::string& vs, const std::string& fs, const char* name) const {
-    const gl::Functions& g = context_->gl();
-    const GLuint v = compile(GL_VERTEX_SHADER, vs, name);
-    const GLuint f = compile(GL_FRAGMENT_SHADER, fs, name);
-    const GLuint program = g.CreateProgram();
-    g.AttachShader(program, v);
-    g.AttachShader(program, f);
-    g.LinkProgram(program);
-    g.DeleteShader(v);
-    g.DeleteShader(f);
-    GLint ok = 0;
-    g.GetProgramiv(program, GL_LINK_STATUS, &ok);
-    if (!ok) {
-      char log[4096] = {};
-      g.GetProgramInfoLog(program, sizeof log, nullptr, log);
-      g.DeleteProgram(program);
-      throw Error(ErrorCategory::RuntimeFailure, std::string("cannot link the ") + name + " program: " + log);
-    }
-    return program;
+    return gl::linkProgram(*context_, {{GL_VERTEX_SHADER, vs}, {GL_FRAGMENT_SHADER, fs}}, name);
   }
 
   GLint uniform(GLuint program, const char* name) const { return context_->gl().GetUniformLocation(program, name); }
@@ -486,7 +444,7 @@ private:
       t.enterDepth = makeTexture(GL_DEPTH_COMPONENT32F, GL_DEPTH_COMPONENT, GL_FLOAT, w, h);
       t.kinds = makeTexture(GL_R8UI, GL_RED_INTEGER, GL_UNSIGNED_BYTE, w, h);
       t.cursors[1] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);  // also the resolve's output
-      checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " region buffers").c_str());
+      checkError("allocating " + std::to_string(w) + "x" + std::to_string(h) + " region buffers");
       t.width = w;
       t.height = h;
       t.enterFbo = makeFramebuffer(t.enterDepth, {t.kinds});
@@ -499,7 +457,7 @@ private:
     t.backCount = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
     t.cursors[0] = makeTexture(GL_RG32F, GL_RG, GL_FLOAT, w, h);
     for (int i = 0; i < 2; ++i) t.counts[i] = makeTexture(GL_R32F, GL_RED, GL_FLOAT, w, h);
-    checkError(("allocating " + std::to_string(w) + "x" + std::to_string(h) + " peel buffers").c_str());
+    checkError("allocating " + std::to_string(w) + "x" + std::to_string(h) + " peel buffers");
     t.peel = true;
     t.frontFbo = makeFramebuffer(t.frontDepth, {});
     t.backFbo = makeFramebuffer(t.backDepth, {t.backCount});

@@ -33,6 +33,7 @@
 #define CPVS_LIGHT_TYPE 0u       // 0 directional, 1 spot, 2 point
 #define CPVS_LIGHT_FIRST_VIEW 1u // the light's first view in the view records
 #define CPVS_LIGHT_VIEW_COUNT 2u
+#define CPVS_LIGHT_DISABLED 3u    // 1: switched off in the viewer (left out of every tile's list)
 #define CPVS_LIGHT_FACE_VIEW 4u  // 6 values: a point light's view (relative to the first) per cube face, ~0u: none
 #define CPVS_LIGHT_WORDS 12u     // per light
 

@@ -26,6 +26,7 @@
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/cpvs-view/preview_window.h"
 
 namespace {
 
@@ -38,7 +39,8 @@ struct Options {
   double fov = 0, exposure = 0;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
-  bool compare = false, noSceneCheck = false, quiet = false;
+  bool compare = false, noSceneCheck = false, quiet = false, window = false;
+  std::string screenshot;
 };
 
 glm::dvec3 vec3Of(const std::string& flag, const std::string& text) {
@@ -161,6 +163,9 @@ int run(int argc, char** argv) {
   app.add_option("--backend", o.backend, "osmesa (default; llvmpipe on the CPU) or egl (a GPU)");
   app.add_option("--threads", o.threads, "Threads for --shadows cpu / raytraced (default: all cores)");
   app.add_flag("--no-scene-check", o.noSceneCheck, "Render even when the file's input hash says it was baked from another scene");
+  app.add_flag("--window", o.window, std::string("Show the frames in a window (GLFW; needs a display) instead of writing "
+                                                 "them.\n") + tools::previewWindowKeys());
+  app.add_option("--screenshot", o.screenshot, "With --window: write the window's pixels (PNG) after the first frame and close");
   app.add_flag("-q,--quiet", o.quiet, "No summary on stderr");
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
 
@@ -174,7 +179,10 @@ int run(int argc, char** argv) {
   const RasterBackend backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   const bool animated = !o.path.empty() || o.orbit > 0;
   if (animated && o.frames.empty()) throw Error(ErrorCategory::InvalidArgument, "--path / --orbit need --frames DIR");
-  if (!animated && o.output.empty()) throw Error(ErrorCategory::InvalidArgument, "-o OUT.png or OUT.exr is required");
+  if (!animated && !o.window && o.output.empty())
+    throw Error(ErrorCategory::InvalidArgument, "-o OUT.png or OUT.exr is required (or --window)");
+  if (o.window && animated) throw Error(ErrorCategory::InvalidArgument, "--window excludes --path / --orbit");
+  if (!o.screenshot.empty() && !o.window) throw Error(ErrorCategory::InvalidArgument, "--screenshot needs --window");
   if (!o.path.empty() && o.orbit > 0) throw Error(ErrorCategory::InvalidArgument, "--path and --orbit exclude each other");
   if (o.orbit < 0 || o.orbit > 100000) throw Error(ErrorCategory::InvalidArgument, "--orbit: N must be in 1..100000");
   if (!o.output.empty()) {
@@ -238,6 +246,15 @@ int run(int argc, char** argv) {
   if (animated) std::filesystem::create_directories(o.frames);
 
   PreviewRenderer renderer(scene, std::move(lights), backend, o.threads);
+  if (o.window) {
+    tools::WindowOptions window;
+    window.title = "cpvs-view " + std::filesystem::path(o.scene).filename().string();
+    window.overlay = overlay;
+    window.exposureStops = o.exposure;
+    window.screenshot = o.screenshot;
+    tools::runPreviewWindow(renderer, camera, settings, window);
+    return 0;
+  }
   renderer.warmUp();
   json report = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", o.scene}, {"cpvs", o.file},
                  {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},

@@ -16,6 +16,7 @@ void main() {
   uint count = 0u;
   if (lo.w > 0.0) {
     for (uint light = 0u; light < uint(lightCount); ++light) {
+      if (lightWords[light * CPVS_LIGHT_WORDS + CPVS_LIGHT_DISABLED] != 0u) continue;
       uint r = light * CPVS_LIGHT_REALS;
       bool meets = cpvsLightMeetsBox(lightWords[light * CPVS_LIGHT_WORDS + CPVS_LIGHT_TYPE],
                                      dvec3(lightReals[r], lightReals[r + 1u], lightReals[r + 2u]),

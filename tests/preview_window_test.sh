@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# cpvs-view --window under a virtual X server (xvfb-run): the window opens, shows the first frame, and its own
+# pixels (--screenshot) are the headless renderer's image of the same view. Skips (77) without xvfb-run or
+# without a GLFW build.
+set -euo pipefail
+bin="$1"; source="$2"; work="$3"
+command -v xvfb-run > /dev/null || { echo "xvfb-run not installed (scripts/install-deps.sh installs xvfb)"; exit 77; }
+rm -rf "$work" && mkdir -p "$work"
+scene="$source/data/scenes/Tiny/tiny.gltf"
+"$bin/cpvs-bake" "$scene" --resolution 128 -q -o "$work/tiny.cpvs"
+set +e
+xvfb-run -a -s "-screen 0 800x600x24" "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --window --size 320x200 \
+  --screenshot "$work/window.png" > "$work/window.log" 2>&1
+rc=$?
+set -e
+cat "$work/window.log"
+if [ $rc -eq 5 ] && grep -q "without GLFW" "$work/window.log"; then exit 77; fi
+[ $rc -eq 0 ] || { echo "cpvs-view --window exited with $rc"; exit 1; }
+"$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 -q -o "$work/headless.png"
+# The window shows what the headless path writes, pixel for pixel.
+python3 - "$work/window.png" "$work/headless.png" <<'PY'
+import sys, zlib, struct
+def pixels(path):
+    data = open(path, 'rb').read()
+    assert data[:8] == b'\x89PNG\r\n\x1a\n', path
+    pos, idat, w, h = 8, b'', 0, 0
+    while pos < len(data):
+        n, kind = struct.unpack('>I4s', data[pos:pos + 8]); body = data[pos + 8:pos + 8 + n]; pos += 12 + n
+        if kind == b'IHDR': w, h = struct.unpack('>II', body[:8]); assert body[8] == 8 and body[9] == 2, 'RGB8 expected'
+        if kind == b'IDAT': idat += body
+    raw, rows, prev = zlib.decompress(idat), [], bytearray(w * 3)
+    for y in range(h):
+        f, line = raw[y * (w * 3 + 1)], bytearray(raw[y * (w * 3 + 1) + 1:(y + 1) * (w * 3 + 1)])
+        for i in range(len(line)):
+            a = line[i - 3] if i >= 3 else 0; b = prev[i]; c = prev[i - 3] if i >= 3 else 0
+            if f == 1: line[i] = (line[i] + a) & 255
+            elif f == 2: line[i] = (line[i] + b) & 255
+            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
+            elif f == 4:
+                p = a + b - c; pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
+        rows.append(bytes(line)); prev = line
+    return w, h, b''.join(rows)
+wa, ha, a = pixels(sys.argv[1]); wb, hb, b = pixels(sys.argv[2])
+assert (wa, ha) == (wb, hb) == (320, 200), ((wa, ha), (wb, hb))
+differing = sum(1 for i in range(0, len(a), 3) if max(abs(a[i + c] - b[i + c]) for c in range(3)) > 2)
+lit = sum(1 for i in range(0, len(a), 3) if max(a[i:i + 3]) > 40)
+print("window vs headless: %d of %d pixels differ, %d bright pixels" % (differing, wa * ha, lit))
+sys.exit(0 if differing == 0 and lit > 1000 else 1)
+PY

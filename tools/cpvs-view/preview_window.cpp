@@ -1,0 +1,257 @@
+#include "tools/cpvs-view/preview_window.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "formats/io/png_image.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/preview/frame_image.h"
+#include "tools/common/atomic_file.h"
+
+#ifdef CPVS_HAVE_GLFW
+#include <GL/glcorearb.h>
+#include <GLFW/glfw3.h>
+#endif
+
+namespace cpvs::tools {
+
+const char* previewWindowKeys() {
+  return "Window keys: left drag orbits, scroll zooms; 1 gpu, 2 cpu, 3 raytraced, 4 no shadows; O next overlay;\n"
+         "+ / - PCF size; [ / ] select a light, T switch it off or on, A all on; Esc or Q quits.";
+}
+
+#ifndef CPVS_HAVE_GLFW
+
+void runPreviewWindow(PreviewRenderer&, PreviewCamera, FrameSettings, const WindowOptions&) {
+  throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
+}
+
+#else
+
+namespace {
+
+// The few GL entry points that show an image, fetched from the window's context.
+struct DisplayGl {
+  PFNGLGENTEXTURESPROC GenTextures;
+  PFNGLBINDTEXTUREPROC BindTexture;
+  PFNGLTEXIMAGE2DPROC TexImage2D;
+  PFNGLTEXPARAMETERIPROC TexParameteri;
+  PFNGLGENFRAMEBUFFERSPROC GenFramebuffers;
+  PFNGLBINDFRAMEBUFFERPROC BindFramebuffer;
+  PFNGLFRAMEBUFFERTEXTURE2DPROC FramebufferTexture2D;
+  PFNGLBLITFRAMEBUFFERPROC BlitFramebuffer;
+  PFNGLCLEARCOLORPROC ClearColor;
+  PFNGLCLEARPROC Clear;
+  PFNGLPIXELSTOREIPROC PixelStorei;
+  PFNGLREADPIXELSPROC ReadPixels;
+  PFNGLREADBUFFERPROC ReadBuffer;
+  PFNGLFINISHPROC Finish;
+
+  void load() {
+    auto get = [](const char* name) {
+      GLFWglproc p = glfwGetProcAddress(name);
+      if (!p) throw Error(ErrorCategory::NotSupported, std::string("the window's OpenGL lacks ") + name);
+      return p;
+    };
+#define CPVS_LOAD(member, name) member = reinterpret_cast<decltype(member)>(get(name))
+    CPVS_LOAD(GenTextures, "glGenTextures");
+    CPVS_LOAD(BindTexture, "glBindTexture");
+    CPVS_LOAD(TexImage2D, "glTexImage2D");
+    CPVS_LOAD(TexParameteri, "glTexParameteri");
+    CPVS_LOAD(GenFramebuffers, "glGenFramebuffers");
+    CPVS_LOAD(BindFramebuffer, "glBindFramebuffer");
+    CPVS_LOAD(FramebufferTexture2D, "glFramebufferTexture2D");
+    CPVS_LOAD(BlitFramebuffer, "glBlitFramebuffer");
+    CPVS_LOAD(ClearColor, "glClearColor");
+    CPVS_LOAD(Clear, "glClear");
+    CPVS_LOAD(PixelStorei, "glPixelStorei");
+    CPVS_LOAD(ReadPixels, "glReadPixels");
+    CPVS_LOAD(ReadBuffer, "glReadBuffer");
+    CPVS_LOAD(Finish, "glFinish");
+#undef CPVS_LOAD
+  }
+};
+
+struct WindowState {
+  PreviewCamera camera;
+  FrameSettings settings;
+  Overlay overlay = Overlay::None;
+  size_t lightCount = 0;
+  uint32_t selectedLight = 0;
+  std::vector<bool> off;
+  bool dirty = true;
+  bool dragging = false;
+  double lastX = 0, lastY = 0;
+};
+
+WindowState& stateOf(GLFWwindow* window) { return *static_cast<WindowState*>(glfwGetWindowUserPointer(window)); }
+
+// Turns the eye around the target: yaw about `up`, pitch about the camera's right axis (kept off the poles).
+void orbitCamera(PreviewCamera& c, double yaw, double pitch) {
+  const glm::dvec3 up = glm::normalize(c.up);
+  glm::dvec3 offset = c.eye - c.target;
+  const double distance = glm::length(offset);
+  glm::dvec3 dir = offset / distance;
+  auto rotate = [](const glm::dvec3& v, const glm::dvec3& axis, double angle) {
+    return v * std::cos(angle) + glm::cross(axis, v) * std::sin(angle) + axis * glm::dot(axis, v) * (1 - std::cos(angle));
+  };
+  dir = rotate(dir, up, yaw);
+  const glm::dvec3 right = glm::normalize(glm::cross(up, dir));
+  const glm::dvec3 pitched = rotate(dir, right, pitch);
+  if (std::fabs(glm::dot(pitched, up)) < 0.98) dir = pitched;
+  c.eye = c.target + dir * distance;
+}
+
+void onKey(GLFWwindow* window, int key, int, int action, int) {
+  if (action != GLFW_PRESS && action != GLFW_REPEAT) return;
+  WindowState& s = stateOf(window);
+  switch (key) {
+    case GLFW_KEY_ESCAPE:
+    case GLFW_KEY_Q: glfwSetWindowShouldClose(window, GLFW_TRUE); return;
+    case GLFW_KEY_1: s.settings.shadows = ShadowMode::Gpu; break;
+    case GLFW_KEY_2: s.settings.shadows = ShadowMode::Cpu; break;
+    case GLFW_KEY_3: s.settings.shadows = ShadowMode::RayTraced; break;
+    case GLFW_KEY_4: s.settings.shadows = ShadowMode::None; break;
+    case GLFW_KEY_O: s.overlay = Overlay((int(s.overlay) + 1) % 4); break;
+    case GLFW_KEY_EQUAL:
+    case GLFW_KEY_KP_ADD: s.settings.pcfKernel = std::min(255, s.settings.pcfKernel + 2); break;
+    case GLFW_KEY_MINUS:
+    case GLFW_KEY_KP_SUBTRACT: s.settings.pcfKernel = std::max(1, s.settings.pcfKernel - 2); break;
+    case GLFW_KEY_LEFT_BRACKET: s.selectedLight = s.selectedLight == 0 ? uint32_t(s.lightCount - 1) : s.selectedLight - 1; break;
+    case GLFW_KEY_RIGHT_BRACKET: s.selectedLight = uint32_t((s.selectedLight + 1) % std::max<size_t>(1, s.lightCount)); break;
+    case GLFW_KEY_T:
+      if (s.lightCount) s.off[s.selectedLight] = !s.off[s.selectedLight];
+      break;
+    case GLFW_KEY_A: std::fill(s.off.begin(), s.off.end(), false); break;
+    default: return;
+  }
+  s.settings.compareWithRays = s.overlay == Overlay::Difference;
+  s.settings.disabledLights.clear();
+  for (uint32_t l = 0; l < s.off.size(); ++l)
+    if (s.off[l]) s.settings.disabledLights.push_back(l);
+  s.dirty = true;
+}
+
+void onMouseButton(GLFWwindow* window, int button, int action, int) {
+  WindowState& s = stateOf(window);
+  if (button != GLFW_MOUSE_BUTTON_LEFT) return;
+  s.dragging = action == GLFW_PRESS;
+  glfwGetCursorPos(window, &s.lastX, &s.lastY);
+}
+
+void onCursor(GLFWwindow* window, double x, double y) {
+  WindowState& s = stateOf(window);
+  if (!s.dragging) return;
+  orbitCamera(s.camera, -(x - s.lastX) * 0.01, -(y - s.lastY) * 0.01);
+  s.lastX = x;
+  s.lastY = y;
+  s.dirty = true;
+}
+
+void onScroll(GLFWwindow* window, double, double dy) {
+  WindowState& s = stateOf(window);
+  s.camera.eye = s.camera.target + (s.camera.eye - s.camera.target) * std::pow(0.9, dy);
+  s.dirty = true;
+}
+
+}  // namespace
+
+void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSettings settings,
+                      const WindowOptions& options) {
+  if (!glfwInit()) throw Error(ErrorCategory::NotSupported, "cannot open a window: no display (GLFW could not start)");
+  struct Terminate {
+    ~Terminate() { glfwTerminate(); }
+  } terminate;
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_RESIZABLE, GLFW_FALSE);
+  GLFWwindow* window = glfwCreateWindow(int(settings.width), int(settings.height), options.title.c_str(), nullptr, nullptr);
+  if (!window) throw Error(ErrorCategory::NotSupported, "cannot open a " + std::to_string(settings.width) + "x" +
+                                                            std::to_string(settings.height) + " OpenGL 3.3 window");
+  WindowState state;
+  state.camera = camera;
+  state.settings = settings;
+  state.overlay = options.overlay;
+  state.lightCount = renderer.lights().size();
+  state.off.assign(state.lightCount, false);
+  glfwSetWindowUserPointer(window, &state);
+  glfwSetKeyCallback(window, onKey);
+  glfwSetMouseButtonCallback(window, onMouseButton);
+  glfwSetCursorPosCallback(window, onCursor);
+  glfwSetScrollCallback(window, onScroll);
+  glfwMakeContextCurrent(window);
+  DisplayGl gl;
+  gl.load();
+  GLuint texture = 0, framebuffer = 0;
+  gl.GenTextures(1, &texture);
+  gl.GenFramebuffers(1, &framebuffer);
+  double exposure = 0;
+  bool shot = false;
+  while (!glfwWindowShouldClose(window)) {
+    if (state.dirty) {
+      state.dirty = false;
+      // The renderer's context (OSMesa or EGL) is current only inside render(); the window's is made current
+      // again afterwards, released first so that the GL dispatch really switches back.
+      glfwMakeContextCurrent(nullptr);
+      const Frame frame = renderer.render(state.camera, state.settings);
+      if (exposure == 0) exposure = autoExposure(frame, frame.radiance) * std::exp2(options.exposureStops);
+      RgbImage image = withOverlay(frame, toneMapped(frame, frame.radiance, exposure), state.overlay);
+      glfwMakeContextCurrent(window);
+      // Rows bottom-up for GL.
+      std::vector<uint8_t> rows(image.pixels.size());
+      for (uint32_t y = 0; y < image.height; ++y)
+        std::copy_n(image.at(0, image.height - 1 - y), size_t(image.width) * 3, rows.begin() + ptrdiff_t(size_t(y) * image.width * 3));
+      gl.BindTexture(GL_TEXTURE_2D, texture);
+      gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+      gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, GLsizei(image.width), GLsizei(image.height), 0, GL_RGB, GL_UNSIGNED_BYTE, rows.data());
+      gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      gl.BindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
+      gl.FramebufferTexture2D(GL_READ_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+      gl.BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+      int fw = 0, fh = 0;
+      glfwGetFramebufferSize(window, &fw, &fh);
+      gl.ClearColor(0, 0, 0, 1);
+      gl.Clear(GL_COLOR_BUFFER_BIT);
+      gl.BlitFramebuffer(0, 0, GLint(image.width), GLint(image.height), 0, 0, fw, fh, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+      char title[512];
+      std::snprintf(title, sizeof title, "%s | shadows %s, PCF %d, overlay %s | light %u of %zu %s | %.0f ms shadows",
+                    options.title.c_str(), shadowModeName(state.settings.shadows), state.settings.pcfKernel,
+                    overlayName(state.overlay), state.selectedLight, state.lightCount,
+                    state.lightCount && state.off[state.selectedLight] ? "(off)" : "(on)", frame.milliseconds("shadows"));
+      glfwSetWindowTitle(window, title);
+      if (!options.screenshot.empty() && !shot) {
+        // The window's own pixels, read back from its back buffer before the swap.
+        gl.Finish();
+        gl.BindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+        gl.ReadBuffer(GL_BACK);
+        RgbImage screen;
+        screen.width = uint32_t(fw);
+        screen.height = uint32_t(fh);
+        std::vector<uint8_t> back(size_t(fw) * size_t(fh) * 3);
+        gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+        gl.ReadPixels(0, 0, fw, fh, GL_RGB, GL_UNSIGNED_BYTE, back.data());
+        screen.pixels.resize(back.size());
+        for (int y = 0; y < fh; ++y)
+          std::copy_n(back.begin() + ptrdiff_t(size_t(y) * size_t(fw) * 3), size_t(fw) * 3,
+                      screen.pixels.begin() + ptrdiff_t(size_t(fh - 1 - y) * size_t(fw) * 3));
+        AtomicFile out(options.screenshot);
+        out.write(encodePng(screen));
+        out.commit();
+        shot = true;
+        glfwSetWindowShouldClose(window, GLFW_TRUE);
+      }
+      glfwSwapBuffers(window);
+    }
+    glfwWaitEventsTimeout(0.1);
+  }
+  glfwDestroyWindow(window);
+}
+
+#endif
+
+}  // namespace cpvs::tools
