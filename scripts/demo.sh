@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds Release, and bakes the bundled SubpassSceneOpaque scene (arcades, vaults,
-# a dome and a Menger sponge) for a sun and a spot light, then inspects and queries the result.
+# a dome and a Menger sponge) for a sun and a spot light, then inspects and queries the result and renders a
+# preview image of it.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/install-deps.sh"
@@ -35,6 +36,11 @@ echo "== Querying 20000 surface points, checked against Embree ray tracing =="
   --reference "$scene" --report "$out/query-report.json"
 
 echo
+echo "== A preview of the bake (cpvs-view: 9x9 PCF walked in a compute shader; llvmpipe on a machine without a GPU) =="
+"$bin/cpvs-view" "$scene" "$out/subpass.cpvs" --up 0,-1,0 --size 1280x720 -o "$out/preview.png" --compare \
+  --report "$out/view-report.json"
+
+echo
 echo "Outputs are in $out:"
 echo "  subpass.cpvs         the baked shadows (inspect with build/bin/cpvs-info)"
 echo "  bake-report.json     timings per phase, nodes per level, bytes vs a 16-bit shadow map"
@@ -42,4 +48,6 @@ echo "  depth/*.exr          enter/exit depth maps in slice units, one per light
 echo "  points.csv           the sampled surface points (x,y,z,nx,ny,nz)"
 echo "  visibility.csv       one column per light, one row per point, in [0, 1] (3x3 PCF)"
 echo "  query-report.json    lookup throughput and error against Embree"
+echo "  preview.png          the scene lit by both lights with their CPVS shadows (1280x720, 9x9 PCF)"
+echo "  view-report.json     the preview's pass times, light lists and error against Embree rays"
 exit 0

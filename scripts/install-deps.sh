@@ -10,7 +10,7 @@ packages=(
   nlohmann-json3-dev libcli11-dev libstb-dev libtbb-dev libxxhash-dev libjemalloc-dev
   assimp-testmodels clang libclang-rt-14-dev
   slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
-  libglfw3-dev xvfb xauth # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
+  libglfw3-dev xvfb xauth xdotool # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
 )
 
 missing=()

@@ -75,6 +75,16 @@ Baked& torusKnot() {
   return *b;
 }
 
+// The shipped SubpassSceneOpaque (-Y up: arcades, vaults, a dome, a Menger sponge) under a sun and a spot.
+Baked& subpass() {
+  static Baked* b = [] {
+    Scene scene = importGltf(sourcePath("data/scenes/SubpassSceneOpaque/subpass_scene_opaque.gltf"));
+    scene.lights = {test::sunLight("sun", {0.35, 1, 0.25}), test::spotLight("spot", {0, -8, 0}, {0.2, 1, 0.1}, 0.7, 30)};
+    return bake("Subpass", std::move(scene), 256);
+  }();
+  return *b;
+}
+
 // A generated city (cpvs-scenegen city-spots: 9 spot lights) with a sun and a point light added.
 Baked& city() {
   static Baked* b = [] {
@@ -190,6 +200,13 @@ TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnTheTorusKnot) {
   checkGpuEqualsCpu(b, defaultCamera(bounds, 1.5, {0, 1, 0}, 0.5), 1);
 }
 
+TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnSubpassScene) {
+  Baked& b = subpass();
+  REQUIRE_RENDERER(b);
+  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5, {0, -1, 0}), 9);
+  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5, {0, -1, 0}, 0.4), 5);
+}
+
 TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
   Baked& b = city();
   REQUIRE_RENDERER(b);
@@ -221,7 +238,9 @@ void checkLightLists(Baked& b, const PreviewCamera& camera) {
   std::printf("[ lists    ] %s: %zu covered tiles, %.2f lights per tile (max %u), %llu pairs culled of %llu\n",
               b.name.c_str(), stats.coveredTiles, stats.meanLightsPerTile, stats.maxLightsPerTile,
               (unsigned long long)stats.pairsCulled, (unsigned long long)(stats.pairsCulled + stats.pairsListed));
-  if (lights.size() > 3) EXPECT_GT(stats.pairsCulled, 0u) << "the culling culls nothing";
+  if (lights.size() > 3) {
+    EXPECT_GT(stats.pairsCulled, 0u) << "the culling culls nothing";
+  }
 }
 
 TEST(Preview, LightListsEqualBruteForceAndMissNoLight) {
@@ -355,6 +374,13 @@ TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
   EXPECT_EQ(refused.exitCode, 2) << refused.output;
   EXPECT_NE(refused.output.find("was not baked from"), std::string::npos) << refused.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/other.png"));
+  // A bake without a mesh: the view must leave it out too (--exclude-mesh), else it is another scene.
+  ASSERT_EQ(runTool(toolPath("cpvs-bake") + " " + scene + " --resolution 64 -q --exclude-mesh Box -o " + dir +
+                    "/nobox.cpvs").exitCode, 0);
+  EXPECT_EQ(runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/nobox.cpvs -q -o " + dir + "/nobox.png --size 32x32").exitCode, 2);
+  const test::ToolResult excluded = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/nobox.cpvs -q -o " + dir +
+                                            "/nobox.png --size 32x32 --exclude-mesh Box");
+  EXPECT_EQ(excluded.exitCode, 0) << excluded.output;
   // Usage errors: exit code 1.
   for (const char* args : {" --size 0x10", " --pcf 4", " --shadows fast", " --overlay heat", " -o x.jpg"}) {
     const test::ToolResult bad = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -o " + dir +

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # cpvs-view --window under a virtual X server (xvfb-run): the window opens, shows the first frame, and its own
-# pixels (--screenshot) are the headless renderer's image of the same view. Skips (77) without xvfb-run or
-# without a GLFW build.
+# pixels (--screenshot) are the headless renderer's image of the same view; then, with keys typed by xdotool
+# (4: no shadows, O: the next overlay, P: save the window), the saved window is the headless image with those
+# settings. Skips (77) without xvfb-run or without a GLFW build; the key phase needs xdotool.
 set -euo pipefail
 bin="$1"; source="$2"; work="$3"
 command -v xvfb-run > /dev/null || { echo "xvfb-run not installed (scripts/install-deps.sh installs xvfb)"; exit 77; }
@@ -10,15 +11,15 @@ scene="$source/data/scenes/Tiny/tiny.gltf"
 "$bin/cpvs-bake" "$scene" --resolution 128 -q -o "$work/tiny.cpvs"
 set +e
 xvfb-run -a -s "-screen 0 800x600x24" "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --window --size 320x200 \
-  --screenshot "$work/window.png" > "$work/window.log" 2>&1
+  --exposure-scale 0.3 --screenshot "$work/window.png" > "$work/window.log" 2>&1
 rc=$?
 set -e
 cat "$work/window.log"
 if [ $rc -eq 5 ] && grep -q "without GLFW" "$work/window.log"; then exit 77; fi
 [ $rc -eq 0 ] || { echo "cpvs-view --window exited with $rc"; exit 1; }
-"$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 -q -o "$work/headless.png"
+"$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 --exposure-scale 0.3 -q -o "$work/headless.png"
 # The window shows what the headless path writes, pixel for pixel.
-python3 - "$work/window.png" "$work/headless.png" <<'PY'
+cat > "$work/same_pixels.py" <<'PY'
 import sys, zlib, struct
 def pixels(path):
     data = open(path, 'rb').read()
@@ -48,3 +49,17 @@ lit = sum(1 for i in range(0, len(a), 3) if max(a[i:i + 3]) > 40)
 print("window vs headless: %d of %d pixels differ, %d bright pixels" % (differing, wa * ha, lit))
 sys.exit(0 if differing == 0 and lit > 1000 else 1)
 PY
+python3 "$work/same_pixels.py" "$work/window.png" "$work/headless.png"
+
+command -v xdotool > /dev/null || { echo "xdotool not installed: the keys are not tested"; exit 0; }
+(cd "$work" && rm -f cpvs-view-0.png && xvfb-run -a -s "-screen 0 800x600x24" bash -c '
+  "$0" "$1" "$2" --window --size 320x200 --exposure-scale 0.3 & pid=$!
+  id=$(timeout 30 xdotool search --sync --name cpvs-view | head -1)
+  xdotool windowfocus --sync "$id" key 4 o p
+  for i in $(seq 300); do [ -f cpvs-view-0.png ] && break; sleep 0.1; done
+  xdotool key q
+  wait $pid' "$bin/cpvs-view" "$scene" "$work/tiny.cpvs")
+[ -f "$work/cpvs-view-0.png" ] || { echo "P saved no window image"; exit 1; }
+"$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 --exposure-scale 0.3 --shadows none \
+  --overlay lights-per-tile -q -o "$work/headless-keys.png"
+python3 "$work/same_pixels.py" "$work/cpvs-view-0.png" "$work/headless-keys.png"

@@ -28,11 +28,21 @@ PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec
   // A direction from the target: +X+Z in the plane perpendicular to up, raised by half the plane's length.
   glm::dvec3 side = glm::dvec3(1.0, 0.0, 1.0) - glm::dot(glm::dvec3(1.0, 0.0, 1.0), c.up) * c.up;
   if (glm::length(side) < 1e-6) side = glm::dvec3(1.0, 1.0, 0.0) - glm::dot(glm::dvec3(1.0, 1.0, 0.0), c.up) * c.up;
-  const glm::dvec3 direction = glm::normalize(glm::normalize(side) + 0.5 * c.up);
-  // The bounding sphere fits the narrower of the two fields of view.
-  const double radius = std::max(0.5 * glm::length(bounds.extent()), 1e-6);
-  const double halfFov = 0.5 * std::min(yfov, 2.0 * std::atan(std::tan(0.5 * yfov) * aspect));
-  c.eye = c.target + direction * (radius / std::sin(halfFov));
+  const glm::dvec3 back = glm::normalize(glm::normalize(side) + 0.5 * c.up);  // from the target toward the eye
+  const glm::dvec3 right = glm::normalize(glm::cross(c.up, back)), cameraUp = glm::cross(back, right);
+  // The nearest eye on that line that sees all eight corners of the box (a flat city fills the frame, where
+  // its bounding sphere would leave it small), 5 % further for a margin.
+  const double tanY = std::tan(0.5 * yfov), tanX = tanY * aspect;
+  double distance = 1e-6;
+  for (int i = 0; i < 8; ++i) {
+    const glm::dvec3 corner((i & 1) ? bounds.max.x : bounds.min.x, (i & 2) ? bounds.max.y : bounds.min.y,
+                            (i & 4) ? bounds.max.z : bounds.min.z);
+    const glm::dvec3 offset = corner - c.target;
+    const double along = glm::dot(offset, back);
+    distance = std::max({distance, along + std::fabs(glm::dot(offset, right)) / tanX,
+                         along + std::fabs(glm::dot(offset, cameraUp)) / tanY});
+  }
+  c.eye = c.target + back * (distance * 1.05);
   return c;
 }
 

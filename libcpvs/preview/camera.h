@@ -20,8 +20,8 @@ struct PreviewCamera {
 
 // A glTF camera (its aspect ratio is ignored: the image's size decides). The target is one unit ahead.
 PreviewCamera cameraFromScene(const Camera& camera);
-// Looks at the centre of `bounds` from the side (from +X+Z, above by half the height: a three-quarter view,
-// `up` being the scene's up axis), far enough that the whole box fits the vertical and horizontal field.
+// Looks at the centre of `bounds` from the side (from +X+Z and above: a three-quarter view, `up` being the
+// scene's up axis), from the nearest point on that line that sees every corner of the box.
 PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up = {0.0, 1.0, 0.0},
                             double yfov = 0.8);
 // Fills znear / zfar where they are 0 from the bounds (depth precision is the G-buffer's only need).

@@ -492,11 +492,18 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
       options.pcfKernel = settings.pcfKernel;
       options.biasMargin = settings.biasMargin;
       arena.execute([&] {
-        parallelFor(byLight.size(), [&](size_t l) {
-          std::vector<float> answers(byLight[l].points.size());
-          const Outcome o = s.lights[l].visibility(byLight[l].points, options, answers);
+        // Batches of kLookupBatch points, as cpvs-query hands them to the runtime (its scratch stays in cache).
+        std::vector<std::pair<uint32_t, size_t>> batches;  // (light, first point)
+        for (uint32_t l = 0; l < byLight.size(); ++l)
+          for (size_t first = 0; first < byLight[l].points.size(); first += kLookupBatch) batches.emplace_back(l, first);
+        parallelFor(batches.size(), [&](size_t b) {
+          const auto [l, first] = batches[b];
+          const size_t count = std::min(kLookupBatch, byLight[l].points.size() - first);
+          float answers[kLookupBatch];
+          const Outcome o = s.lights[l].visibility(std::span(byLight[l].points).subspan(first, count), options,
+                                                   std::span(answers, count));
           if (!o) throw Error(o.category(), o.message());
-          for (size_t i = 0; i < answers.size(); ++i) f.visibility[byLight[l].pairs[i]] = answers[i];
+          for (size_t i = 0; i < count; ++i) f.visibility[byLight[l].pairs[first + i]] = answers[i];
         }, 1);
       });
       f.passes.push_back({"shadows", clock.ms(), false});

@@ -36,10 +36,12 @@ using json = nlohmann::ordered_json;
 struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
   std::string shadows = "gpu", overlay = "none", backend = "osmesa";
-  double fov = 0, exposure = 0;
+  double fov = 0, exposure = 0, exposureScale = 0;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
   bool compare = false, noSceneCheck = false, quiet = false, window = false;
+  std::vector<std::string> excludedMeshes;
+  ImportOptions import;
   std::string screenshot;
 };
 
@@ -156,12 +158,17 @@ int run(int argc, char** argv) {
   app.add_option("--overlay", o.overlay, "none, lights-per-tile, difference (against Embree) or shadow-count");
   app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE and % wrong pixels in the report");
   app.add_option("--exposure", o.exposure, "Exposure in stops over the automatic one (default 0)");
+  app.add_option("--exposure-scale", o.exposureScale,
+                 "A fixed exposure (radiance multiplier) instead of the automatic one, e.g. to compare views");
   app.add_option("--path", o.path, "Render a camera path: a JSON array of {\"eye\", \"target\", \"up\"?, \"fov\"?}");
   app.add_option("--orbit", o.orbit, "Render N frames orbiting the camera's target (instead of --path)");
   app.add_option("--frames", o.frames, "Folder for the numbered frames of --path / --orbit (frame_0000.png, ...)");
   app.add_option("--report", o.report, "JSON report: pass times, light-list figures, bytes uploaded, error against rays");
   app.add_option("--backend", o.backend, "osmesa (default; llvmpipe on the CPU) or egl (a GPU)");
   app.add_option("--threads", o.threads, "Threads for --shadows cpu / raytraced (default: all cores)");
+  app.add_option("--exclude-mesh", o.excludedMeshes,
+                 "A mesh the bake excluded (cpvs-bake --exclude-mesh): left out here too (repeatable)")->type_name("NAME");
+  tools::addImportOptions(app, o.import);
   app.add_flag("--no-scene-check", o.noSceneCheck, "Render even when the file's input hash says it was baked from another scene");
   app.add_flag("--window", o.window, std::string("Show the frames in a window (GLFW; needs a display) instead of writing "
                                                  "them.\n") + tools::previewWindowKeys());
@@ -195,17 +202,23 @@ int run(int argc, char** argv) {
   if (o.eye.empty() != o.target.empty()) throw Error(ErrorCategory::InvalidArgument, "--eye and --target go together");
   if (o.fov != 0 && !(o.fov > 0 && o.fov < 180)) throw Error(ErrorCategory::InvalidArgument, "--fov: degrees in (0, 180)");
   if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
+  if (!(o.exposureScale >= 0 && o.exposureScale <= 1e30))
+    throw Error(ErrorCategory::InvalidArgument, "--exposure-scale: a positive multiplier");
   std::unique_ptr<tools::AtomicFile> reportFile;
   if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
 
-  Scene scene = importGltf(o.scene);
+  Scene scene = importGltf(o.scene, o.import);
+  if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
+  if (!o.quiet)
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "cpvs-view: warning: %s\n", w.c_str());
   const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(o.file));
   const BakedFromCheck check = checkBakedFrom(scene, *file);
   if (check.checked && !check.matches && !o.noSceneCheck)
     throw Error(ErrorCategory::InvalidInput,
                 o.file + " was not baked from " + o.scene + ": the file records input hash " + hex64(check.recordedHash) +
                     ", the scene with the file's lights and settings gives " + hex64(check.sceneHash) +
-                    " (rebake, or pass --no-scene-check to render anyway)");
+                    " (the same --exclude-mesh options as the bake? else rebake, or pass --no-scene-check to "
+                    "render anyway)");
   if (!check.checked && !o.quiet)
     std::fprintf(stderr, "cpvs-view: warning: cannot check that %s was baked from %s: %s\n", o.file.c_str(),
                  o.scene.c_str(), check.reason.c_str());
@@ -251,6 +264,7 @@ int run(int argc, char** argv) {
     window.title = "cpvs-view " + std::filesystem::path(o.scene).filename().string();
     window.overlay = overlay;
     window.exposureStops = o.exposure;
+    window.exposureScale = o.exposureScale;
     window.screenshot = o.screenshot;
     tools::runPreviewWindow(renderer, camera, settings, window);
     return 0;
@@ -267,7 +281,8 @@ int run(int argc, char** argv) {
   double exposure = 0;
   for (size_t i = 0; i < cameras.size(); ++i) {
     const Frame frame = renderer.render(cameras[i], settings);
-    if (i == 0) exposure = autoExposure(frame, frame.radiance) * std::exp2(o.exposure);  // one exposure per path
+    if (i == 0)  // one exposure per path
+      exposure = o.exposureScale > 0 ? o.exposureScale : autoExposure(frame, frame.radiance) * std::exp2(o.exposure);
     const std::string image = animated ? (std::filesystem::path(o.frames) / ("frame_" + std::string(4 - std::min<size_t>(4, std::to_string(i).size()), '0') + std::to_string(i) + ".png")).string()
                                        : o.output;
     writeImage(image, frame, frame.radiance, exposure, overlay);

@@ -20,7 +20,8 @@ namespace cpvs::tools {
 
 const char* previewWindowKeys() {
   return "Window keys: left drag orbits, scroll zooms; 1 gpu, 2 cpu, 3 raytraced, 4 no shadows; O next overlay;\n"
-         "+ / - PCF size; [ / ] select a light, T switch it off or on, A all on; Esc or Q quits.";
+         "+ / - PCF size; [ / ] select a light, T switch it off or on, A all on; P saves the window as\n"
+         "cpvs-view-N.png in the working folder; Esc or Q quits.";
 }
 
 #ifndef CPVS_HAVE_GLFW
@@ -83,6 +84,8 @@ struct WindowState {
   uint32_t selectedLight = 0;
   std::vector<bool> off;
   bool dirty = true;
+  bool save = false;  // P: write the window's pixels after the next frame
+  int saved = 0;
   bool dragging = false;
   double lastX = 0, lastY = 0;
 };
@@ -126,6 +129,7 @@ void onKey(GLFWwindow* window, int key, int, int action, int) {
       if (s.lightCount) s.off[s.selectedLight] = !s.off[s.selectedLight];
       break;
     case GLFW_KEY_A: std::fill(s.off.begin(), s.off.end(), false); break;
+    case GLFW_KEY_P: s.save = true; break;  // after the keys before it have been drawn (dirty below)
     default: return;
   }
   s.settings.compareWithRays = s.overlay == Overlay::Difference;
@@ -155,6 +159,26 @@ void onScroll(GLFWwindow* window, double, double dy) {
   WindowState& s = stateOf(window);
   s.camera.eye = s.camera.target + (s.camera.eye - s.camera.target) * std::pow(0.9, dy);
   s.dirty = true;
+}
+
+// The window's own pixels, read back from its back buffer before the swap, as a PNG.
+void writeWindowPixels(const DisplayGl& gl, int fw, int fh, const std::string& path) {
+  gl.Finish();
+  gl.BindFramebuffer(GL_READ_FRAMEBUFFER, 0);
+  gl.ReadBuffer(GL_BACK);
+  std::vector<uint8_t> back(size_t(fw) * size_t(fh) * 3);
+  gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
+  gl.ReadPixels(0, 0, fw, fh, GL_RGB, GL_UNSIGNED_BYTE, back.data());
+  RgbImage screen;
+  screen.width = uint32_t(fw);
+  screen.height = uint32_t(fh);
+  screen.pixels.resize(back.size());
+  for (int y = 0; y < fh; ++y)
+    std::copy_n(back.begin() + ptrdiff_t(size_t(y) * size_t(fw) * 3), size_t(fw) * 3,
+                screen.pixels.begin() + ptrdiff_t(size_t(fh - 1 - y) * size_t(fw) * 3));
+  AtomicFile out(path);
+  out.write(encodePng(screen));
+  out.commit();
 }
 
 }  // namespace
@@ -198,7 +222,9 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
       // again afterwards, released first so that the GL dispatch really switches back.
       glfwMakeContextCurrent(nullptr);
       const Frame frame = renderer.render(state.camera, state.settings);
-      if (exposure == 0) exposure = autoExposure(frame, frame.radiance) * std::exp2(options.exposureStops);
+      if (exposure == 0)  // the first frame's, kept: switching shadows off must not re-expose the image
+        exposure = options.exposureScale > 0 ? options.exposureScale
+                                             : autoExposure(frame, frame.radiance) * std::exp2(options.exposureStops);
       RgbImage image = withOverlay(frame, toneMapped(frame, frame.radiance, exposure), state.overlay);
       glfwMakeContextCurrent(window);
       // Rows bottom-up for GL.
@@ -225,25 +251,15 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
                     state.lightCount && state.off[state.selectedLight] ? "(off)" : "(on)", frame.milliseconds("shadows"));
       glfwSetWindowTitle(window, title);
       if (!options.screenshot.empty() && !shot) {
-        // The window's own pixels, read back from its back buffer before the swap.
-        gl.Finish();
-        gl.BindFramebuffer(GL_READ_FRAMEBUFFER, 0);
-        gl.ReadBuffer(GL_BACK);
-        RgbImage screen;
-        screen.width = uint32_t(fw);
-        screen.height = uint32_t(fh);
-        std::vector<uint8_t> back(size_t(fw) * size_t(fh) * 3);
-        gl.PixelStorei(GL_PACK_ALIGNMENT, 1);
-        gl.ReadPixels(0, 0, fw, fh, GL_RGB, GL_UNSIGNED_BYTE, back.data());
-        screen.pixels.resize(back.size());
-        for (int y = 0; y < fh; ++y)
-          std::copy_n(back.begin() + ptrdiff_t(size_t(y) * size_t(fw) * 3), size_t(fw) * 3,
-                      screen.pixels.begin() + ptrdiff_t(size_t(fh - 1 - y) * size_t(fw) * 3));
-        AtomicFile out(options.screenshot);
-        out.write(encodePng(screen));
-        out.commit();
+        writeWindowPixels(gl, fw, fh, options.screenshot);
         shot = true;
         glfwSetWindowShouldClose(window, GLFW_TRUE);
+      }
+      if (state.save) {
+        state.save = false;
+        const std::string name = "cpvs-view-" + std::to_string(state.saved++) + ".png";
+        writeWindowPixels(gl, fw, fh, name);
+        std::fprintf(stderr, "cpvs-view: saved the window as %s\n", name.c_str());
       }
       glfwSwapBuffers(window);
     }

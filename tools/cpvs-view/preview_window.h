@@ -13,6 +13,7 @@ struct WindowOptions {
   std::string title;
   Overlay overlay = Overlay::None;
   double exposureStops = 0;
+  double exposureScale = 0;  // > 0: fixed, instead of the first frame's automatic exposure
   std::string screenshot;  // when set: write the window's pixels (PNG) after the first frame, then close
 };
 
