@@ -108,14 +108,6 @@ Baked& tiny() {
   return *b;
 }
 
-Bounds boundsOf(const Scene& scene) {
-  Bounds bounds;
-  for (const Instance& instance : scene.instances)
-    for (const glm::vec3& p : scene.meshes[instance.mesh].positions)
-      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
-  return bounds;
-}
-
 std::vector<Light> lightsOf(const Baked& b) {
   std::vector<Light> lights;
   for (const LightShadow& l : b.renderer->lights()) lights.push_back(l.light());
@@ -195,7 +187,7 @@ void checkGpuEqualsCpu(Baked& b, const PreviewCamera& camera, int pcf) {
 TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnTheTorusKnot) {
   Baked& b = torusKnot();
   REQUIRE_RENDERER(b);
-  const Bounds bounds = boundsOf(b.scene);
+  const Bounds bounds = sceneBounds(b.scene);
   checkGpuEqualsCpu(b, defaultCamera(bounds, 1.5), 9);
   checkGpuEqualsCpu(b, defaultCamera(bounds, 1.5, {0, 1, 0}, 0.5), 1);
 }
@@ -203,8 +195,8 @@ TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnTheTorusKnot) {
 TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnSubpassScene) {
   Baked& b = subpass();
   REQUIRE_RENDERER(b);
-  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5, {0, -1, 0}), 9);
-  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5, {0, -1, 0}, 0.4), 5);
+  checkGpuEqualsCpu(b, defaultCamera(sceneBounds(b.scene), 1.5, {0, -1, 0}), 9);
+  checkGpuEqualsCpu(b, defaultCamera(sceneBounds(b.scene), 1.5, {0, -1, 0}, 0.4), 5);
 }
 
 TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
@@ -216,7 +208,7 @@ TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
   street.target = spot.position + spot.direction * (spot.position.y / -spot.direction.y);
   street.eye = street.target + glm::dvec3(90, 45, 70);
   checkGpuEqualsCpu(b, street, 9);
-  checkGpuEqualsCpu(b, defaultCamera(boundsOf(b.scene), 1.5), 3);
+  checkGpuEqualsCpu(b, defaultCamera(sceneBounds(b.scene), 1.5), 3);
 }
 
 // ---- light lists ----------------------------------------------------------------------------------------
@@ -246,7 +238,7 @@ void checkLightLists(Baked& b, const PreviewCamera& camera) {
 TEST(Preview, LightListsEqualBruteForceAndMissNoLight) {
   for (Baked* b : {&city(), &torusKnot()}) {
     REQUIRE_RENDERER(*b);
-    const Bounds bounds = boundsOf(b->scene);
+    const Bounds bounds = sceneBounds(b->scene);
     checkLightLists(*b, defaultCamera(bounds, 200.0 / 150.0));
     PreviewCamera low = defaultCamera(bounds, 200.0 / 150.0, {0, 1, 0}, 1.2);
     low.eye = bounds.center() + glm::dvec3(0.3, 0.05, 0.2) * glm::length(bounds.extent());
@@ -263,7 +255,7 @@ RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   settings.pcfKernel = 5;
   settings.shadows = mode;
   settings.compareWithRays = overlay == Overlay::Difference;
-  PreviewCamera camera = defaultCamera(boundsOf(b.scene), 1.0);
+  PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.0);
   const Frame f = b.renderer->render(camera, settings);
   return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f, f.radiance)), overlay);
 }
@@ -338,7 +330,7 @@ TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {
   settings.height = 120;
   settings.pcfKernel = 1;
   settings.compareWithRays = true;
-  const Frame f = b.renderer->render(defaultCamera(boundsOf(b.scene), 160.0 / 120.0), settings);
+  const Frame f = b.renderer->render(defaultCamera(sceneBounds(b.scene), 160.0 / 120.0), settings);
   const RayErrors e = errorsAgainstRays(f, autoExposure(f, f.radiance));
   std::printf("[ rays     ] TorusKnot at 256: %.3f %% wrong pixels, %llu of %llu pairs, RMSE %.4f\n", e.wrongPixelPercent(),
               (unsigned long long)e.wrongPairs, (unsigned long long)e.pairs, e.rmse);

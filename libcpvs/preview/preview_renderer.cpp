@@ -255,10 +255,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
 void PreviewRenderer::warmUp() {
   // Tiny frames through every pass: llvmpipe compiles a shader on its first use, and again for textures whose
   // sides are or are not powers of two (a first 320x240 frame's shadow pass took 323 ms, the next 18 ms).
-  Bounds bounds;
-  for (const Instance& instance : state_->scene->instances)
-    for (const glm::vec3& p : state_->scene->meshes[instance.mesh].positions)
-      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  const Bounds bounds = sceneBounds(*state_->scene);
   for (const auto& [w, h] : {std::pair{16u, 16u}, {24u, 24u}, {16u, 24u}, {24u, 16u}}) {
     FrameSettings tiny;
     tiny.width = w;
@@ -311,10 +308,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     if (l >= s.lights.size())
       throw Error(ErrorCategory::InvalidArgument, "light " + std::to_string(l) + " to switch off does not exist (" +
                                                       std::to_string(s.lights.size()) + " lights)");
-  Bounds bounds;
-  for (const Instance& instance : s.scene->instances)
-    for (const glm::vec3& p : s.scene->meshes[instance.mesh].positions)
-      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  const Bounds bounds = sceneBounds(*s.scene);
   const PreviewCamera camera = withClipPlanes(requested, bounds);
 
   const gl::Context& c = *s.context;

@@ -153,4 +153,12 @@ void excludeMeshes(Scene& scene, const std::vector<std::string>& names) {
   scene.instances = std::move(instances);
 }
 
+Bounds sceneBounds(const Scene& scene) {
+  Bounds bounds;
+  for (const Instance& instance : scene.instances)
+    for (const glm::vec3& p : scene.meshes[instance.mesh].positions)
+      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  return bounds;
+}
+
 }  // namespace cpvs

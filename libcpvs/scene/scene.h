@@ -110,6 +110,10 @@ const char* groundSheetsName(GroundSheets ground);
 // into solids (libcpvs/scene/ground_sheet.h).
 WorldGeometry flatten(const Scene& scene, GroundSheets ground = GroundSheets::Auto);
 
+// The bounds of every instance's vertices in world space (what a camera frames; WorldGeometry::bounds is the
+// same box after flatten()).
+Bounds sceneBounds(const Scene& scene);
+
 // Removes the meshes whose name is listed (and their instances). Throws Error(Usage) for a name that
 // matches no mesh, so a typo does not silently keep a skybox.
 void excludeMeshes(Scene& scene, const std::vector<std::string>& names);

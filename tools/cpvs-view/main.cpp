@@ -226,10 +226,7 @@ int run(int argc, char** argv) {
   for (const CpvsFile::LightEntry& entry : file->lights()) lights.push_back(orThrow(lightShadowOf(entry)));
 
   // The camera: a glTF camera, the command line's, or a default framing.
-  Bounds bounds;
-  for (const Instance& instance : scene.instances)
-    for (const glm::vec3& p : scene.meshes[instance.mesh].positions)
-      bounds.extend(glm::dvec3(instance.worldFromLocal * glm::dvec4(glm::dvec3(p), 1.0)));
+  const Bounds bounds = sceneBounds(scene);
   const double aspect = double(settings.width) / settings.height;
   const glm::dvec3 up = o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
   PreviewCamera camera;
