@@ -55,6 +55,7 @@ command -v xdotool > /dev/null || { echo "xdotool not installed: the keys are no
 (cd "$work" && rm -f cpvs-view-0.png && xvfb-run -a -s "-screen 0 800x600x24" bash -c '
   "$0" "$1" "$2" --window --size 320x200 --exposure-scale 0.3 & pid=$!
   id=$(timeout 30 xdotool search --sync --name cpvs-view | head -1)
+  if [ -z "$id" ]; then echo "the window did not appear"; kill $pid; exit 1; fi
   xdotool windowfocus --sync "$id" key 4 o p
   for i in $(seq 300); do [ -f cpvs-view-0.png ] && break; sleep 0.1; done
   xdotool key q

@@ -679,9 +679,12 @@ private:
       return;
     }
     const tinygltf::PerspectiveCamera& p = source.perspective;
+    // Cameras only matter to cpvs-view: a bad one is skipped with a warning, never fails a bake.
     if (!(p.yfov > 0 && p.yfov < 3.14159) || !(p.znear > 0) || !(p.aspectRatio >= 0) ||
-        !(p.zfar == 0 || p.zfar > p.znear))
-      fail(what + ": yfov must be in (0, pi), znear > 0, aspectRatio >= 0 and zfar 0 or > znear");
+        !(p.zfar == 0 || p.zfar > p.znear)) {
+      warn(what + " skipped: yfov must be in (0, pi), znear > 0, aspectRatio >= 0 and zfar 0 or > znear");
+      return;
+    }
     Camera camera;
     const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
     camera.name = !source.name.empty() ? source.name
@@ -690,8 +693,10 @@ private:
     const glm::dvec3 forward = glm::dmat3(worldFromLocal) * glm::dvec3(0.0, 0.0, -1.0);
     const glm::dvec3 up = glm::dmat3(worldFromLocal) * glm::dvec3(0.0, 1.0, 0.0);
     const glm::dvec3 side = glm::cross(forward, up);
-    if (!(glm::length(side) > 0.0) || !std::isfinite(glm::length(side)) || !std::isfinite(camera.eye.x + camera.eye.y + camera.eye.z))
-      fail(what + ": the node's transform is degenerate");
+    if (!(glm::length(side) > 0.0) || !std::isfinite(glm::length(side)) || !std::isfinite(camera.eye.x + camera.eye.y + camera.eye.z)) {
+      warn(what + " skipped: the node's transform is degenerate");
+      return;
+    }
     camera.forward = glm::normalize(forward);
     camera.up = glm::normalize(glm::cross(side, forward));
     camera.yfov = p.yfov;
@@ -701,8 +706,9 @@ private:
     scene_.cameras.push_back(camera);
   }
 
-  // The base colour factor of a primitive's material (white without one).
-  glm::vec4 baseColorOf(const tinygltf::Primitive& primitive, const std::string& where) const {
+  // The base colour factor of a primitive's material (white without one; a factor outside [0, 1] is clamped
+  // with a warning: colours only matter to cpvs-view).
+  glm::vec4 baseColorOf(const tinygltf::Primitive& primitive, const std::string& where) {
     if (primitive.material < 0) return glm::vec4(1.0f);
     if (size_t(primitive.material) >= model_.materials.size())
       fail(where + ": material " + std::to_string(primitive.material) + " does not exist");
@@ -710,9 +716,9 @@ private:
     glm::vec4 color(1.0f);
     for (size_t c = 0; c < 4 && c < f.size(); ++c) {
       if (!(f[c] >= 0.0 && f[c] <= 1.0))
-        fail(where + ": material " + std::to_string(primitive.material) + " baseColorFactor[" + std::to_string(c) +
-             "] is not in [0, 1]");
-      color[int(c)] = float(f[c]);
+        warn(where + ": material " + std::to_string(primitive.material) + " baseColorFactor[" + std::to_string(c) +
+             "] is not in [0, 1]; clamped");
+      color[int(c)] = std::isfinite(f[c]) ? float(std::clamp(f[c], 0.0, 1.0)) : 1.0f;
     }
     return color;
   }

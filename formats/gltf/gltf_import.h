@@ -26,8 +26,9 @@ namespace cpvs {
 //   origin, direction = node's local -Z), with the extension's defaults. Name: the light's name, else the
 //   node's, else "light<i>". A light used by several nodes gives several lights.
 // * Materials: each Mesh keeps its material's baseColorFactor (what cpvs-view shades with; textures are
-//   not decoded). Cameras: perspective cameras placed by nodes of the scene, in world space (eye = node
-//   origin, looking along the node's -Z with +Y up); orthographic ones are skipped with a warning.
+//   not decoded; a factor outside [0, 1] is clamped with a warning). Cameras: perspective cameras placed by
+//   nodes of the scene, in world space (eye = node origin, looking along the node's -Z with +Y up);
+//   orthographic, malformed or degenerate ones are skipped with a warning (they never fail an import).
 // * Anything that cannot be imported correctly (unreadable file, index or accessor out of range, NaN/Inf
 //   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
 //   triangle) throws Error(ErrorCategory::InvalidInput) naming the file and the element. Things that are

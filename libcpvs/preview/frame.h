@@ -10,13 +10,17 @@
 
 #include <glm/glm.hpp>
 
+#include "libcpvs/preview/caster_culling.h"
+#include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 
 namespace cpvs {
 
-enum class ShadowMode : uint8_t { Gpu, Cpu, RayTraced, None };
+// Gpu, Cpu, RayTraced: CPVS walked on the GPU, the CPU runtime, Embree rays. ShadowMap, LightCluster: the
+// per-frame techniques CPVS replaces (the culling demo, docs/culling-demo.md). None: no shadows.
+enum class ShadowMode : uint8_t { Gpu, Cpu, RayTraced, None, ShadowMap, LightCluster };
 enum class Overlay : uint8_t { None, LightsPerTile, Difference, ShadowCount };
-// Parse "gpu" / "cpu" / "raytraced" / "none" and "none" / "lights-per-tile" / "difference" / "shadow-count";
+// Parse "gpu" / "cpu" / "raytraced" / "none" / "shadowmap" / "lightcluster" and "none" / "lights-per-tile" / "difference" / "shadow-count";
 // throw Error(InvalidArgument) listing the choices.
 ShadowMode parseShadowMode(const std::string& name);
 const char* shadowModeName(ShadowMode mode);
@@ -37,6 +41,25 @@ struct FrameSettings {
   bool recordCells = false;
   // Lights switched off (indices into the renderer's lights): in no tile's list, so neither shaded nor looked up.
   std::vector<uint32_t> disabledLights;
+  // ShadowMap and LightCluster: the maps' edge M (the light's views at M texels, eval/shadow_map.h's 16-bit
+  // depth and lookup rule), the caster culling, and for LightCluster the number of clusters.
+  uint32_t shadowMapSize = 512;
+  CasterCulling casterCulling = CasterCulling::None;
+  ReceiverMaskVariant maskVariant = ReceiverMaskVariant::Fragments;
+  uint32_t clusters = 10;
+  bool keepShadowMaps = false;  // read the maps back (Frame::shadowMaps.texels), for tests
+};
+
+// The maps a ShadowMap / LightCluster frame drew, one layer each.
+struct ShadowMapFrame {
+  uint32_t size = 0;                        // M
+  std::vector<uint32_t> shadowLight;        // per layer: the light record (a file light, or a cluster after them)
+  std::vector<LightView> views;             // per layer: its view at M
+  std::vector<uint64_t> triangles;          // per layer: triangles drawn
+  std::vector<uint64_t> trianglesPerLight;  // per file light: triangles drawn into the maps its lookups read
+  uint64_t bytes = 0;                       // GPU memory of the maps and the index lists
+  std::vector<uint16_t> texels;             // keepShadowMaps: per layer M * M 16-bit depths, row-major
+  uint64_t trianglesDrawn() const;
 };
 
 // Per tile (row-major over tilesX x tilesY, tile row 0 at the bottom), the indices of the lights whose bounds
@@ -72,6 +95,7 @@ struct Frame {
   std::vector<glm::vec4> rayRadiance;  // compareWithRays
   std::vector<glm::uvec2> stats;     // per pixel: lights listed, lights reaching it that shadow it
   std::vector<PassTime> passes;
+  ShadowMapFrame shadowMaps;
   size_t uploadedBytes = 0;  // lights, views, DAGs and geometry (once per renderer) plus this frame's uploads
 
   size_t pixel(uint32_t x, uint32_t y) const { return size_t(y) * width + x; }

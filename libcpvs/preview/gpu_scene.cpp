@@ -17,50 +17,50 @@ size_t GpuSceneRecords::bytes() const {
          nodes.size() * 4 + leaves.size() * 8;
 }
 
-GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights) {
-  GpuSceneRecords r;
-  for (const LightShadow& shadow : lights) {
-    const Light& light = shadow.light();
-    const size_t firstView = r.viewWords.size() / kViewWords;
-    std::vector<double> reals(kLightReals, 0.0);
-    for (int i = 0; i < 3; ++i) {
-      reals[kLightPosition + i] = light.position[i];
-      reals[kLightDirection + i] = light.direction[i];
-      reals[kLightColor + i] = light.color[i];
-    }
-    const SpotInfluence spot = spotInfluence(light);  // the runtime's cone cosine, bit for bit
-    reals[kLightRange] = light.type == LightType::Directional ? std::numeric_limits<double>::infinity() : light.range;
-    reals[kLightCosOuter] = light.type == LightType::Spot ? spot.cosOuter : -1.0;
-    reals[kLightSinOuter] = std::sin(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
-    reals[kLightCosInner] = std::cos(std::min(light.innerConeAngle, light.outerConeAngle));
-    reals[kLightIntensity] = light.intensity;
-    r.lightReals.insert(r.lightReals.end(), reals.begin(), reals.end());
-    std::vector<uint32_t> words(kLightWords, 0);
-    words[kLightType] = uint32_t(light.type);
-    words[kLightFirstView] = uint32_t(firstView);
-    words[kLightViewCount] = uint32_t(shadow.views().size());
-    for (uint32_t f = 0; f < 6; ++f) words[kLightFaceView + f] = ~0u;
-    for (size_t v = 0; v < shadow.views().size(); ++v) {
-      const int face = shadow.views()[v].face;
-      if (face >= 0 && face < 6 && words[kLightFaceView + uint32_t(face)] == ~0u)
-        words[kLightFaceView + uint32_t(face)] = uint32_t(v);
-    }
-    r.lightWords.insert(r.lightWords.end(), words.begin(), words.end());
+void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vector<LightView>& views,
+                        const std::vector<DagView>* dags) {
+  const size_t firstView = r.viewWords.size() / kViewWords;
+  std::vector<double> reals(kLightReals, 0.0);
+  for (int i = 0; i < 3; ++i) {
+    reals[kLightPosition + i] = light.position[i];
+    reals[kLightDirection + i] = light.direction[i];
+    reals[kLightColor + i] = light.color[i];
+  }
+  const SpotInfluence spot = spotInfluence(light);  // the runtime's cone cosine, bit for bit
+  reals[kLightRange] = light.type == LightType::Directional ? std::numeric_limits<double>::infinity() : light.range;
+  reals[kLightCosOuter] = light.type == LightType::Spot ? spot.cosOuter : -1.0;
+  reals[kLightSinOuter] = std::sin(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
+  reals[kLightCosInner] = std::cos(std::min(light.innerConeAngle, light.outerConeAngle));
+  reals[kLightIntensity] = light.intensity;
+  r.lightReals.insert(r.lightReals.end(), reals.begin(), reals.end());
+  std::vector<uint32_t> words(kLightWords, 0);
+  words[kLightType] = uint32_t(light.type);
+  words[kLightFirstView] = uint32_t(firstView);
+  words[kLightViewCount] = uint32_t(views.size());
+  words[kLightShadowLight] = uint32_t(r.lightWords.size() / kLightWords);  // itself
+  for (uint32_t f = 0; f < 6; ++f) words[kLightFaceView + f] = ~0u;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const int face = views[v].face;
+    if (face >= 0 && face < 6 && words[kLightFaceView + uint32_t(face)] == ~0u) words[kLightFaceView + uint32_t(face)] = uint32_t(v);
+  }
+  r.lightWords.insert(r.lightWords.end(), words.begin(), words.end());
 
-    for (size_t v = 0; v < shadow.views().size(); ++v) {
-      const ViewMapping m(shadow.views()[v]);
-      const DagView& dag = shadow.dags()[v];
-      std::vector<double> map(kMapReals, 0.0);
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 4; ++j) map[size_t(4 * i + j)] = m.row[i][j];
-      const double constants[] = {m.xMin, m.yMin, m.uScale, m.vScale, m.uStep, m.vStep,
-                                  m.near, m.invNear, m.sScale, m.invDs, m.resolution};
-      std::copy(std::begin(constants), std::end(constants), map.begin() + kMapXMin);
-      r.viewReals.insert(r.viewReals.end(), map.begin(), map.end());
-      std::vector<uint32_t> view(kViewWords, 0);
-      // An empty view or one whose DAG has no grid (resolution 0) answers lit everywhere.
-      view[kViewFlags] = (m.orthographic ? kFlagOrthographic : 0) | (m.linear ? kFlagLinear : 0) |
-                         (m.empty || dag.resolution < 8 ? kFlagEmpty : 0);
+  for (size_t v = 0; v < views.size(); ++v) {
+    const ViewMapping m(views[v]);
+    std::vector<double> map(kMapReals, 0.0);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 4; ++j) map[size_t(4 * i + j)] = m.row[i][j];
+    const double constants[] = {m.xMin, m.yMin, m.uScale, m.vScale, m.uStep, m.vStep,
+                                m.near, m.invNear, m.sScale, m.invDs, m.resolution};
+    std::copy(std::begin(constants), std::end(constants), map.begin() + kMapXMin);
+    r.viewReals.insert(r.viewReals.end(), map.begin(), map.end());
+    std::vector<uint32_t> view(kViewWords, 0);
+    view[kViewResolution] = views[v].resolution;
+    view[kViewLayer] = ~0u;
+    bool empty = m.empty;
+    if (dags) {
+      const DagView& dag = (*dags)[v];
+      empty = empty || dag.resolution < 8;  // a DAG without a grid answers lit everywhere
       const uint64_t nodeBase = uint64_t(r.nodes.size()) * 2, leafBase = r.leaves.size();
       if (nodeBase + dag.nodes.size() > UINT32_MAX || leafBase + dag.leaves.size() > UINT32_MAX)
         throw Error(ErrorCategory::RuntimeFailure, "light '" + light.name + "': the DAGs exceed 2^32 units for the GPU");
@@ -69,12 +69,18 @@ GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights) {
       view[kViewRootCode] = uint32_t(dag.rootCode);
       view[kViewResolution] = dag.resolution;
       for (uint32_t l = 0; l < kMaxDagLevels; ++l) view[kViewChildBase + l] = dag.childBase[l];
-      r.viewWords.insert(r.viewWords.end(), view.begin(), view.end());
       for (size_t u = 0; u < dag.nodes.size(); u += 2)
         r.nodes.push_back(uint32_t(dag.nodes[u]) | (u + 1 < dag.nodes.size() ? uint32_t(dag.nodes[u + 1]) << 16 : 0u));
       r.leaves.insert(r.leaves.end(), dag.leaves.begin(), dag.leaves.end());
     }
+    view[kViewFlags] = (m.orthographic ? kFlagOrthographic : 0) | (m.linear ? kFlagLinear : 0) | (empty ? kFlagEmpty : 0);
+    r.viewWords.insert(r.viewWords.end(), view.begin(), view.end());
   }
+}
+
+GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights) {
+  GpuSceneRecords r;
+  for (const LightShadow& shadow : lights) appendLightRecords(r, shadow.light(), shadow.views(), &shadow.dags());
   return r;
 }
 

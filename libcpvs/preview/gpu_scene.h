@@ -22,17 +22,25 @@ struct GpuSceneRecords {
 
 // Throws Error(RuntimeFailure) when a buffer would exceed what 32-bit indices address.
 GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights);
+// Appends one light and its views (with their DAGs, or without: views for shadow maps, whose layer the caller
+// sets). The light's shadow light is itself.
+void appendLightRecords(GpuSceneRecords& records, const Light& light, const std::vector<LightView>& views,
+                        const std::vector<DagView>* dags);
 
-// The record layout, mirrored from lookup_records.glsl (gpu_scene.cpp checks the two agree at compile time of
-// the shaders: the preview's shaders include that file).
+// The record layout, mirrored from lookup_records.glsl (tests/preview_test.cpp checks every value against the
+// file's #defines).
 namespace gpu_layout {
 inline constexpr uint32_t kMapReals = 24, kViewWords = 40, kLightReals = 16, kLightWords = 12;
-inline constexpr uint32_t kMapXMin = 12, kMapResolution = 22;
+// Map reals: row[i][j] at kMapRow + 4 i + j, then ViewMapping's constants in this order from kMapXMin.
+inline constexpr uint32_t kMapRow = 0, kMapXMin = 12, kMapYMin = 13, kMapUScale = 14, kMapVScale = 15, kMapUStep = 16,
+                          kMapVStep = 17, kMapNear = 18, kMapInvNear = 19, kMapSScale = 20, kMapInvDs = 21,
+                          kMapResolution = 22;
 inline constexpr uint32_t kLightPosition = 0, kLightDirection = 3, kLightRange = 6, kLightCosOuter = 7,
                           kLightSinOuter = 8, kLightCosInner = 9, kLightColor = 10, kLightIntensity = 13;
-inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightDisabled = 3, kLightFaceView = 4;
+inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightDisabled = 3, kLightFaceView = 4,
+                          kLightShadowLight = 10;
 inline constexpr uint32_t kViewFlags = 0, kViewNodeBase = 1, kViewLeafBase = 2, kViewRootCode = 3,
-                          kViewResolution = 4, kViewChildBase = 8;
+                          kViewResolution = 4, kViewLayer = 5, kViewChildBase = 8;
 inline constexpr uint32_t kFlagOrthographic = 1, kFlagLinear = 2, kFlagEmpty = 4;
 }  // namespace gpu_layout
 

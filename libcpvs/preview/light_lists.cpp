@@ -24,7 +24,8 @@ bool lightMeetsBox(const Light& light, const glm::dvec3& lo, const glm::dvec3& h
   const double along = (toCentre.x * dir.x + toCentre.y * dir.y) + toCentre.z * dir.z;
   const double length2 = (toCentre.x * toCentre.x + toCentre.y * toCentre.y) + toCentre.z * toCentre.z;
   const double across = std::sqrt(std::max(length2 - along * along, 0.0));
-  if (cosOuter * across - along * sinOuter > radius) return false;
+  const double side = cosOuter * across - along * sinOuter;
+  if (side > radius) return false;
   return along >= -radius;
 }
 

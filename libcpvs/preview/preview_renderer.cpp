@@ -10,8 +10,11 @@
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/preview/glsl_sources.h"
 #include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/preview/shadow_map_plan.h"
+#include "libcpvs/views/view_fitting.h"
 #include "libcpvs/raster/gl_context.h"
 #include "libcpvs/raster/gl_program.h"
+#include "libcpvs/eval/shadow_map.h"
 #include "libcpvs/reference/shadow_reference.h"
 
 namespace cpvs {
@@ -21,7 +24,10 @@ ShadowMode parseShadowMode(const std::string& name) {
   if (name == "cpu") return ShadowMode::Cpu;
   if (name == "raytraced") return ShadowMode::RayTraced;
   if (name == "none") return ShadowMode::None;
-  throw Error(ErrorCategory::InvalidArgument, "unknown shadow mode '" + name + "' (expected gpu, cpu, raytraced or none)");
+  if (name == "shadowmap") return ShadowMode::ShadowMap;
+  if (name == "lightcluster") return ShadowMode::LightCluster;
+  throw Error(ErrorCategory::InvalidArgument,
+              "unknown shadow mode '" + name + "' (expected gpu, cpu, raytraced, none, shadowmap or lightcluster)");
 }
 
 const char* shadowModeName(ShadowMode mode) {
@@ -30,6 +36,8 @@ const char* shadowModeName(ShadowMode mode) {
     case ShadowMode::Cpu: return "cpu";
     case ShadowMode::RayTraced: return "raytraced";
     case ShadowMode::None: return "none";
+    case ShadowMode::ShadowMap: return "shadowmap";
+    case ShadowMode::LightCluster: return "lightcluster";
   }
   return "?";
 }
@@ -51,6 +59,12 @@ const char* overlayName(Overlay overlay) {
     case Overlay::ShadowCount: return "shadow-count";
   }
   return "?";
+}
+
+uint64_t ShadowMapFrame::trianglesDrawn() const {
+  uint64_t total = 0;
+  for (uint64_t t : triangles) total += t;
+  return total;
 }
 
 double Frame::milliseconds(const std::string& pass) const {
@@ -99,9 +113,19 @@ struct PreviewRenderer::State {
   const Scene* scene = nullptr;
   std::optional<ShadowReference> reference;  // built on first use
   size_t triangles = 0, staticBytes = 0;
+  size_t maxStorageBlock = 0;  // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
 
   GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
-         shadowProgram = 0, recordingShadowProgram = 0, shadingProgram = 0;
+         shadowProgram = 0, recordingShadowProgram = 0, shadingProgram = 0, mapDepthProgram = 0, mapLookupProgram = 0;
+  // The per-frame shadow-map modes: the triangles as the maps draw them (the G-buffer's, in its order), the
+  // voxel grid (built on first use), the LightCluster clusters and their cubes (for one count and size).
+  CasterTriangles casterTriangles;
+  std::unique_ptr<CasterGrid> casterGrid;
+  uint32_t clusterCount = 0, clusterSize = 0;
+  LightClusters clusters;
+  std::vector<std::vector<LightView>> clusterViews;
+  GLuint mapArray = 0, mapFramebuffer = 0;
+  uint32_t mapSize = 0, mapLayers = 0;
   GLuint vertexArray = 0, vertexBuffer = 0;
   GLsizei vertexCount = 0;
   GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;
@@ -155,6 +179,32 @@ struct PreviewRenderer::State {
     return out;
   }
 
+  // Throws Error(RuntimeFailure) when one storage buffer would exceed what the context allows (beyond it a
+  // shader's reads and writes would silently go wrong).
+  void requireStorage(size_t bytes, const std::string& what) const {
+    if (bytes <= maxStorageBlock) return;
+    throw Error(ErrorCategory::RuntimeFailure, what + " need a " + std::to_string(bytes >> 20) + " MiB storage buffer; " +
+                                                   context->description() + " allows " +
+                                                   std::to_string(maxStorageBlock >> 20) + " MiB (a smaller --size helps)");
+  }
+
+  // A depth texture array of at least `layers` layers of size x size.
+  void ensureMapArray(uint32_t size, uint32_t layers) {
+    const gl::Functions& g = gl();
+    if (mapArray && mapSize == size && mapLayers >= layers) return;
+    if (mapArray) g.DeleteTextures(1, &mapArray);
+    if (!mapFramebuffer) g.GenFramebuffers(1, &mapFramebuffer);
+    g.GenTextures(1, &mapArray);
+    g.BindTexture(GL_TEXTURE_2D_ARRAY, mapArray);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_DEPTH_COMPONENT32F, GLsizei(size), GLsizei(size), GLsizei(std::max(1u, layers)),
+                 0, GL_DEPTH_COMPONENT, GL_FLOAT, nullptr);
+    gl::checkError(*context, "allocating " + std::to_string(layers) + " shadow maps of " + std::to_string(size) + "^2");
+    mapSize = size;
+    mapLayers = std::max(1u, layers);
+  }
+
   const ShadowReference& rays() {
     if (!reference) reference.emplace(flatten(*scene));
     return *reference;
@@ -173,7 +223,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
     throw Error(ErrorCategory::InvalidArgument, "cpvs-view renders with OpenGL: the backend is osmesa or egl");
   s.context = backend == RasterBackend::EGL ? gl::createEGLContext() : gl::createOSMesaContext();
   if (!gl::hasComputeShaders(*s.context))
-    throw Error(ErrorCategory::NotSupported, "cpvs-view needs OpenGL 4.3 compute shaders with 64-bit floats; " +
+    throw Error(ErrorCategory::NotSupported, "cpvs-view needs OpenGL 4.5 (compute shaders, 64-bit floats); " +
                                                  s.context->description() + " lacks them");
   gl::CurrentContext current(*s.context);
   const gl::Context& c = *s.context;
@@ -195,6 +245,11 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
                                                glsl::scene_buffers_glsl, glsl::lookup_cell_glsl, glsl::dag_walk_glsl_h,
                                                glsl::cpvs_shadows_comp})}},
         record ? "CPVS shadow (recording)" : "CPVS shadow");
+  s.mapDepthProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_depth_vert},
+                                           {GL_FRAGMENT_SHADER, version + glsl::shadow_map_depth_frag}}, "shadow-map depth");
+  s.mapLookupProgram = gl::linkProgram(
+      c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
+                                             glsl::lookup_cell_glsl, glsl::shadow_map_lookups_comp})}}, "shadow-map lookup");
   s.shadingProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
                                              glsl::shading_comp})}}, "shading");
@@ -213,6 +268,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
       const glm::vec3 n(cross / length);
       for (int k = 0; k < 3; ++k) {
         const glm::vec3 q(p[k]);
+        s.casterTriangles.corners.push_back(q);
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
                                          mesh.baseColor.b, mesh.baseColor.a});
       }
@@ -237,11 +293,8 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   const GpuSceneRecords records = packGpuScene(s.lights);
   GLint maxBlock = 0;
   g.GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
-  const size_t largest = std::max(records.nodes.size() * 4, records.leaves.size() * 8);
-  if (maxBlock > 0 && largest > size_t(uint32_t(maxBlock)))
-    throw Error(ErrorCategory::RuntimeFailure, "the DAGs need a " + std::to_string(largest >> 20) +
-                                                   " MiB storage buffer; " + c.description() + " allows " +
-                                                   std::to_string(uint32_t(maxBlock) >> 20) + " MiB");
+  s.maxStorageBlock = maxBlock > 0 ? size_t(uint32_t(maxBlock)) : size_t(1) << 27;
+  s.requireStorage(std::max(records.nodes.size() * 4, records.leaves.size() * 8), "the DAGs");
   s.lightReals = gl::createStorageBuffer(c, records.lightReals.data(), records.lightReals.size() * 8);
   s.lightWords = gl::createStorageBuffer(c, records.lightWords.data(), records.lightWords.size() * 4);
   s.lightWordsData = records.lightWords;
@@ -252,7 +305,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   s.staticBytes = records.bytes() + vertices.size() * sizeof(float);
 }
 
-void PreviewRenderer::warmUp() {
+void PreviewRenderer::warmUp(const FrameSettings& like) {
   // Tiny frames through every pass: llvmpipe compiles a shader on its first use, and again for textures whose
   // sides are or are not powers of two (a first 320x240 frame's shadow pass took 323 ms, the next 18 ms).
   const Bounds bounds = sceneBounds(*state_->scene);
@@ -261,6 +314,12 @@ void PreviewRenderer::warmUp() {
     tiny.width = w;
     tiny.height = h;
     render(defaultCamera(bounds, 1.0), tiny);
+    // The shadow-map modes' programs and their map array at the frame's map size.
+    if (like.shadows == ShadowMode::ShadowMap || like.shadows == ShadowMode::LightCluster) {
+      tiny.shadows = ShadowMode::ShadowMap;
+      tiny.shadowMapSize = like.shadowMapSize;
+      render(defaultCamera(bounds, 1.0), tiny);
+    }
   }
 }
 
@@ -297,6 +356,161 @@ std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
 
 }  // namespace
 
+// The per-frame shadow-map modes: plan (which views, which triangles: timed as "culling", on the CPU), draw
+// the maps ("shadow_maps"), look them up ("shadows"), into the frame's visibility buffer.
+template <class Timed>
+void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, GLsizei tiles, GLuint visibility,
+                                       GLuint offsets, GLuint lists, Timed&& timed) {
+  State& s = *state_;
+  const gl::Context& c = *s.context;
+  const gl::Functions& g = s.gl();
+  const bool clustered = settings.shadows == ShadowMode::LightCluster;
+  if (settings.shadowMapSize < 8 || settings.shadowMapSize > 8192)
+    throw Error(ErrorCategory::InvalidArgument, "shadow map size " + std::to_string(settings.shadowMapSize) + " is not in 8..8192");
+  if (clustered && (s.clusterCount != settings.clusters || s.clusterSize != settings.shadowMapSize)) {
+    std::vector<Light> all;
+    for (const LightShadow& l : s.lights) all.push_back(l.light());
+    s.clusters = clusterLights(all, settings.clusters);
+    s.clusterViews.clear();
+    const WorldGeometry world = flatten(*s.scene);
+    for (const Light& cluster : s.clusters.lights) s.clusterViews.push_back(makeLightViews(cluster, world, settings.shadowMapSize));
+    s.clusterCount = settings.clusters;
+    s.clusterSize = settings.shadowMapSize;
+  }
+  if (settings.casterCulling == CasterCulling::VoxelGrid && !s.casterGrid)
+    s.casterGrid = std::make_unique<CasterGrid>(s.casterTriangles, sceneBounds(*s.scene));
+  ShadowMapScene scene;
+  scene.lights = &s.lights;
+  scene.triangles = &s.casterTriangles;
+  scene.grid = s.casterGrid.get();
+  scene.clusters = &s.clusters;
+  scene.clusterViews = &s.clusterViews;
+  const unsigned threads = s.threads ? s.threads : unsigned(tbb::this_task_arena::max_concurrency());
+  tbb::task_arena arena(int(std::max(1u, threads)));
+  Stopwatch clock;
+  ShadowMapPlan plan;
+  arena.execute([&] { plan = planShadowMaps(scene, f, settings, clustered); });
+  f.passes.push_back({"culling", clock.ms(), false});
+
+  // Upload: the records the lookups read, the index lists of the culled views.
+  const uint32_t m = settings.shadowMapSize, layers = uint32_t(plan.views.size());
+  Buffers buffers{&c, {}};
+  struct Release {
+    Buffers& b;
+    ~Release() { b.release(); }
+  } release{buffers};
+  const GLuint lightReals = buffers.add(gl::createStorageBuffer(c, plan.records.lightReals.data(), plan.records.lightReals.size() * 8));
+  const GLuint lightWords = buffers.add(gl::createStorageBuffer(c, plan.records.lightWords.data(), plan.records.lightWords.size() * 4));
+  const GLuint viewReals = buffers.add(gl::createStorageBuffer(c, plan.records.viewReals.data(), plan.records.viewReals.size() * 8));
+  const GLuint viewWords = buffers.add(gl::createStorageBuffer(c, plan.records.viewWords.data(), plan.records.viewWords.size() * 4));
+  std::vector<uint32_t> indices;
+  std::vector<size_t> firstIndex(layers, 0);
+  for (uint32_t layer = 0; layer < layers; ++layer) {
+    firstIndex[layer] = indices.size();
+    for (uint32_t t : plan.views[layer].triangles) indices.insert(indices.end(), {3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  GLuint elements = 0;
+  g.GenBuffers(1, &elements);
+  buffers.add(elements);
+  g.BindVertexArray(s.vertexArray);
+  g.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, elements);
+  g.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(std::max<size_t>(indices.size(), 1) * 4), indices.data(), GL_STATIC_DRAW);
+  s.ensureMapArray(m, layers);
+  f.uploadedBytes += plan.records.bytes() + indices.size() * 4;
+  f.shadowMaps.size = m;
+  f.shadowMaps.trianglesPerLight = plan.trianglesPerLight;
+  f.shadowMaps.bytes = uint64_t(layers) * m * m * 4 + indices.size() * 4;
+  for (const MapView& mv : plan.views) {
+    f.shadowMaps.shadowLight.push_back(mv.shadowLight);
+    f.shadowMaps.views.push_back(mv.mapView);
+    f.shadowMaps.triangles.push_back(mv.drawAll ? s.triangles : mv.triangles.size());
+  }
+
+  // The maps, one layer per view: eval/shadow_map.h's 16-bit depth as q / 65536 in a float depth buffer.
+  timed("shadow_maps", [&] {
+    g.BindFramebuffer(GL_FRAMEBUFFER, s.mapFramebuffer);
+    const GLenum none = GL_NONE;
+    g.DrawBuffers(1, &none);
+    g.ReadBuffer(GL_NONE);
+    g.Viewport(0, 0, GLsizei(m), GLsizei(m));
+    g.Enable(GL_DEPTH_TEST);
+    g.DepthFunc(GL_LESS);
+    g.DepthMask(GL_TRUE);
+    g.Disable(GL_CULL_FACE);
+    g.UseProgram(s.mapDepthProgram);
+    const GLint viewFromWorld = g.GetUniformLocation(s.mapDepthProgram, "viewFromWorld");
+    const GLint lateral = g.GetUniformLocation(s.mapDepthProgram, "lateral");
+    const GLint orthographic = g.GetUniformLocation(s.mapDepthProgram, "orthographic");
+    const GLint linearDepth = g.GetUniformLocation(s.mapDepthProgram, "linearDepth");
+    const GLint nearDepth = g.GetUniformLocation(s.mapDepthProgram, "nearDepth");
+    const GLint sliceScale = g.GetUniformLocation(s.mapDepthProgram, "sliceScale");
+    const GLint mapSize = g.GetUniformLocation(s.mapDepthProgram, "mapSize");
+    g.Uniform1f(mapSize, float(m));
+    const GLfloat far = float(ShadowMap16::kFar) / 65536.0f;
+    for (uint32_t layer = 0; layer < layers; ++layer) {
+      const MapView& mv = plan.views[layer];
+      g.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, s.mapArray, 0, GLint(layer));
+      g.ClearBufferfv(GL_DEPTH, 0, &far);
+      if (mv.mapView.empty || (!mv.drawAll && mv.triangles.empty())) continue;
+      const ViewMapping vm(mv.mapView);
+      const glm::mat4 matrix(mv.mapView.viewFromWorld);
+      g.UniformMatrix4fv(viewFromWorld, 1, GL_FALSE, &matrix[0][0]);
+      g.Uniform4f(lateral, float(mv.mapView.xMin), float(mv.mapView.yMin), float(mv.mapView.xMax - mv.mapView.xMin),
+                  float(mv.mapView.yMax - mv.mapView.yMin));
+      g.Uniform1i(orthographic, vm.orthographic ? 1 : 0);
+      g.Uniform1i(linearDepth, vm.linear ? 1 : 0);
+      g.Uniform1f(nearDepth, float(vm.near));
+      g.Uniform1f(sliceScale, float(vm.sScale));
+      if (mv.drawAll)
+        g.DrawArrays(GL_TRIANGLES, 0, s.vertexCount);
+      else
+        g.DrawElements(GL_TRIANGLES, GLsizei(mv.triangles.size() * 3), GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(firstIndex[layer] * 4));
+    }
+  });
+  g.BindVertexArray(0);
+  gl::checkError(c, "rendering " + std::to_string(layers) + " shadow maps");
+  if (settings.keepShadowMaps) {
+    std::vector<float> depth(size_t(m) * m);
+    f.shadowMaps.texels.resize(size_t(layers) * m * m);
+    g.BindFramebuffer(GL_FRAMEBUFFER, s.mapFramebuffer);
+    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    for (uint32_t layer = 0; layer < layers; ++layer) {
+      g.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, s.mapArray, 0, GLint(layer));
+      g.ReadPixels(0, 0, GLsizei(m), GLsizei(m), GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+      for (size_t i = 0; i < depth.size(); ++i)
+        f.shadowMaps.texels[size_t(layer) * m * m + i] = uint16_t(std::lround(double(depth[i]) * 65536.0));
+    }
+    gl::checkError(c, "reading back the shadow maps");
+  }
+
+  // The lookups.
+  timed("shadows", [&] {
+    g.UseProgram(s.mapLookupProgram);
+    const GLuint program = s.mapLookupProgram;
+    g.Uniform2i(g.GetUniformLocation(program, "imageSize_"), GLint(f.width), GLint(f.height));
+    g.Uniform2i(g.GetUniformLocation(program, "tileCount"), GLint(f.lists.tilesX), GLint(f.lists.tilesY));
+    g.Uniform1i(g.GetUniformLocation(program, "pcfKernel"), settings.pcfKernel);
+    g.Uniform1d(g.GetUniformLocation(program, "biasMargin"), settings.biasMargin);
+    g.ActiveTexture(GL_TEXTURE0);
+    g.BindTexture(GL_TEXTURE_2D, s.textures[0]);
+    g.ActiveTexture(GL_TEXTURE1);
+    g.BindTexture(GL_TEXTURE_2D, s.textures[1]);
+    g.ActiveTexture(GL_TEXTURE3);
+    g.BindTexture(GL_TEXTURE_2D_ARRAY, s.mapArray);
+    for (auto [binding, buffer] : {std::pair{kLightReals, lightReals}, {kLightWords, lightWords}, {kTileOffsets, offsets},
+                                   {kTileLights, lists}, {kViewReals, viewReals}, {kViewWords, viewWords},
+                                   {kDagNodes, s.dagNodes}, {kDagLeaves, s.dagLeaves}, {kVisibility, visibility}})
+      g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding, buffer);
+    g.DispatchCompute(f.lists.tilesX, f.lists.tilesY, 1);
+    g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+  });
+  gl::checkError(c, "looking up the shadow maps");
+  (void)tiles;
+  f.visibility.resize(size_t(f.lists.offsets.back()) * 64);
+  gl::readStorageBuffer(c, visibility, f.visibility.data(), f.visibility.size() * 4);
+}
+
 Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSettings& settings) {
   State& s = *state_;
   if (settings.width == 0 || settings.height == 0 || settings.width > kMaxImageEdge || settings.height > kMaxImageEdge)
@@ -324,6 +538,8 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     s.disabled = disabled;
   }
   gl::checkError(c, "preparing the frame");
+  const size_t pixels = size_t(settings.width) * settings.height;
+  s.requireStorage(pixels * 16, "the frame's " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " pixels");
   Frame f;
   f.width = settings.width;
   f.height = settings.height;
@@ -384,7 +600,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     setSizes(s.boundsProgram);
     bindTexture(0, s.textures[0]);
     bindBuffer(kTileBounds, tileBounds);
-    g.DispatchCompute(GLuint((tiles + 63) / 64), 1, 1);
+    g.DispatchCompute(GLuint((tiles + 255) / 256), 1, 1);
     g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   });
 
@@ -401,7 +617,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
       for (auto [binding, buffer] : {std::pair{kTileBounds, tileBounds}, {kLightReals, s.lightReals},
                                      {kLightWords, s.lightWords}, {kTileCounts, counts}, {kTileOffsets, offsets}})
         bindBuffer(binding, buffer);
-      g.DispatchCompute(program == s.prefixProgram ? 1 : GLuint((tiles + 63) / 64), 1, 1);
+      g.DispatchCompute(program == s.prefixProgram ? 1 : GLuint((tiles + 255) / 256), 1, 1);
       g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
     }
     f.lists.offsets.resize(size_t(tiles) + 1);
@@ -412,7 +628,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     setSizes(s.fillProgram);
     g.Uniform1i(g.GetUniformLocation(s.fillProgram, "lightCount"), GLint(s.lights.size()));
     bindBuffer(kTileLights, lists);
-    g.DispatchCompute(GLuint((tiles + 63) / 64), 1, 1);
+    g.DispatchCompute(GLuint((tiles + 255) / 256), 1, 1);
     g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
   });
   gl::checkError(c, "building the tile light lists");
@@ -424,6 +640,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
 
   // 4. Shadows: one visibility per (list entry, pixel of the tile).
   const size_t pairSlots = size_t(totalPairs) * 64;
+  s.requireStorage(pairSlots * (settings.recordCells ? 16 : 4), std::to_string(totalPairs) + " (tile, light) pairs");
   const GLuint visibility = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pairSlots * 4));
   const GLuint cells = settings.recordCells ? frameBuffers.add(gl::createStorageBuffer(c, nullptr, pairSlots * 16)) : 0;
   auto bindSceneBuffers = [&](GLuint program) {
@@ -512,15 +729,20 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
       break;
     }
     case ShadowMode::None: f.visibility.assign(pairSlots, 1.0f); break;
+    case ShadowMode::ShadowMap:
+    case ShadowMode::LightCluster: {
+      renderShadowMaps(f, settings, tiles, visibility, offsets, lists, timed);
+      break;
+    }
   }
-  if (settings.shadows != ShadowMode::Gpu) {
+  if (settings.shadows != ShadowMode::Gpu && settings.shadows != ShadowMode::ShadowMap &&
+      settings.shadows != ShadowMode::LightCluster) {
     g.BindBuffer(GL_SHADER_STORAGE_BUFFER, visibility);
     if (pairSlots) g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(pairSlots * 4), f.visibility.data());
     f.uploadedBytes += pairSlots * 4;
   }
 
   // 5. Shading.
-  const size_t pixels = size_t(f.width) * f.height;
   const GLuint radiance = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pixels * 16));
   const GLuint stats = frameBuffers.add(gl::createStorageBuffer(c, nullptr, pixels * 8));
   auto dispatchShading = [&] {

@@ -23,7 +23,7 @@ namespace cpvs {
 class PreviewRenderer {
 public:
   // `lights` reference their DAGs (the .cpvs file must outlive the renderer). Throws Error(NotSupported) when
-  // the backend has no GL 4.3 context with compute shaders and 64-bit floats, Error(RuntimeFailure) when a
+  // the backend has no GL 4.5 context (compute shaders, 64-bit floats), Error(RuntimeFailure) when a
   // shader does not build. `threads` bounds the CPU and ray-traced shadow passes (0: all cores).
   PreviewRenderer(const Scene& scene, std::vector<LightShadow> lights, RasterBackend backend, unsigned threads = 0);
   ~PreviewRenderer();
@@ -33,8 +33,9 @@ public:
   // Renders one frame. Throws Error(InvalidArgument) for a size of 0 or above 16384, or a bad PCF kernel.
   Frame render(const PreviewCamera& camera, const FrameSettings& settings);
 
-  // Renders tiny frames untimed, so that shader compilation on first use stays out of later pass times.
-  void warmUp();
+  // Renders tiny frames untimed, so that shader compilation on first use stays out of later pass times (with
+  // the shadow-map programs when `like` uses them).
+  void warmUp(const FrameSettings& like = {});
 
   const std::string& contextDescription() const;
   const std::vector<LightShadow>& lights() const;
@@ -43,6 +44,9 @@ public:
   size_t staticUploadBytes() const;
 
 private:
+  template <class Timed>
+  void renderShadowMaps(Frame& f, const FrameSettings& settings, int tiles, unsigned visibility, unsigned offsets,
+                        unsigned lists, Timed&& timed);
   struct State;
   std::unique_ptr<State> state_;
 };

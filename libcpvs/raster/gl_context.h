@@ -93,7 +93,9 @@ namespace cpvs::gl {
   X(PFNGLUNIFORMMATRIX4FVPROC, UniformMatrix4fv)                                      \
   X(PFNGLUNIFORM3FPROC, Uniform3f)                                                    \
   X(PFNGLUNIFORM1DPROC, Uniform1d)                                                    \
-  X(PFNGLBUFFERSUBDATAPROC, BufferSubData)
+  X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                            \
+  X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                                  \
+  X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)
 
 struct Functions {
 #define CPVS_GL_MEMBER(type, name) type name = nullptr;

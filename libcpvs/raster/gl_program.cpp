@@ -77,8 +77,9 @@ GLuint linkProgram(const Context& context, const std::vector<std::pair<GLenum, s
 
 bool hasComputeShaders(const Context& context) {
   const Functions& g = context.gl();
-  return context.majorVersion() * 10 + context.minorVersion() >= 43 && g.DispatchCompute && g.MemoryBarrier &&
-         g.BufferSubData && g.UniformMatrix4fv && g.Uniform3f && g.Uniform1d;
+  return context.majorVersion() * 10 + context.minorVersion() >= 45 && g.DispatchCompute && g.MemoryBarrier &&
+         g.BufferSubData && g.UniformMatrix4fv && g.Uniform3f && g.Uniform1d &&
+         g.TexImage3D && g.FramebufferTextureLayer;
 }
 
 GLuint createStorageBuffer(const Context& context, const void* data, size_t bytes) {

@@ -19,7 +19,7 @@ void checkError(const Context& context, const std::string& what);
 GLuint linkProgram(const Context& context, const std::vector<std::pair<GLenum, std::string>>& shaders,
                    const std::string& name);
 
-// Whether the context runs compute shaders with 64-bit floats (GL 4.3+ with the entry points loaded).
+// Whether the context runs cpvs-view's GLSL 4.50 compute shaders with 64-bit floats (GL 4.5, entry points loaded).
 bool hasComputeShaders(const Context& context);
 
 // Whether GL_TIME_ELAPSED queries cover a pass's work on this context: not on llvmpipe, which rasterises in

@@ -10,6 +10,7 @@
 //   uint   cpvsMappingFlags()        CPVS_FLAG_* bits
 //   double cpvsLightReal(uint i)     the light's constants, i = CPVS_LIGHT_* below
 //   uint   cpvsLightType()           0 directional, 1 spot, 2 point
+//   uint   cpvsLightWord(uint i)     the light's words, i = CPVS_LIGHT_* below (the view count)
 //   int    cpvsFaceView(uint face)   a point light's view index of cube face 0..5 (+X, -X, +Y, -Y, +Z, -Z), -1: none
 // The record layouts (CPVS_MAP_*, CPVS_LIGHT_*) are lookup_records.glsl's, included before this text.
 
@@ -21,6 +22,7 @@
 struct CpvsCell {
   uint verdict;
   ivec3 voxel;
+  double slice;  // the biased point's continuous slice (LookupCell::uvs.z), before the clamp
 };
 
 double cpvsLogOfParts(double m, double e) {
@@ -54,6 +56,7 @@ bool cpvsFinite(double x) {
 
 // The view a point falls in (LightShadow::viewIndex), or -1 outside the light's influence.
 int cpvsSelectView(dvec3 p) {
+  if (cpvsLightWord(CPVS_LIGHT_VIEW_COUNT) == 0u) return -1;  // a light without views: 0, as viewIndex answers
   uint type = cpvsLightType();
   if (type == 0u) return 0;
   precise double tx = p.x - cpvsLightReal(CPVS_LIGHT_POSITION);
@@ -80,6 +83,7 @@ CpvsCell cpvsLookupCell(dvec3 p, dvec3 n, double kernelHalf, double margin) {
   CpvsCell cell;
   cell.verdict = CPVS_CELL_ZERO;
   cell.voxel = ivec3(0);
+  cell.slice = 0.0LF;
   bool valid = cpvsFinite(p.x) && cpvsFinite(p.y) && cpvsFinite(p.z) && cpvsFinite(n.x) && cpvsFinite(n.y) &&
                cpvsFinite(n.z);
   if (!valid) return cell;
@@ -157,5 +161,6 @@ CpvsCell cpvsLookupCell(dvec3 p, dvec3 n, double kernelHalf, double margin) {
   double z = qs >= 0.0LF ? (qs < maxIndex ? qs : maxIndex) : 0.0LF;  // clampedSlice (NaN: 0)
   cell.verdict = CPVS_CELL_VOXEL;
   cell.voxel = ivec3(int(qu), int(qv), int(z));
+  cell.slice = qs;
   return cell;
 }

@@ -34,6 +34,8 @@
 #define CPVS_LIGHT_FIRST_VIEW 1u // the light's first view in the view records
 #define CPVS_LIGHT_VIEW_COUNT 2u
 #define CPVS_LIGHT_DISABLED 3u    // 1: switched off in the viewer (left out of every tile's list)
+#define CPVS_LIGHT_SHADOW_LIGHT 10u // the light record whose views hold this light's shadow maps (cpvs-view's
+                                 // shadow-map modes: itself, or its LightCluster cluster)
 #define CPVS_LIGHT_FACE_VIEW 4u  // 6 values: a point light's view (relative to the first) per cube face, ~0u: none
 #define CPVS_LIGHT_WORDS 12u     // per light
 
@@ -42,6 +44,7 @@
 #define CPVS_VIEW_LEAF_BASE 2u   // first leaf of the view's leaves in the shared leaf buffer
 #define CPVS_VIEW_ROOT_CODE 3u
 #define CPVS_VIEW_RESOLUTION 4u
+#define CPVS_VIEW_LAYER 5u       // cpvs-view's shadow-map modes: the view's layer in the map array
 #define CPVS_VIEW_CHILD_BASE 8u  // 32 values: DagView::childBase
 #define CPVS_VIEW_WORDS 40u      // per view
 

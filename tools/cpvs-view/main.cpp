@@ -35,7 +35,8 @@ using json = nlohmann::ordered_json;
 
 struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
-  std::string shadows = "gpu", overlay = "none", backend = "osmesa";
+  std::string shadows = "gpu", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
+  uint32_t shadowMapSize = 512, clusters = 10;
   double fov = 0, exposure = 0, exposureScale = 0;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
@@ -154,7 +155,14 @@ int run(int argc, char** argv) {
   app.add_option("--size", o.size, "Image size WIDTHxHEIGHT (default 1920x1080)");
   app.add_option("--pcf", o.pcf, "PCF kernel K (odd, 1..255; default 9, the paper's 9x9)");
   app.add_option("--shadows", o.shadows, "gpu (CPVS walked in a compute shader; default), cpu (the CPU runtime's batch "
-                                         "lookups), raytraced (Embree shadow rays) or none");
+                                         "lookups), raytraced (Embree shadow rays), none, or a per-frame technique "
+                                         "CPVS replaces: shadowmap (a map per light view, drawn every frame) or "
+                                         "lightcluster (a cube map per cluster of lights)");
+  app.add_option("--caster-culling", o.casterCulling, "shadowmap / lightcluster: none, frustum, voxel-grid (Selgrad et al. "
+                                                      "2016) or receiver-mask (Bittner et al. 2011); default none");
+  app.add_option("--mask-variant", o.maskVariant, "receiver-mask: frag (every covered pixel; default) or bvol (8x8 tile boxes)");
+  app.add_option("--shadow-map-size", o.shadowMapSize, "shadowmap / lightcluster: the maps' edge in texels (8..8192; default 512)");
+  app.add_option("--clusters", o.clusters, "lightcluster: how many clusters (default 10)");
   app.add_option("--overlay", o.overlay, "none, lights-per-tile, difference (against Embree) or shadow-count");
   app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE and % wrong pixels in the report");
   app.add_option("--exposure", o.exposure, "Exposure in stops over the automatic one (default 0)");
@@ -181,6 +189,13 @@ int run(int argc, char** argv) {
   settings.pcfKernel = o.pcf;
   if (const Outcome k = checkPcfKernel(o.pcf); !k) throw Error(ErrorCategory::InvalidArgument, "--pcf: " + k.message());
   settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
+  settings.casterCulling = tools::forFlag("--caster-culling", [&] { return parseCasterCulling(o.casterCulling); });
+  settings.maskVariant = tools::forFlag("--mask-variant", [&] { return parseReceiverMaskVariant(o.maskVariant); });
+  if (o.shadowMapSize < 8 || o.shadowMapSize > 8192)
+    throw Error(ErrorCategory::InvalidArgument, "--shadow-map-size: 8..8192 texels");
+  if (o.clusters < 1 || o.clusters > 100000) throw Error(ErrorCategory::InvalidArgument, "--clusters: 1..100000");
+  settings.shadowMapSize = o.shadowMapSize;
+  settings.clusters = o.clusters;
   const Overlay overlay = tools::forFlag("--overlay", [&] { return parseOverlay(o.overlay); });
   settings.compareWithRays = o.compare || overlay == Overlay::Difference;
   const RasterBackend backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
@@ -204,8 +219,11 @@ int run(int argc, char** argv) {
   if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
   if (!(o.exposureScale >= 0 && o.exposureScale <= 1e30))
     throw Error(ErrorCategory::InvalidArgument, "--exposure-scale: a positive multiplier");
+  if (o.window && !tools::previewWindowBuilt())
+    throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
   std::unique_ptr<tools::AtomicFile> reportFile;
   if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
+  if (!o.output.empty()) tools::AtomicFile probe(o.output);  // fails now, before any work, when it cannot be written
 
   Scene scene = importGltf(o.scene, o.import);
   if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
@@ -253,7 +271,12 @@ int run(int argc, char** argv) {
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
   if (o.orbit > 0) cameras = orbit(camera, o.orbit);
-  if (animated) std::filesystem::create_directories(o.frames);
+  if (animated) {
+    std::error_code error;
+    std::filesystem::create_directories(o.frames, error);
+    if (error || !std::filesystem::is_directory(o.frames))
+      throw Error(ErrorCategory::OutputFailed, o.frames + ": cannot create the frames folder (" + error.message() + ")");
+  }
 
   PreviewRenderer renderer(scene, std::move(lights), backend, o.threads);
   if (o.window) {
@@ -266,11 +289,12 @@ int run(int argc, char** argv) {
     tools::runPreviewWindow(renderer, camera, settings, window);
     return 0;
   }
-  renderer.warmUp();
+  renderer.warmUp(settings);
   json report = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", o.scene}, {"cpvs", o.file},
                  {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
                  {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
                  {"overlay", overlayName(overlay)}, {"lights", renderer.lights().size()},
+                 {"clusters", settings.shadows == ShadowMode::LightCluster ? json(settings.clusters) : json(nullptr)},
                  {"scene_triangles", renderer.sceneTriangles()},
                  {"baked_from", {{"checked", check.checked}, {"matches", check.matches}, {"reason", check.reason}}}};
   json frames = json::array();
@@ -291,6 +315,21 @@ int run(int argc, char** argv) {
                                    {"pairs_culled", lists.pairsCulled}}},
                   {"uploaded_bytes", {{"once", renderer.staticUploadBytes()}, {"this_frame", frame.uploadedBytes - renderer.staticUploadBytes()}}},
                   {"exposure", exposure}};
+    if (settings.shadows == ShadowMode::ShadowMap || settings.shadows == ShadowMode::LightCluster) {
+      const ShadowMapFrame& maps = frame.shadowMaps;
+      uint64_t most = 0, sum = 0, lit = 0;
+      for (uint64_t t : maps.trianglesPerLight)
+        if (t) most = std::max(most, t), sum += t, ++lit;
+      entry["shadow_maps"] = {{"caster_culling", casterCullingName(settings.casterCulling)},
+                              {"mask_variant", receiverMaskVariantName(settings.maskVariant)},
+                              {"size", maps.size}, {"maps", maps.views.size()},
+                              {"triangles_drawn", maps.trianglesDrawn()},
+                              {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
+                              {"triangles_per_light_max", most}, {"lights_with_maps", lit},
+                              {"gpu_bytes", maps.bytes}};
+    } else if (settings.shadows == ShadowMode::Gpu) {
+      entry["cpvs_gpu_bytes"] = renderer.staticUploadBytes();
+    }
     if (settings.compareWithRays) {
       const RayErrors e = errorsAgainstRays(frame, exposure);
       entry["against_rays"] = {{"rmse", e.rmse}, {"wrong_pixels_percent", e.wrongPixelPercent()},

@@ -26,11 +26,15 @@ const char* previewWindowKeys() {
 
 #ifndef CPVS_HAVE_GLFW
 
+bool previewWindowBuilt() { return false; }
+
 void runPreviewWindow(PreviewRenderer&, PreviewCamera, FrameSettings, const WindowOptions&) {
   throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
 }
 
 #else
+
+bool previewWindowBuilt() { return true; }
 
 namespace {
 
@@ -123,7 +127,9 @@ void onKey(GLFWwindow* window, int key, int, int action, int) {
     case GLFW_KEY_KP_ADD: s.settings.pcfKernel = std::min(255, s.settings.pcfKernel + 2); break;
     case GLFW_KEY_MINUS:
     case GLFW_KEY_KP_SUBTRACT: s.settings.pcfKernel = std::max(1, s.settings.pcfKernel - 2); break;
-    case GLFW_KEY_LEFT_BRACKET: s.selectedLight = s.selectedLight == 0 ? uint32_t(s.lightCount - 1) : s.selectedLight - 1; break;
+    case GLFW_KEY_LEFT_BRACKET:
+      if (s.lightCount) s.selectedLight = s.selectedLight == 0 ? uint32_t(s.lightCount - 1) : s.selectedLight - 1;
+      break;
     case GLFW_KEY_RIGHT_BRACKET: s.selectedLight = uint32_t((s.selectedLight + 1) % std::max<size_t>(1, s.lightCount)); break;
     case GLFW_KEY_T:
       if (s.lightCount) s.off[s.selectedLight] = !s.off[s.selectedLight];
@@ -258,8 +264,12 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
       if (state.save) {
         state.save = false;
         const std::string name = "cpvs-view-" + std::to_string(state.saved++) + ".png";
-        writeWindowPixels(gl, fw, fh, name);
-        std::fprintf(stderr, "cpvs-view: saved the window as %s\n", name.c_str());
+        try {
+          writeWindowPixels(gl, fw, fh, name);
+          std::fprintf(stderr, "cpvs-view: saved the window as %s\n", name.c_str());
+        } catch (const Error& e) {  // a save that fails must not end the session
+          std::fprintf(stderr, "cpvs-view: error: %s\n", e.what());
+        }
       }
       glfwSwapBuffers(window);
     }

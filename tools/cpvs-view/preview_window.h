@@ -22,6 +22,9 @@ struct WindowOptions {
 void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSettings settings,
                       const WindowOptions& options);
 
+// Whether this build has the window (GLFW).
+bool previewWindowBuilt();
+
 // The keys, for --help and docs/viewer.md.
 const char* previewWindowKeys();
 

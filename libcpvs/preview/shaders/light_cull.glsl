@@ -19,6 +19,7 @@ bool cpvsLightMeetsBox(uint type, dvec3 position, dvec3 direction, double range,
   precise double along = (toCentre.x * direction.x + toCentre.y * direction.y) + toCentre.z * direction.z;
   precise double length2 = (toCentre.x * toCentre.x + toCentre.y * toCentre.y) + toCentre.z * toCentre.z;
   precise double across = sqrt(max(length2 - along * along, 0.0LF));
-  if (cosOuter * across - along * sinOuter > radius) return false;
+  precise double side = cosOuter * across - along * sinOuter;
+  if (side > radius) return false;
   return along >= -radius;
 }

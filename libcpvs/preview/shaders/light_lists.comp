@@ -1,6 +1,6 @@
 // Per tile, the lights whose bounding volume meets the tile's bounds, in light order: COUNT_PASS writes how
 // many, else the list is filled from the tile's offset (prefix_sum.comp). One invocation per tile.
-layout(local_size_x = 64) in;
+layout(local_size_x = 256) in;
 layout(std430, binding = 0) readonly buffer TileBounds { vec4 tileBounds[]; };
 layout(std430, binding = 1) readonly buffer LightReals { double lightReals[]; };
 layout(std430, binding = 2) readonly buffer LightWords { uint lightWords[]; };

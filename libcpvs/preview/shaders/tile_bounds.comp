@@ -1,5 +1,5 @@
 // Per 8x8 screen tile, the world-space bounds of its covered pixels (w: how many). One invocation per tile.
-layout(local_size_x = 64) in;
+layout(local_size_x = 256) in;
 layout(binding = 0) uniform sampler2D positions;
 layout(std430, binding = 0) writeonly buffer TileBounds { vec4 tileBounds[]; };  // (min, count), (max, 0)
 uniform ivec2 imageSize_;

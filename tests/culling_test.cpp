@@ -1,0 +1,193 @@
+// The culling demo's per-frame shadow maps (cpvs-view --shadows shadowmap / lightcluster): the conservative
+// caster culling changes no lookup (and frustum culling no texel) while drawing fewer triangles, the GPU's
+// shadow-map lookups equal eval/shadow_map.h's CPU lookup on the maps it drew, and LightCluster draws fewer
+// maps. A generated city with spot lights, a point light and a sun; skipped without a GL 4.5 context.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "formats/cpvs/cpvs_file.h"
+#include "formats/gltf/gltf_import.h"
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/base/error.h"
+#include "libcpvs/eval/shadow_map.h"
+#include "libcpvs/preview/camera.h"
+#include "libcpvs/preview/caster_culling.h"
+#include "libcpvs/preview/light_clusters.h"
+#include "libcpvs/preview/preview_renderer.h"
+#include "libcpvs/runtime/file_shadows.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+struct City {
+  Scene scene;
+  std::unique_ptr<CpvsFile> file;
+  PreviewRenderer* renderer = nullptr;  // never destroyed (Mesa's exit handlers tear its state down)
+  std::string unavailable;
+};
+
+City& city() {
+  static City* c = [] {
+    auto* c = new City;
+    const std::string path = test::tempDir() + "/culling_city.glb";
+    const test::ToolResult r =
+        test::runTool(test::toolPath("cpvs-scenegen") + " city-spots --triangles 8000 --lights 12 -o " + path);
+    if (r.exitCode != 0) throw std::runtime_error("cpvs-scenegen failed: " + r.output);
+    c->scene = importGltf(path);
+    c->scene.lights.push_back(test::sunLight("sun", {0.4, -1.0, 0.3}));
+    c->scene.lights.push_back(test::pointLight("point", {-60, 50, 40}, 300));
+    BakeSettings settings;
+    settings.resolution = 256;
+    const std::string bytes = writeCpvs(bakeScene(c->scene, settings));
+    c->file = orThrow(CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "city"));
+    std::vector<LightShadow> lights;
+    for (const CpvsFile::LightEntry& e : c->file->lights()) lights.push_back(orThrow(lightShadowOf(e)));
+    try {
+      c->renderer = new PreviewRenderer(c->scene, std::move(lights), RasterBackend::OSMesa, 2);
+    } catch (const Error& e) {
+      if (e.category() != ErrorCategory::NotSupported) throw;
+      c->unavailable = e.what();
+    }
+    return c;
+  }();
+  return *c;
+}
+
+// Two views: over the city, and down a street into the first spot's pool of light.
+std::vector<PreviewCamera> cameras(const City& c) {
+  PreviewCamera street;
+  const Light& spot = c.scene.lights.front();
+  street.target = spot.position + spot.direction * (spot.position.y / -spot.direction.y);
+  street.eye = street.target + glm::dvec3(90, 45, 70);
+  return {defaultCamera(sceneBounds(c.scene), 1.5), street};
+}
+
+Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCulling culling,
+             ReceiverMaskVariant variant = ReceiverMaskVariant::Fragments, uint32_t clusters = 2) {
+  FrameSettings settings;
+  settings.width = 192;
+  settings.height = 128;
+  settings.pcfKernel = 5;
+  settings.shadows = mode;
+  settings.casterCulling = culling;
+  settings.maskVariant = variant;
+  settings.shadowMapSize = 256;
+  settings.clusters = clusters;
+  settings.keepShadowMaps = true;
+  return c.renderer->render(camera, settings);
+}
+
+TEST(Culling, ConservativeCullingChangesNoLookupAndDrawsFewerTriangles) {
+  City& c = city();
+  if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+  for (const PreviewCamera& camera : cameras(c)) {
+    const Frame all = render(c, camera, ShadowMode::ShadowMap, CasterCulling::None);
+    ASSERT_FALSE(all.shadowMaps.views.empty());
+    size_t shadowed = 0;
+    for (float v : all.visibility) shadowed += v < 1.0f;
+    ASSERT_GT(shadowed, 100u) << "the frame shows too few shadows to test anything";
+    struct Case {
+      CasterCulling culling;
+      ReceiverMaskVariant variant;
+    };
+    for (const Case& k : {Case{CasterCulling::Frustum, ReceiverMaskVariant::Fragments},
+                          Case{CasterCulling::VoxelGrid, ReceiverMaskVariant::Fragments},
+                          Case{CasterCulling::ReceiverMask, ReceiverMaskVariant::Fragments},
+                          Case{CasterCulling::ReceiverMask, ReceiverMaskVariant::BoundingVolumes}}) {
+      const Frame culled = render(c, camera, ShadowMode::ShadowMap, k.culling, k.variant);
+      const std::string name = std::string(casterCullingName(k.culling)) +
+                               (k.culling == CasterCulling::ReceiverMask ? std::string(" ") + receiverMaskVariantName(k.variant) : "");
+      ASSERT_EQ(culled.lists.lights, all.lists.lights) << name;
+      ASSERT_EQ(culled.visibility.size(), all.visibility.size()) << name;
+      size_t differing = 0;
+      for (size_t i = 0; i < all.visibility.size(); ++i) differing += culled.visibility[i] != all.visibility[i];
+      EXPECT_EQ(differing, 0u) << name << ": lookups that culling changed, of " << all.visibility.size();
+      // Frustum culling leaves out only what the rasteriser would clip: every texel of every map is the same.
+      if (k.culling == CasterCulling::Frustum) {
+        EXPECT_EQ(culled.shadowMaps.texels, all.shadowMaps.texels);
+      }
+      std::printf("[ culling  ] %-18s %8llu of %8llu triangles drawn into %zu maps\n", name.c_str(),
+                  (unsigned long long)culled.shadowMaps.trianglesDrawn(), (unsigned long long)all.shadowMaps.trianglesDrawn(),
+                  culled.shadowMaps.views.size());
+      EXPECT_LT(culled.shadowMaps.trianglesDrawn(), all.shadowMaps.trianglesDrawn()) << name;
+    }
+  }
+}
+
+// The GPU's lookups of the maps it drew equal eval/shadow_map.h's CPU lookup of the read-back maps.
+TEST(Culling, GpuShadowMapLookupsEqualTheCpuRule) {
+  City& c = city();
+  if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+  const Frame f = render(c, cameras(c)[1], ShadowMode::ShadowMap, CasterCulling::None);
+  const auto& lights = c.renderer->lights();
+  const uint32_t m = f.shadowMaps.size;
+  // The maps of each light, by view, as ShadowMap16s.
+  std::vector<std::vector<ShadowMap16>> maps(lights.size());
+  for (size_t layer = 0; layer < f.shadowMaps.views.size(); ++layer) {
+    ShadowMap16 map;
+    map.view = f.shadowMaps.views[layer];
+    map.depth.assign(f.shadowMaps.texels.begin() + std::ptrdiff_t(layer * m * m),
+                     f.shadowMaps.texels.begin() + std::ptrdiff_t((layer + 1) * m * m));
+    maps[f.shadowMaps.shadowLight[layer]].push_back(std::move(map));
+  }
+  LookupOptions options;
+  options.pcfKernel = 5;
+  size_t pairs = 0, partial = 0;
+  for (uint32_t y = 0; y < f.height; ++y)
+    for (uint32_t x = 0; x < f.width; ++x) {
+      const size_t i = f.pixel(x, y);
+      if (f.positions[i].w == 0.0f) continue;
+      const size_t tile = f.tileOf(x, y);
+      for (uint32_t slot = 0; slot < f.lists.offsets[tile + 1] - f.lists.offsets[tile]; ++slot) {
+        const uint32_t l = f.lists.lights[f.lists.offsets[tile] + slot];
+        ASSERT_EQ(maps[l].size(), lights[l].views().size()) << "light " << l << " lacks maps";
+        const ShadowMapLight cpu(lights[l].light(), maps[l]);
+        const float want = cpu.visibility(glm::dvec3(glm::vec3(f.positions[i])), glm::dvec3(glm::vec3(f.normals[i])), options);
+        ASSERT_EQ(f.visibility[f.pairIndex(x, y, slot)], want) << "pixel " << x << "," << y << " light " << l;
+        ++pairs;
+        partial += want > 0.0f && want < 1.0f;
+      }
+    }
+  std::printf("[ lookups  ] %zu pairs equal to the CPU rule (%zu in a penumbra)\n", pairs, partial);
+  EXPECT_GT(partial, 10u);
+}
+
+TEST(Culling, LightClusterDrawsOneCubePerCluster) {
+  City& c = city();
+  if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+  const Frame perLight = render(c, cameras(c)[0], ShadowMode::ShadowMap, CasterCulling::None);
+  const Frame clustered = render(c, cameras(c)[0], ShadowMode::LightCluster, CasterCulling::None);
+  std::vector<Light> all;
+  for (const LightShadow& l : c.renderer->lights()) all.push_back(l.light());
+  const LightClusters clusters = clusterLights(all, 2);
+  EXPECT_EQ(clusters.lights.size(), 2u);
+  // At most 2 cubes of 6 faces and the sun's map, against a map per light view (12 spots, a sun, a cube).
+  EXPECT_LE(clustered.shadowMaps.views.size(), 2u * 6u + 1u);
+  EXPECT_LT(clustered.shadowMaps.views.size(), perLight.shadowMaps.views.size());
+  size_t differing = 0;
+  for (size_t i = 0; i < perLight.visibility.size(); ++i) differing += clustered.visibility[i] != perLight.visibility[i];
+  std::printf("[ clusters ] %zu maps instead of %zu; %zu of %zu lookups differ from the per-light maps\n",
+              clustered.shadowMaps.views.size(), perLight.shadowMaps.views.size(), differing, perLight.visibility.size());
+  EXPECT_GT(differing, 0u) << "one map for many lights must be an approximation";
+}
+
+TEST(Culling, ClustersMergeTheNearestLightsFirst) {
+  std::vector<Light> lights = {test::pointLight("a", {0, 0, 0}, 10), test::pointLight("b", {1, 0, 0}, 10),
+                               test::pointLight("c", {100, 0, 0}, 5), test::sunLight("sun", {0, -1, 0})};
+  const LightClusters two = clusterLights(lights, 2);
+  ASSERT_EQ(two.lights.size(), 2u);
+  EXPECT_EQ(two.clusterOf[0], two.clusterOf[1]);
+  EXPECT_NE(two.clusterOf[0], two.clusterOf[2]);
+  EXPECT_EQ(two.clusterOf[3], LightClusters::kAlone);
+  EXPECT_DOUBLE_EQ(two.lights[two.clusterOf[0]].position.x, 0.5);
+  EXPECT_DOUBLE_EQ(two.lights[two.clusterOf[0]].range, 10.5);  // covers both members' ranges
+  EXPECT_THROW(clusterLights(lights, 0), Error);
+}
+
+}  // namespace
+}  // namespace cpvs
