@@ -130,6 +130,19 @@ def ratio(frames, slow, fast, key):
     return {"mean": mean(values), "min": min(values), "max": max(values)} if values else None
 
 
+def images(a, city, city_cpvs):
+    """The first flythrough frame at the docs' size: each mode, and its difference against the rays."""
+    path = os.path.join(a.out, "spots-camera-00.json")
+    for mode in MODES:
+        for overlay in ["none", "difference"]:
+            folder = os.path.join(a.out, "doc-%s-%s" % (mode, overlay))
+            run([os.path.join(a.bin, "cpvs-view"), city, city_cpvs, "--path", path, "--frames", folder, "--size", a.doc_size, "--pcf",
+                 str(a.pcf), "--shadow-map-size", str(a.map_size), "--backend", a.backend, "--overlay", overlay, "-q"]
+                + MODES[mode])
+            os.replace(os.path.join(folder, "frame_0000.png"),
+                       os.path.join(a.doc, "%s%s.png" % (mode, "-difference" if overlay == "difference" else "")))
+
+
 def svg(detail, path):
     """Shadow cost per frame against the scene's triangles, one line per mode."""
     w, h, left, right, top, bottom = 640, 360, 70, 190, 30, 50
@@ -166,12 +179,13 @@ def main():
     ap.add_argument("--doc", default="docs/culling-demo")
     ap.add_argument("--frames", type=int, default=4)
     ap.add_argument("--size", default="1920x1080")
-    ap.add_argument("--doc-size", default="640x360")
+    ap.add_argument("--doc-size", default="480x270")
     ap.add_argument("--pcf", type=int, default=9)
     ap.add_argument("--map-size", type=int, default=512)
     ap.add_argument("--resolution", default="4k")
     ap.add_argument("--backend", default="osmesa")
     ap.add_argument("--report-only", action="store_true", help="rewrite the tables and plot from DOC/benchmark.json")
+    ap.add_argument("--images-only", action="store_true", help="render only the docs' images (scenes and bakes reused)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     os.makedirs(a.doc, exist_ok=True)
@@ -201,6 +215,9 @@ def main():
     cameras = flythrough(a.frames)
     load_before = loadavg()
     city, city_cpvs = scene_and_bake("city-spots", 100000, 165)
+    if a.images_only:
+        images(a, city, city_cpvs)
+        return
     frames = series(a, city, city_cpvs, cameras, list(MODES), "spots")
     sun, sun_cpvs = scene_and_bake("city", 100000)
     sun_frames = series(a, sun, sun_cpvs, cameras, SUN_MODES, "sun")
@@ -210,17 +227,7 @@ def main():
         detail[str(t)] = summarise(series(a, scene, cpvs, cameras[:2], DETAIL_MODES, "detail-%d" % t), DETAIL_MODES)
     load_after = loadavg()
 
-    # Images of the first frame (smaller, for the docs): each mode and its difference against the rays.
-    path = os.path.join(a.out, "spots-camera-00.json")
-    for mode in MODES:
-        for overlay in ["none", "difference"]:
-            folder = os.path.join(a.out, "doc-%s-%s" % (mode, overlay))
-            run([tool("cpvs-view"), city, city_cpvs, "--path", path, "--frames", folder, "--size", a.doc_size, "--pcf",
-                 str(a.pcf), "--shadow-map-size", str(a.map_size), "--backend", a.backend, "--overlay", overlay, "-q"]
-                + MODES[mode])
-            os.replace(os.path.join(folder, "frame_0000.png"),
-                       os.path.join(a.doc, "%s%s.png" % (mode, "-difference" if overlay == "difference" else "")))
-
+    images(a, city, city_cpvs)
     result = {"machine": machine_info(), "command": "python3 benchmarks/culling_demo.py " + " ".join(sys.argv[1:]),
               "size": a.size, "pcf": a.pcf, "map_size": a.map_size, "resolution": a.resolution, "backend": a.backend,
               "load_average_before": load_before, "load_average_after": load_after,
@@ -259,7 +266,7 @@ def markdown(r):
 
     def table(title, summary, modes):
         out = ["## " + title, "",
-               "| mode | shadow cost | worst frame | culling | map rendering | lookups | shading | maps | triangles per light | GPU MB | wrong pixels | RMSE |",
+               "| mode | shadow cost | worst frame | culling | map rendering | lookups | shading | maps | triangles per light | GPU MB (cpvs-cpu: 0, its DAGs are in CPU memory) | wrong pixels | RMSE |",
                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for mode in modes:
             v = summary[mode]
