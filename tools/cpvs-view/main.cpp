@@ -267,7 +267,7 @@ int run(int argc, char** argv) {
     camera = defaultCamera(bounds, aspect, up);
   }
   if (o.fov > 0) camera.yfov = o.fov * M_PI / 180.0;
-  tools::forFlag("camera", [&] { checkCamera(camera); });
+  tools::forFlag("--eye/--target/--up/--fov", [&] { checkCamera(camera); });
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
   if (o.orbit > 0) cameras = orbit(camera, o.orbit);
