@@ -104,6 +104,19 @@ struct Frame {
     return (size_t(lists.offsets[tileOf(x, y)]) + slot) * 64 + (y % kTileSize) * kTileSize + x % kTileSize;
   }
   double milliseconds(const std::string& pass) const;  // 0 when the pass did not run
+  // fn(x, y, pixel index, light, pair index) for every covered pixel and every light its tile lists, in pixel
+  // then list order.
+  template <class Fn>
+  void forEachPair(Fn&& fn) const {
+    for (uint32_t y = 0; y < height; ++y)
+      for (uint32_t x = 0; x < width; ++x) {
+        const size_t i = pixel(x, y);
+        if (positions[i].w == 0.0f) continue;
+        const size_t tile = tileOf(x, y);
+        for (uint32_t slot = 0; slot < lists.offsets[tile + 1] - lists.offsets[tile]; ++slot)
+          fn(x, y, i, lists.lights[lists.offsets[tile] + slot], pairIndex(x, y, slot));
+      }
+  }
 };
 
 }  // namespace cpvs

@@ -149,19 +149,14 @@ RgbImage withOverlay(const Frame& frame, const RgbImage& image, Overlay overlay)
       }
     drawLegend(out, "lights shadowing a pixel", maximum);
   } else if (overlay == Overlay::Difference && !frame.rayVisibility.empty()) {
-    for (uint32_t y = 0; y < h; ++y)
-      for (uint32_t x = 0; x < frame.width; ++x) {
-        if (frame.positions[frame.pixel(x, y)].w == 0.0f) continue;
-        const size_t t = frame.tileOf(x, y);
-        for (uint32_t slot = 0; slot < frame.lists.offsets[t + 1] - frame.lists.offsets[t]; ++slot) {
-          const size_t p = frame.pairIndex(x, y, slot);
-          const bool lit = frame.visibility[p] >= 0.5f, rayLit = frame.rayVisibility[p] >= 0.5f;
-          if (lit == rayLit) continue;
-          // Red: shadowed here but lit for the ray; blue: lit here but shadowed for the ray.
-          blend(out, x, h - 1 - y, rayLit ? glm::dvec3(1.0, 0.1, 0.1) : glm::dvec3(0.2, 0.4, 1.0), 1.0);
-          break;
-        }
-      }
+    std::vector<uint8_t> marked(size_t(frame.width) * h, 0);
+    frame.forEachPair([&](uint32_t x, uint32_t y, size_t i, uint32_t, size_t p) {
+      const bool lit = frame.visibility[p] >= 0.5f, rayLit = frame.rayVisibility[p] >= 0.5f;
+      if (lit == rayLit || marked[i]) return;
+      marked[i] = 1;
+      // Red: shadowed here but lit for the ray; blue: lit here but shadowed for the ray (the first such light).
+      blend(out, x, h - 1 - y, rayLit ? glm::dvec3(1.0, 0.1, 0.1) : glm::dvec3(0.2, 0.4, 1.0), 1.0);
+    });
     const int scale = h >= 600 ? 2 : 1;
     fillRect(out, 6 * scale, int(h) - 30 * scale, 200 * scale, int(h) - 6 * scale, {0, 0, 0}, 0.7);
     drawText(out, 10 * scale, int(h) - 27 * scale, "red: shadowed, rays say lit", scale, {1.0, 0.3, 0.3});
@@ -193,22 +188,16 @@ LightListStats lightListStats(const Frame& frame, size_t lightCount) {
 RayErrors errorsAgainstRays(const Frame& frame, double exposure) {
   RayErrors e;
   if (frame.rayVisibility.empty()) return e;
-  for (uint32_t y = 0; y < frame.height; ++y)
-    for (uint32_t x = 0; x < frame.width; ++x) {
-      if (frame.positions[frame.pixel(x, y)].w == 0.0f) continue;
-      ++e.coveredPixels;
-      const size_t t = frame.tileOf(x, y);
-      bool wrong = false;
-      for (uint32_t slot = 0; slot < frame.lists.offsets[t + 1] - frame.lists.offsets[t]; ++slot) {
-        const size_t p = frame.pairIndex(x, y, slot);
-        ++e.pairs;
-        if ((frame.visibility[p] >= 0.5f) != (frame.rayVisibility[p] >= 0.5f)) {
-          ++e.wrongPairs;
-          wrong = true;
-        }
-      }
-      e.wrongPixels += wrong;
+  std::vector<uint8_t> wrong(size_t(frame.width) * frame.height, 0);
+  for (const glm::vec4& p : frame.positions) e.coveredPixels += p.w != 0.0f;
+  frame.forEachPair([&](uint32_t, uint32_t, size_t i, uint32_t, size_t p) {
+    ++e.pairs;
+    if ((frame.visibility[p] >= 0.5f) != (frame.rayVisibility[p] >= 0.5f)) {
+      ++e.wrongPairs;
+      wrong[i] = 1;
     }
+  });
+  for (uint8_t w : wrong) e.wrongPixels += w;
   const RgbImage a = toneMapped(frame, frame.radiance, exposure), b = toneMapped(frame, frame.rayRadiance, exposure);
   double sum = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {

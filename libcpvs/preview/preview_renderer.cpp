@@ -340,17 +340,10 @@ struct PairsOfLight {
 
 std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
   std::vector<PairsOfLight> byLight(lightCount);
-  for (uint32_t y = 0; y < f.height; ++y)
-    for (uint32_t x = 0; x < f.width; ++x) {
-      const size_t i = f.pixel(x, y);
-      if (f.positions[i].w == 0.0f) continue;
-      const size_t tile = f.tileOf(x, y);
-      for (uint32_t slot = 0; slot < f.lists.offsets[tile + 1] - f.lists.offsets[tile]; ++slot) {
-        PairsOfLight& l = byLight[f.lists.lights[f.lists.offsets[tile] + slot]];
-        l.pairs.push_back(f.pairIndex(x, y, slot));
-        l.points.push_back({glm::dvec3(glm::vec3(f.positions[i])), glm::dvec3(glm::vec3(f.normals[i]))});
-      }
-    }
+  f.forEachPair([&](uint32_t, uint32_t, size_t i, uint32_t light, size_t pair) {
+    byLight[light].pairs.push_back(pair);
+    byLight[light].points.push_back({glm::dvec3(glm::vec3(f.positions[i])), glm::dvec3(glm::vec3(f.normals[i]))});
+  });
   return byLight;
 }
 
