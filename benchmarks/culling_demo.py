@@ -76,7 +76,7 @@ def render(a, scene, cpvs, camera_file, mode, report, image_dir=None):
         out.update({"maps": sm["maps"], "triangles_drawn": sm["triangles_drawn"],
                     "triangles_per_light": sm["triangles_per_light_mean"], "gpu_bytes": sm["gpu_bytes"]})
     else:
-        out["gpu_bytes"] = frame.get("cpvs_gpu_bytes", 0)
+        out["gpu_bytes"] = frame.get("cpvs_gpu_bytes", frame.get("cpvs_cpu_bytes", 0))
     return out
 
 
@@ -266,7 +266,7 @@ def markdown(r):
 
     def table(title, summary, modes):
         out = ["## " + title, "",
-               "| mode | shadow cost | worst frame | culling | map rendering | lookups | shading | maps | triangles per light | GPU MB (cpvs-cpu: 0, its DAGs are in CPU memory) | wrong pixels | RMSE |",
+               "| mode | shadow cost | worst frame | culling | map rendering | lookups | shading | maps | triangles per light | shadow data MB (GPU; cpvs-cpu: CPU) | wrong pixels | RMSE |",
                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for mode in modes:
             v = summary[mode]

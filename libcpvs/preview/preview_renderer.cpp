@@ -112,7 +112,7 @@ struct PreviewRenderer::State {
   unsigned threads = 0;
   const Scene* scene = nullptr;
   std::optional<ShadowReference> reference;  // built on first use
-  size_t triangles = 0, staticBytes = 0;
+  size_t triangles = 0, staticBytes = 0, shadowBytes = 0;
   size_t maxStorageBlock = 0;  // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
 
   GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
@@ -303,6 +303,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   s.dagNodes = gl::createStorageBuffer(c, records.nodes.data(), records.nodes.size() * 4);
   s.dagLeaves = gl::createStorageBuffer(c, records.leaves.data(), records.leaves.size() * 8);
   s.staticBytes = records.bytes() + vertices.size() * sizeof(float);
+  s.shadowBytes = records.bytes();
 }
 
 void PreviewRenderer::warmUp(const FrameSettings& like) {
@@ -329,6 +330,7 @@ const std::string& PreviewRenderer::contextDescription() const { return state_->
 const std::vector<LightShadow>& PreviewRenderer::lights() const { return state_->lights; }
 size_t PreviewRenderer::sceneTriangles() const { return state_->triangles; }
 size_t PreviewRenderer::staticUploadBytes() const { return state_->staticBytes; }
+size_t PreviewRenderer::shadowDataBytes() const { return state_->shadowBytes; }
 
 namespace {
 

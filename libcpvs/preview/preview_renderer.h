@@ -42,6 +42,8 @@ public:
   size_t sceneTriangles() const;
   // Bytes uploaded once: lights, views, DAGs and the scene's vertices.
   size_t staticUploadBytes() const;
+  // Of those, the lights' shadow data: their records, views and DAGs (what the shadow lookups read).
+  size_t shadowDataBytes() const;
 
 private:
   template <class Timed>

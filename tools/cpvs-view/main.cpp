@@ -327,8 +327,9 @@ int run(int argc, char** argv) {
                               {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
                               {"triangles_per_light_max", most}, {"lights_with_maps", lit},
                               {"gpu_bytes", maps.bytes}};
-    } else if (settings.shadows == ShadowMode::Gpu) {
-      entry["cpvs_gpu_bytes"] = renderer.staticUploadBytes();
+    } else if (settings.shadows == ShadowMode::Gpu || settings.shadows == ShadowMode::Cpu) {
+      // The DAGs and their records, in GPU memory for the GPU walk, in CPU memory (the mapped file) for the CPU's.
+      entry[settings.shadows == ShadowMode::Gpu ? "cpvs_gpu_bytes" : "cpvs_cpu_bytes"] = renderer.shadowDataBytes();
     }
     if (settings.compareWithRays) {
       const RayErrors e = errorsAgainstRays(frame, exposure);
