@@ -305,6 +305,9 @@ RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   settings.pcfKernel = 5;
   settings.shadows = mode;
   settings.compareWithRays = overlay == Overlay::Difference;
+  settings.shadowMapSize = 256;
+  settings.casterCulling = CasterCulling::VoxelGrid;  // changes no pixel (tests/culling_test.cpp)
+  settings.clusters = 3;
   PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.0);
   const Frame f = b.renderer->render(camera, settings);
   return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f, f.radiance)), overlay);
@@ -347,7 +350,8 @@ void compareWithReference(const RgbImage& image, const std::string& name) {
 TEST(PreviewImages, EveryShadowModeMatchesItsReference) {
   for (Baked* b : {&tiny(), &city()}) {
     REQUIRE_RENDERER(*b);
-    for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::Cpu, ShadowMode::RayTraced, ShadowMode::None})
+    for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::Cpu, ShadowMode::RayTraced, ShadowMode::None,
+                            ShadowMode::ShadowMap, ShadowMode::LightCluster})
       compareWithReference(renderImage(*b, mode, Overlay::None), b->name + "_" + shadowModeName(mode));
   }
 }
