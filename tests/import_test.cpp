@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "formats/gltf/gltf_import.h"
+#include "formats/io/png_image.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/scene/mesh_topology.h"
 #include "libcpvs/scene/scene.h"
@@ -668,6 +669,48 @@ TEST(ImportGltf, CamerasAndBaseColours) {
   for (const std::string& w : lenient.warnings) all += w + "\n";
   EXPECT_NE(all.find("yfov must be in (0, pi)"), std::string::npos) << all;
   EXPECT_NE(all.find("baseColorFactor[0] is not in [0, 1]; clamped"), std::string::npos) << all;
+}
+
+TEST(ImportGltf, BaseColourTexturesOnlyWhenAsked) {
+  GltfBuilder gltf = quadScene();
+  const std::vector<float> uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+  const int uvView = gltf.addView(uvs.data(), uvs.size() * sizeof(float));
+  const int uvAccessor = gltf.addAccessor({{"bufferView", uvView}, {"componentType", 5126}, {"count", 4}, {"type", "VEC2"}});
+  gltf.root()["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = uvAccessor;
+  gltf.root()["meshes"][0]["primitives"][0]["material"] = 0;
+  gltf.root()["materials"] = json::array({{{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}}});
+  gltf.root()["textures"] = json::array({{{"source", 0}}});
+  gltf.root()["images"] = json::array({{{"uri", "texture.png"}}});
+  const std::string dir = test::tempDir();
+  RgbImage image;  // 2 x 2: red, green / blue, white
+  image.width = image.height = 2;
+  image.pixels = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+  std::ofstream(dir + "/texture.png", std::ios::binary) << encodePng(image);
+  const std::string path = gltf.write(dir, "textured");
+
+  const Scene plain = importGltf(path);  // the bake's import: no image is read
+  EXPECT_TRUE(plain.textures.empty());
+  EXPECT_TRUE(plain.meshes[0].uvs.empty());
+  EXPECT_EQ(plain.meshes[0].baseColorTexture, -1);
+  ImportOptions options;
+  options.loadBaseColorTextures = true;
+  const Scene textured = importGltf(path, options);
+  ASSERT_EQ(textured.textures.size(), 1u);
+  EXPECT_EQ(textured.textures[0].width, 2u);
+  EXPECT_EQ(std::vector<uint8_t>(textured.textures[0].rgba.begin(), textured.textures[0].rgba.begin() + 8),
+            (std::vector<uint8_t>{255, 0, 0, 255, 0, 255, 0, 255}));
+  EXPECT_EQ(textured.meshes[0].baseColorTexture, 0);
+  ASSERT_EQ(textured.meshes[0].uvs.size(), 4u);
+  EXPECT_EQ(textured.meshes[0].uvs[2], glm::vec2(1, 1));
+
+  // A damaged image: a warning naming it, no texture, the import goes on.
+  std::ofstream(dir + "/texture.png", std::ios::binary) << "not a png";
+  const Scene damaged = importGltf(path, options);
+  EXPECT_TRUE(damaged.textures.empty());
+  EXPECT_EQ(damaged.meshes[0].baseColorTexture, -1);
+  std::string all;
+  for (const std::string& w : damaged.warnings) all += w + "\n";
+  EXPECT_NE(all.find("texture.png"), std::string::npos) << all;
 }
 
 // ---------------------------------------------------------------------------------------------------------

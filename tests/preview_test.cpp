@@ -374,6 +374,53 @@ TEST(PreviewImages, ShadowsChangeTheImage) {
   EXPECT_GT(differing, shadowed.pixels.size() / 1000);  // the tiny scene's two shadows: about 0.4 % of the values
 }
 
+// A base-colour texture reaches the G-buffer decoded from sRGB, times the material's factor: a quad with a
+// 2 x 2 texture (two sRGB colours) and a factor, seen from above.
+TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {
+  Scene scene;
+  test::addQuad(scene, "ground", {-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
+  scene.meshes[0].uvs = {{0.0f, 0.0f}, {0.0f, 1.0f}, {1.0f, 1.0f}, {1.0f, 0.0f}};  // u along +x
+  scene.meshes[0].baseColorTexture = 0;
+  scene.meshes[0].baseColor = glm::vec4(0.5f, 1.0f, 1.0f, 1.0f);
+  Texture texture;
+  texture.width = 2;
+  texture.height = 2;  // both rows alike: an sRGB colour on the left, white on the right
+  texture.rgba = {128, 64, 255, 255, 255, 255, 255, 255, 128, 64, 255, 255, 255, 255, 255, 255};
+  scene.textures.push_back(texture);
+  test::classifyMeshes(scene);
+  scene.lights = {test::sunLight("sun", {0.1, -1, 0.2})};
+  Baked* b = bake("textured quad", std::move(scene), 64);
+  REQUIRE_RENDERER(*b);
+  PreviewCamera camera;
+  camera.eye = {0, 30, 0.001};
+  camera.target = {0, 0, 0};
+  FrameSettings settings;
+  settings.width = settings.height = 64;
+  settings.pcfKernel = 1;
+  const Frame f = b->renderer->render(camera, settings);
+  auto linear = [](double c) { c /= 255.0; return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  size_t left = 0, right = 0;
+  for (uint32_t y = 16; y < 48; ++y)
+    for (uint32_t x = 4; x < 60; ++x) {
+      const glm::vec4 c = f.baseColors[f.pixel(x, y)];
+      if (f.positions[f.pixel(x, y)].w == 0.0f) continue;
+      // Near the texel centres (u = 1/4, 3/4): the linear filter blends in little of the other texel there.
+      const double u = (f.positions[f.pixel(x, y)].x + 10.0) / 20.0;
+      if (std::fabs(u - 0.25) < 0.02) {
+        EXPECT_NEAR(c.r, 0.5 * linear(128), 0.02);
+        EXPECT_NEAR(c.g, linear(64), 0.04);
+        EXPECT_NEAR(c.b, 1.0, 0.01);
+        ++left;
+      } else if (std::fabs(u - 0.75) < 0.02) {
+        EXPECT_NEAR(c.r, 0.5, 0.02);
+        EXPECT_NEAR(c.g, 1.0, 0.04);
+        ++right;
+      }
+    }
+  EXPECT_GT(left, 20u);
+  EXPECT_GT(right, 20u);
+}
+
 // ---- against the rays -----------------------------------------------------------------------------------
 
 TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {

@@ -1,6 +1,8 @@
 #include "formats/gltf/gltf_import.h"
+#include "formats/gltf/texture_decode.h"
 
 #include <algorithm>
+#include <map>
 #include <bit>
 #include <cerrno>
 #include <cmath>
@@ -60,6 +62,23 @@ bool fileExistsBesideSceneExceptImages(const std::string& path, void* userData) 
 bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
                        void*) {
   return true;
+}
+
+// With ImportOptions::loadBaseColorTextures: images are decoded (formats/gltf/texture_decode.h) into the map
+// the user data points at, by image index; a failure is kept as the reason.
+struct DecodedImages {
+  std::map<int, Texture> images;
+  std::map<int, std::string> failures;
+};
+
+bool decodeImage(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
+                 int size, void* userData) {
+  auto* decoded = static_cast<DecodedImages*>(userData);
+  Texture texture;
+  std::string why;
+  if (gltf::decodeTexture(bytes, size_t(std::max(size, 0)), texture, why)) decoded->images[index] = std::move(texture);
+  else decoded->failures[index] = why;
+  return true;  // never fails the import
 }
 
 std::string trimmed(const std::string& text) {
@@ -274,13 +293,15 @@ private:
     gltf::checkAssetVersion(path_, root);
 
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(&skipImageDecoding, nullptr);
+    if (options_.loadBaseColorTextures) loader.SetImageLoader(&decodeImage, &images_);
+    else loader.SetImageLoader(&skipImageDecoding, nullptr);
     // An absolute base directory, so that tinygltf's extra search in "." can be told apart and refused.
     const std::string baseDir = std::filesystem::absolute(path_, ec).parent_path().string();
     gltf::FileAccess access;
     access.folder = std::filesystem::weakly_canonical(baseDir, ec).string();
     access.allowExternal = options_.allowExternalUris;
-    loader.SetFsCallbacks({&fileExistsBesideSceneExceptImages, &tinygltf::ExpandFilePath, &gltf::readWholeFile,
+    loader.SetFsCallbacks({options_.loadBaseColorTextures ? &gltf::fileExists : &fileExistsBesideSceneExceptImages,
+                           &tinygltf::ExpandFilePath, &gltf::readWholeFile,
                            &tinygltf::WriteWholeFile, &access});
     std::string errors, warnings;
     const bool ok =
@@ -723,6 +744,47 @@ private:
     return color;
   }
 
+  // The primitive's base-colour texture and TEXCOORD_0, when its material has one that decoded (else a
+  // warning, and the mesh keeps its factor alone).
+  void attachBaseColorTexture(const tinygltf::Primitive& primitive, const std::string& where, Mesh& mesh) {
+    if (primitive.material < 0 || size_t(primitive.material) >= model_.materials.size()) return;
+    const tinygltf::TextureInfo& info = model_.materials[size_t(primitive.material)].pbrMetallicRoughness.baseColorTexture;
+    if (info.index < 0) return;
+    const std::string what = where + ": base-colour texture " + std::to_string(info.index);
+    if (info.texCoord != 0) return warnOnce("only TEXCOORD_0 base-colour textures are shown (" + what + " uses another)");
+    if (size_t(info.index) >= model_.textures.size()) return warn(what + " does not exist; not shown");
+    const int source = model_.textures[size_t(info.index)].source;
+    const auto decoded = images_.images.find(source);
+    if (decoded == images_.images.end()) {
+      const auto failure = images_.failures.find(source);
+      const std::string image = source >= 0 && size_t(source) < model_.images.size() && !model_.images[size_t(source)].uri.empty()
+                                    ? "'" + gltf::shortenDataUris(model_.images[size_t(source)].uri) + "'"
+                                    : "image " + std::to_string(source);
+      return warnOnce(what + " (" + image + ") not shown: " +
+                      (failure != images_.failures.end() ? failure->second : "not found, or not a PNG or JPEG"));
+    }
+    const auto uv = primitive.attributes.find("TEXCOORD_0");
+    if (uv == primitive.attributes.end()) return warn(what + ": the primitive has no TEXCOORD_0; not shown");
+    const tinygltf::Accessor& source2 = accessor(uv->second, where + ": TEXCOORD_0");
+    if (source2.type != TINYGLTF_TYPE_VEC2) return warn(where + ": TEXCOORD_0 is not VEC2; texture not shown");
+    const int componentType = source2.componentType;
+    const bool normalized = source2.normalized;
+    const std::vector<float> values = decodeAccessor<float>(
+        uv->second, where + ": TEXCOORD_0", [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
+    if (values.size() != mesh.positions.size() * 2) return warn(where + ": TEXCOORD_0 count differs from POSITION's; texture not shown");
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      const glm::vec2 t(values[2 * i], values[2 * i + 1]);
+      mesh.uvs.push_back(std::isfinite(t.x) && std::isfinite(t.y) ? t : glm::vec2(0.0f));
+    }
+    auto [slot, added] = textureOfImage_.emplace(source, int32_t(scene_.textures.size()));
+    if (added) {
+      Texture texture = decoded->second;
+      texture.name = model_.images[size_t(source)].name.empty() ? "image" + std::to_string(source) : model_.images[size_t(source)].name;
+      scene_.textures.push_back(std::move(texture));
+    }
+    mesh.baseColorTexture = slot->second;
+  }
+
   // The cpvs meshes made of a glTF mesh's triangle primitives, decoded on first use.
   const std::vector<uint32_t>& meshIds(int meshIndex) {
     if (meshCache_.empty()) meshCache_.resize(model_.meshes.size());
@@ -785,6 +847,7 @@ private:
     }
     mesh.indices = std::move(triangles.indices);
     mesh.baseColor = baseColorOf(primitive, where);
+    if (options_.loadBaseColorTextures) attachBaseColorTexture(primitive, where, mesh);
     return mesh;
   }
 
@@ -912,6 +975,8 @@ private:
 
   std::string path_;
   ImportOptions options_;
+  DecodedImages images_;                   // loadBaseColorTextures: by image index
+  std::map<int, int32_t> textureOfImage_;  // image index -> Scene::textures index
   tinygltf::Model model_;
   Scene scene_;
   std::vector<Light> lightDefinitions_;

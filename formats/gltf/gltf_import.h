@@ -40,6 +40,10 @@ struct ImportOptions {
   // Buffers may be read from files outside the scene's folder (by default a uri such as "../../etc/passwd"
   // is refused; docs/robustness.md).
   bool allowExternalUris = false;
+  // Decode the materials' base-colour textures (PNG, JPEG; at most 8192 on a side; TEXCOORD_0 only) into
+  // Scene::textures and Mesh::uvs, for cpvs-view. Off by default: shadows never need images. An image that
+  // cannot be read gives a warning and no texture, never a failed import.
+  bool loadBaseColorTextures = false;
 };
 
 Scene importGltf(const std::string& path, const ImportOptions& options = {});

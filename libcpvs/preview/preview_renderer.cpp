@@ -17,6 +17,10 @@
 #include "libcpvs/eval/shadow_map.h"
 #include "libcpvs/reference/shadow_reference.h"
 
+#define STB_IMAGE_RESIZE_IMPLEMENTATION
+#define STB_IMAGE_RESIZE_STATIC
+#include <stb/stb_image_resize.h>
+
 namespace cpvs {
 
 ShadowMode parseShadowMode(const std::string& name) {
@@ -76,6 +80,11 @@ double Frame::milliseconds(const std::string& pass) const {
 namespace {
 
 constexpr uint32_t kMaxImageEdge = 16384;
+constexpr GLsizei kVertexFloats = 13;
+constexpr GLuint kBaseColorUnit = 4;  // gbuffer.frag's sampler binding
+// Base-colour textures share one sRGB array: each resampled to this edge at most (the largest texture's own
+// size when smaller), mipmapped.
+constexpr uint32_t kTextureEdge = 1024;
 // Bindings shared with the shaders (scene_buffers.glsl, light_lists.comp, shading.comp).
 enum Binding : GLuint {
   kTileBounds = 0, kLightReals = 1, kLightWords = 2, kTileCounts = 3, kTileOffsets = 4, kTileLights = 5,
@@ -125,6 +134,8 @@ struct PreviewRenderer::State {
   LightClusters clusters;
   std::vector<std::vector<LightView>> clusterViews;
   GLuint mapArray = 0, mapFramebuffer = 0;
+  GLuint baseColorArray = 0;  // one layer per Scene::textures entry (a 1-layer white array when none)
+  size_t textureBytes = 0;
   uint32_t mapSize = 0, mapLayers = 0;
   GLuint vertexArray = 0, vertexBuffer = 0;
   GLsizei vertexCount = 0;
@@ -186,6 +197,33 @@ struct PreviewRenderer::State {
     throw Error(ErrorCategory::RuntimeFailure, what + " need a " + std::to_string(bytes >> 20) + " MiB storage buffer; " +
                                                    context->description() + " allows " +
                                                    std::to_string(maxStorageBlock >> 20) + " MiB (a smaller --size helps)");
+  }
+
+  void uploadTextures(const std::vector<Texture>& textures) {
+    const gl::Functions& g = gl();
+    uint32_t edge = 1;
+    for (const Texture& t : textures) edge = std::max({edge, t.width, t.height});
+    edge = std::min(edge, kTextureEdge);
+    const uint32_t layers = std::max<uint32_t>(1, uint32_t(textures.size()));
+    std::vector<uint8_t> pixels(size_t(edge) * edge * 4 * layers, 255);
+    for (size_t l = 0; l < textures.size(); ++l) {
+      const Texture& t = textures[l];
+      uint8_t* layer = pixels.data() + l * size_t(edge) * edge * 4;
+      if (t.width == edge && t.height == edge) std::copy(t.rgba.begin(), t.rgba.end(), layer);
+      else
+        stbir_resize_uint8_srgb(t.rgba.data(), int(t.width), int(t.height), 0, layer, int(edge), int(edge), 0, 4, 3, 0);
+    }
+    g.GenTextures(1, &baseColorArray);
+    g.BindTexture(GL_TEXTURE_2D_ARRAY, baseColorArray);
+    g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_SRGB8_ALPHA8, GLsizei(edge), GLsizei(edge), GLsizei(layers), 0, GL_RGBA,
+                 GL_UNSIGNED_BYTE, pixels.data());
+    g.GenerateMipmap(GL_TEXTURE_2D_ARRAY);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    gl::checkError(*context, "uploading " + std::to_string(textures.size()) + " base-colour textures");
+    textureBytes = pixels.size();
   }
 
   // A depth texture array of at least `layers` layers of size x size.
@@ -254,7 +292,8 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
       c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
                                              glsl::shading_comp})}}, "shading");
 
-  // The scene's triangles, one vertex each corner: world position, face normal, base colour (floats).
+  // The scene's triangles, one vertex each corner: world position, face normal, base colour factor, texture
+  // coordinates and layer (floats).
   std::vector<float> vertices;
   for (const Instance& instance : scene.instances) {
     const Mesh& mesh = scene.meshes[instance.mesh];
@@ -269,8 +308,11 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
       for (int k = 0; k < 3; ++k) {
         const glm::vec3 q(p[k]);
         s.casterTriangles.corners.push_back(q);
+        const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
+        const glm::vec2 uv = textured ? mesh.uvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
-                                         mesh.baseColor.b, mesh.baseColor.a});
+                                         mesh.baseColor.b, mesh.baseColor.a, uv.x, uv.y,
+                                         textured ? float(mesh.baseColorTexture) : -1.0f});
       }
       ++s.triangles;
     }
@@ -281,13 +323,15 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   g.GenBuffers(1, &s.vertexBuffer);
   g.BindBuffer(GL_ARRAY_BUFFER, s.vertexBuffer);
   g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STATIC_DRAW);
-  constexpr GLsizei stride = 10 * sizeof(float);
+  constexpr GLsizei stride = kVertexFloats * sizeof(float);
   g.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
   g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
   g.VertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));
-  for (GLuint a = 0; a < 3; ++a) g.EnableVertexAttribArray(a);
+  g.VertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(10 * sizeof(float)));
+  for (GLuint a = 0; a < 4; ++a) g.EnableVertexAttribArray(a);
   g.BindVertexArray(0);
-  s.vertexCount = GLsizei(vertices.size() / 10);
+  s.vertexCount = GLsizei(vertices.size() / kVertexFloats);
+  s.uploadTextures(scene.textures);
   gl::checkError(c, "uploading " + std::to_string(s.triangles) + " triangles");
 
   const GpuSceneRecords records = packGpuScene(s.lights);
@@ -302,7 +346,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   s.viewWords = gl::createStorageBuffer(c, records.viewWords.data(), records.viewWords.size() * 4);
   s.dagNodes = gl::createStorageBuffer(c, records.nodes.data(), records.nodes.size() * 4);
   s.dagLeaves = gl::createStorageBuffer(c, records.leaves.data(), records.leaves.size() * 8);
-  s.staticBytes = records.bytes() + vertices.size() * sizeof(float);
+  s.staticBytes = records.bytes() + vertices.size() * sizeof(float) + s.textureBytes;
   s.shadowBytes = records.bytes();
 }
 
@@ -580,6 +624,8 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     g.Disable(GL_CULL_FACE);
     g.Disable(GL_BLEND);
     g.UseProgram(s.gbufferProgram);
+    g.ActiveTexture(GL_TEXTURE0 + kBaseColorUnit);
+    g.BindTexture(GL_TEXTURE_2D_ARRAY, s.baseColorArray);
     const glm::mat4 matrix(clipFromWorld(camera, aspect));
     g.UniformMatrix4fv(g.GetUniformLocation(s.gbufferProgram, "clipFromWorld"), 1, GL_FALSE, &matrix[0][0]);
     g.BindVertexArray(s.vertexArray);

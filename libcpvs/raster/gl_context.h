@@ -95,7 +95,8 @@ namespace cpvs::gl {
   X(PFNGLUNIFORM1DPROC, Uniform1d)                                                    \
   X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                            \
   X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                                  \
-  X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)
+  X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)                        \
+  X(PFNGLGENERATEMIPMAPPROC, GenerateMipmap)
 
 struct Functions {
 #define CPVS_GL_MEMBER(type, name) type name = nullptr;

@@ -79,7 +79,7 @@ bool hasComputeShaders(const Context& context) {
   const Functions& g = context.gl();
   return context.majorVersion() * 10 + context.minorVersion() >= 45 && g.DispatchCompute && g.MemoryBarrier &&
          g.BufferSubData && g.UniformMatrix4fv && g.Uniform3f && g.Uniform1d &&
-         g.TexImage3D && g.FramebufferTextureLayer;
+         g.TexImage3D && g.FramebufferTextureLayer && g.GenerateMipmap;
 }
 
 GLuint createStorageBuffer(const Context& context, const void* data, size_t bytes) {

@@ -37,6 +37,10 @@ struct Mesh {
   uint64_t inconsistentEdges = 0;  // edges whose two triangles run the same way
   // The material's base colour factor (linear RGBA; white without a material): what cpvs-view shades with.
   glm::vec4 baseColor{1.0f};
+  // Only when the importer was asked for textures (cpvs-view): the base-colour texture (index into
+  // Scene::textures, -1 none) and its coordinates, one per position.
+  int32_t baseColorTexture = -1;
+  std::vector<glm::vec2> uvs;
   size_t triangleCount() const { return indices.size() / 3; }
 };
 
@@ -45,6 +49,13 @@ struct Instance {
   uint32_t mesh = 0;
   glm::dmat4 worldFromLocal{1.0};
   std::string node;
+};
+
+// A decoded base-colour texture: RGBA8, sRGB-encoded as stored, row 0 the image's first row.
+struct Texture {
+  std::string name;
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> rgba;
 };
 
 // A perspective camera placed by a node (glTF: looking along the node's -Z with +Y up), world space.
@@ -64,6 +75,7 @@ struct Scene {
   std::vector<Instance> instances;
   std::vector<Light> lights;
   std::vector<Camera> cameras;
+  std::vector<Texture> textures;  // only with ImportOptions::loadBaseColorTextures
   std::vector<std::string> warnings;
 };
 

@@ -225,6 +225,7 @@ int run(int argc, char** argv) {
   if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
   if (!o.output.empty()) tools::AtomicFile probe(o.output);  // fails now, before any work, when it cannot be written
 
+  o.import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
   Scene scene = importGltf(o.scene, o.import);
   if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
   if (!o.quiet)
