@@ -37,5 +37,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     (void)cpvs::flatten(scene);
   } catch (const cpvs::Error&) {
   }
+  // cpvs-view's import, which also decodes base-colour images (data URIs and embedded ones in the input).
+  try {
+    cpvs::ImportOptions options;
+    options.loadBaseColorTextures = true;
+    (void)cpvs::importGltf(path, options);
+  } catch (const cpvs::Error&) {
+  }
   return 0;
 }
