@@ -310,7 +310,7 @@ RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   settings.clusters = 3;
   PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.0);
   const Frame f = b.renderer->render(camera, settings);
-  return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f, f.radiance)), overlay);
+  return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f.radiance)), overlay);
 }
 
 // Compares with tests/golden/preview/NAME.png: at most 0.5 % of the pixels may differ by more than 4 of 255 in
@@ -432,7 +432,7 @@ TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {
   settings.pcfKernel = 1;
   settings.compareWithRays = true;
   const Frame f = b.renderer->render(defaultCamera(sceneBounds(b.scene), 160.0 / 120.0), settings);
-  const RayErrors e = errorsAgainstRays(f, autoExposure(f, f.radiance));
+  const RayErrors e = errorsAgainstRays(f, autoExposure(f.radiance));
   std::printf("[ rays     ] TorusKnot at 256: %.3f %% wrong pixels, %llu of %llu pairs, RMSE %.4f\n", e.wrongPixelPercent(),
               (unsigned long long)e.wrongPairs, (unsigned long long)e.pairs, e.rmse);
   EXPECT_GT(e.coveredPixels, 1000u);

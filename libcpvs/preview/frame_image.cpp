@@ -75,7 +75,7 @@ RgbImage dimmed(const RgbImage& image, double factor) {
 
 }  // namespace
 
-double autoExposure(const Frame& frame, const std::vector<glm::vec4>& radiance) {
+double autoExposure(const std::vector<glm::vec4>& radiance) {
   double sum = 0;
   size_t count = 0;
   for (size_t i = 0; i < radiance.size(); ++i) {
@@ -84,7 +84,6 @@ double autoExposure(const Frame& frame, const std::vector<glm::vec4>& radiance) 
     sum += std::log(l);
     ++count;
   }
-  (void)frame;
   return count ? 0.18 / std::exp(sum / double(count)) : 1.0;
 }
 

@@ -19,7 +19,7 @@ namespace cpvs {
 inline constexpr double kAmbient = 0.04;
 
 // The exposure that maps the log-average luminance of the lit, covered pixels to 0.18 (1 when none is lit).
-double autoExposure(const Frame& frame, const std::vector<glm::vec4>& radiance);
+double autoExposure(const std::vector<glm::vec4>& radiance);
 // exposure * radiance + kAmbient * base colour, tone-mapped (ACES fit) and sRGB-encoded; the background dark
 // grey. Rows flipped: row 0 of the image is the top.
 RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure);

@@ -122,6 +122,7 @@ struct PreviewRenderer::State {
   const Scene* scene = nullptr;
   std::optional<ShadowReference> reference;  // built on first use
   size_t triangles = 0, staticBytes = 0, shadowBytes = 0;
+  Bounds bounds;  // the scene's, for the clip planes and the voxel grid (computed once)
   size_t maxStorageBlock = 0;  // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
 
   GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
@@ -254,6 +255,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
     : state_(std::make_unique<State>()) {
   State& s = *state_;
   s.scene = &scene;
+  s.bounds = sceneBounds(scene);
   s.threads = threads;
   s.lights = std::move(lights);
   for (const LightShadow& l : s.lights) s.lightList.push_back(l.light());
@@ -353,7 +355,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
 void PreviewRenderer::warmUp(const FrameSettings& like) {
   // Tiny frames through every pass: llvmpipe compiles a shader on its first use, and again for textures whose
   // sides are or are not powers of two (a first 320x240 frame's shadow pass took 323 ms, the next 18 ms).
-  const Bounds bounds = sceneBounds(*state_->scene);
+  const Bounds& bounds = state_->bounds;
   for (const auto& [w, h] : {std::pair{16u, 16u}, {24u, 24u}, {16u, 24u}, {24u, 16u}}) {
     FrameSettings tiny;
     tiny.width = w;
@@ -398,8 +400,8 @@ std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
 // The per-frame shadow-map modes: plan (which views, which triangles: timed as "culling", on the CPU), draw
 // the maps ("shadow_maps"), look them up ("shadows"), into the frame's visibility buffer.
 template <class Timed>
-void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, GLsizei tiles, GLuint visibility,
-                                       GLuint offsets, GLuint lists, Timed&& timed) {
+void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, GLuint visibility, GLuint offsets,
+                                       GLuint lists, Timed&& timed) {
   State& s = *state_;
   const gl::Context& c = *s.context;
   const gl::Functions& g = s.gl();
@@ -417,7 +419,7 @@ void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, 
     s.clusterSize = settings.shadowMapSize;
   }
   if (settings.casterCulling == CasterCulling::VoxelGrid && !s.casterGrid)
-    s.casterGrid = std::make_unique<CasterGrid>(s.casterTriangles, sceneBounds(*s.scene));
+    s.casterGrid = std::make_unique<CasterGrid>(s.casterTriangles, s.bounds);
   ShadowMapScene scene;
   scene.lights = &s.lights;
   scene.triangles = &s.casterTriangles;
@@ -545,7 +547,6 @@ void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, 
     g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
   });
   gl::checkError(c, "looking up the shadow maps");
-  (void)tiles;
   f.visibility.resize(size_t(f.lists.offsets.back()) * 64);
   gl::readStorageBuffer(c, visibility, f.visibility.data(), f.visibility.size() * 4);
 }
@@ -561,8 +562,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     if (l >= s.lights.size())
       throw Error(ErrorCategory::InvalidArgument, "light " + std::to_string(l) + " to switch off does not exist (" +
                                                       std::to_string(s.lights.size()) + " lights)");
-  const Bounds bounds = sceneBounds(*s.scene);
-  const PreviewCamera camera = withClipPlanes(requested, bounds);
+  const PreviewCamera camera = withClipPlanes(requested, s.bounds);
 
   const gl::Context& c = *s.context;
   const gl::Functions& g = s.gl();
@@ -772,7 +772,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     case ShadowMode::None: f.visibility.assign(pairSlots, 1.0f); break;
     case ShadowMode::ShadowMap:
     case ShadowMode::LightCluster: {
-      renderShadowMaps(f, settings, tiles, visibility, offsets, lists, timed);
+      renderShadowMaps(f, settings, visibility, offsets, lists, timed);
       break;
     }
   }

@@ -47,8 +47,8 @@ public:
 
 private:
   template <class Timed>
-  void renderShadowMaps(Frame& f, const FrameSettings& settings, int tiles, unsigned visibility, unsigned offsets,
-                        unsigned lists, Timed&& timed);
+  void renderShadowMaps(Frame& f, const FrameSettings& settings, unsigned visibility, unsigned offsets, unsigned lists,
+                        Timed&& timed);
   struct State;
   std::unique_ptr<State> state_;
 };

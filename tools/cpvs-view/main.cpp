@@ -304,7 +304,7 @@ int run(int argc, char** argv) {
   for (size_t i = 0; i < cameras.size(); ++i) {
     const Frame frame = renderer.render(cameras[i], settings);
     if (i == 0)  // one exposure per path
-      exposure = o.exposureScale > 0 ? o.exposureScale : autoExposure(frame, frame.radiance) * std::exp2(o.exposure);
+      exposure = o.exposureScale > 0 ? o.exposureScale : autoExposure(frame.radiance) * std::exp2(o.exposure);
     const std::string image = animated ? (std::filesystem::path(o.frames) / ("frame_" + std::string(4 - std::min<size_t>(4, std::to_string(i).size()), '0') + std::to_string(i) + ".png")).string()
                                        : o.output;
     writeImage(image, frame, frame.radiance, exposure, overlay);

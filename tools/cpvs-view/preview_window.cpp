@@ -230,7 +230,7 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
       const Frame frame = renderer.render(state.camera, state.settings);
       if (exposure == 0)  // the first frame's, kept: switching shadows off must not re-expose the image
         exposure = options.exposureScale > 0 ? options.exposureScale
-                                             : autoExposure(frame, frame.radiance) * std::exp2(options.exposureStops);
+                                             : autoExposure(frame.radiance) * std::exp2(options.exposureStops);
       RgbImage image = withOverlay(frame, toneMapped(frame, frame.radiance, exposure), state.overlay);
       glfwMakeContextCurrent(window);
       // Rows bottom-up for GL.
