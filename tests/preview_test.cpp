@@ -381,20 +381,18 @@ TEST(PreviewImages, ShadowsChangeTheImage) {
 
 // A base-colour texture reaches the G-buffer decoded from sRGB, times the material's factor: a quad with a
 // 2 x 2 texture (two sRGB colours) and a factor, seen from above.
-TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {
+// A 20 m quad with u along +x under `texture` (left half an sRGB colour, right half white), seen from above: the
+// G-buffer's base colour near the texel centres u = 1/4 and 3/4 is the factor times the texel decoded from sRGB.
+void expectTexturedQuadDecodedFromSrgb(const std::string& name, Texture texture) {
   Scene scene;
   test::addQuad(scene, "ground", {-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
   scene.meshes[0].uvs = {{0.0f, 0.0f}, {0.0f, 1.0f}, {1.0f, 1.0f}, {1.0f, 0.0f}};  // u along +x
   scene.meshes[0].baseColorTexture = 0;
   scene.meshes[0].baseColor = glm::vec4(0.5f, 1.0f, 1.0f, 1.0f);
-  Texture texture;
-  texture.width = 2;
-  texture.height = 2;  // both rows alike: an sRGB colour on the left, white on the right
-  texture.rgba = {128, 64, 255, 255, 255, 255, 255, 255, 128, 64, 255, 255, 255, 255, 255, 255};
-  scene.textures.push_back(texture);
+  scene.textures.push_back(std::move(texture));
   test::classifyMeshes(scene);
   scene.lights = {test::sunLight("sun", {0.1, -1, 0.2})};
-  Baked* b = bake("textured quad", std::move(scene), 64);
+  Baked* b = bake(name, std::move(scene), 64);
   REQUIRE_RENDERER(*b);
   PreviewCamera camera;
   camera.eye = {0, 30, 0.001};
@@ -424,6 +422,25 @@ TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {
     }
   EXPECT_GT(left, 20u);
   EXPECT_GT(right, 20u);
+}
+
+TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {
+  Texture texture;
+  texture.width = 2;
+  texture.height = 2;  // both rows alike: an sRGB colour on the left, white on the right
+  texture.rgba = {128, 64, 255, 255, 255, 255, 255, 255, 128, 64, 255, 255, 255, 255, 255, 255};
+  expectTexturedQuadDecodedFromSrgb("textured quad", std::move(texture));
+}
+
+TEST(PreviewImages, NonSquareTexturesAreResampledInSrgb) {
+  // 2x1 goes through the resampler to the array's 2x2 layer (rows repeated, columns kept): the texels must land
+  // where they were, still decoded from sRGB. (Columns are not rescaled here, so this does not tell an
+  // sRGB-aware filter from one on the encoded bytes.)
+  Texture texture;
+  texture.width = 2;
+  texture.height = 1;
+  texture.rgba = {128, 64, 255, 255, 255, 255, 255, 255};
+  expectTexturedQuadDecodedFromSrgb("resampled textured quad", std::move(texture));
 }
 
 // ---- against the rays -----------------------------------------------------------------------------------

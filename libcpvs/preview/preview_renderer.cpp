@@ -92,6 +92,18 @@ enum Binding : GLuint {
   kStats = 13,
 };
 
+// A texture into one square layer of the array. Per axis: Catmull-Rom where it grows or keeps its size (the
+// filter interpolates, so a kept axis keeps its texels), Mitchell where it shrinks (less aliasing); edges wrap
+// as the sampler does; filtered in linear light.
+void resampleIntoLayer(const Texture& t, uint8_t* layer, uint32_t edge, size_t index) {
+  auto filterFor = [edge](uint32_t from) { return edge >= from ? STBIR_FILTER_CATMULLROM : STBIR_FILTER_MITCHELL; };
+  if (!stbir_resize(t.rgba.data(), int(t.width), int(t.height), 0, layer, int(edge), int(edge), 0, STBIR_TYPE_UINT8, 4,
+                    3, 0, STBIR_EDGE_WRAP, STBIR_EDGE_WRAP, filterFor(t.width), filterFor(t.height),
+                    STBIR_COLORSPACE_SRGB, nullptr))
+    throw Error(ErrorCategory::RuntimeFailure, "could not resample base-colour texture " + std::to_string(index) + " (" +
+                                                   std::to_string(t.width) + "x" + std::to_string(t.height) + ")");
+}
+
 std::string computeSource(std::initializer_list<const char*> parts) {
   std::string s = "#version 450\n";
   for (const char* p : parts) s += p;
@@ -212,7 +224,7 @@ struct PreviewRenderer::State {
       uint8_t* layer = pixels.data() + l * size_t(edge) * edge * 4;
       if (t.width == edge && t.height == edge) std::copy(t.rgba.begin(), t.rgba.end(), layer);
       else
-        stbir_resize_uint8_srgb(t.rgba.data(), int(t.width), int(t.height), 0, layer, int(edge), int(edge), 0, 4, 3, 0);
+        resampleIntoLayer(t, layer, edge, l);
     }
     g.GenTextures(1, &baseColorArray);
     g.BindTexture(GL_TEXTURE_2D_ARRAY, baseColorArray);
