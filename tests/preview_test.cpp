@@ -443,6 +443,36 @@ TEST(PreviewImages, NonSquareTexturesAreResampledInSrgb) {
   expectTexturedQuadDecodedFromSrgb("resampled textured quad", std::move(texture));
 }
 
+// ---- framing --------------------------------------------------------------------------------------------
+
+TEST(PreviewCamera, DefaultFramingFitsTheBoxCentredAndTight) {
+  // A flat city, a tall tower, a deep corridor and a cube, each under both up conventions and two aspects.
+  const Bounds boxes[] = {{{-50, 0, -50}, {50, 8, 50}}, {{-2, 0, -2}, {2, 60, 2}}, {{-1, 0, -40}, {1, 3, 40}},
+                          {{10, 10, 10}, {11, 11, 11}}};
+  for (const Bounds& box : boxes)
+    for (const glm::dvec3 up : {glm::dvec3(0, 1, 0), glm::dvec3(0, -1, 0)})
+      for (const double aspect : {16.0 / 9.0, 0.75}) {
+        const PreviewCamera camera = withClipPlanes(defaultCamera(box, aspect, up), box);
+        checkCamera(camera);
+        const glm::dmat4 clip = clipFromWorld(camera, aspect);
+        glm::dvec2 low(INFINITY), high(-INFINITY);
+        for (int i = 0; i < 8; ++i) {
+          const glm::dvec4 p = clip * glm::dvec4((i & 1) ? box.max.x : box.min.x, (i & 2) ? box.max.y : box.min.y,
+                                                 (i & 4) ? box.max.z : box.min.z, 1.0);
+          ASSERT_GT(p.w, 0.0);
+          low = glm::min(low, glm::dvec2(p) / p.w);
+          high = glm::max(high, glm::dvec2(p) / p.w);
+        }
+        SCOPED_TRACE(testing::Message() << "box " << box.min.x << ".." << box.max.x << " aspect " << aspect);
+        // Inside the frame less its margin, touching the margin across one axis, centred across both.
+        const double margin = 1.0 / 1.05;
+        EXPECT_LE(std::max({-low.x, -low.y, high.x, high.y}), margin + 1e-9);
+        EXPECT_NEAR(std::max(high.x - low.x, high.y - low.y), 2.0 * margin, 1e-9);
+        EXPECT_NEAR(low.y + high.y, 0.0, 1e-9);
+        EXPECT_NEAR(low.x + high.x, 0.0, 1e-9);
+      }
+}
+
 // ---- against the rays -----------------------------------------------------------------------------------
 
 TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {

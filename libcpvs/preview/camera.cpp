@@ -1,6 +1,7 @@
 #include "libcpvs/preview/camera.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -24,25 +25,51 @@ PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec
   PreviewCamera c;
   c.up = glm::normalize(up);
   c.yfov = yfov;
-  c.target = bounds.center();
-  // A direction from the target: +X+Z in the plane perpendicular to up, raised by half the plane's length.
+  // A direction from the scene toward the eye: +X+Z in the plane perpendicular to up, raised by half its length.
   glm::dvec3 side = glm::dvec3(1.0, 0.0, 1.0) - glm::dot(glm::dvec3(1.0, 0.0, 1.0), c.up) * c.up;
   if (glm::length(side) < 1e-6) side = glm::dvec3(1.0, 1.0, 0.0) - glm::dot(glm::dvec3(1.0, 1.0, 0.0), c.up) * c.up;
-  const glm::dvec3 back = glm::normalize(glm::normalize(side) + 0.5 * c.up);  // from the target toward the eye
+  const glm::dvec3 back = glm::normalize(glm::normalize(side) + 0.5 * c.up);
   const glm::dvec3 right = glm::normalize(glm::cross(c.up, back)), cameraUp = glm::cross(back, right);
-  // The nearest eye on that line that sees all eight corners of the box (a flat city fills the frame, where
-  // its bounding sphere would leave it small), 5 % further for a margin.
-  const double tanY = std::tan(0.5 * yfov), tanX = tanY * aspect;
-  double distance = 1e-6;
+  // With the orientation fixed, a corner p (coordinates x, y, z along right, cameraUp, back) is in view of an
+  // eye e when |x - e.x| <= tanX (e.z - z) and |y - e.y| <= tanY (e.z - z): linear in e. Each pair of planes
+  // gives the nearest eye that sees every corner across that axis, and the eye takes the farther of the two.
+  // Across each axis it then sits where the box's image is centred (aiming at the box's centre instead leaves
+  // the top of the frame empty: the near corners project larger). 5 % of the frame is left as a margin.
+  const double tanY = std::tan(0.5 * yfov) / 1.05, tanX = tanY * aspect;
+  std::array<glm::dvec3, 8> corners;
+  double xPlus = -INFINITY, xMinus = -INFINITY, yPlus = -INFINITY, yMinus = -INFINITY;
   for (int i = 0; i < 8; ++i) {
     const glm::dvec3 corner((i & 1) ? bounds.max.x : bounds.min.x, (i & 2) ? bounds.max.y : bounds.min.y,
                             (i & 4) ? bounds.max.z : bounds.min.z);
-    const glm::dvec3 offset = corner - c.target;
-    const double along = glm::dot(offset, back);
-    distance = std::max({distance, along + std::fabs(glm::dot(offset, right)) / tanX,
-                         along + std::fabs(glm::dot(offset, cameraUp)) / tanY});
+    corners[i] = {glm::dot(corner, right), glm::dot(corner, cameraUp), glm::dot(corner, back)};
+    xPlus = std::max(xPlus, corners[i].x + tanX * corners[i].z);
+    xMinus = std::max(xMinus, -corners[i].x + tanX * corners[i].z);
+    yPlus = std::max(yPlus, corners[i].y + tanY * corners[i].z);
+    yMinus = std::max(yMinus, -corners[i].y + tanY * corners[i].z);
   }
-  c.eye = c.target + back * (distance * 1.05);
+  const double scale = std::max(1.0, glm::length(bounds.center()));
+  const double centreZ = glm::dot(bounds.center(), back);
+  const double eyeZ = std::max({(xPlus + xMinus) / (2.0 * tanX), (yPlus + yMinus) / (2.0 * tanY),
+                                centreZ + 1e-6 * scale});  // a point: just off it
+  // The image of the box across one axis spans [min, max] of (a - e) / (eyeZ - z); both ends fall as e grows,
+  // so the centred e (max = -min, which also has the most room) is found by bisection between the coordinates.
+  const auto centred = [&](int axis) {
+    double low = INFINITY, high = -INFINITY;
+    for (const glm::dvec3& c : corners) low = std::min(low, c[axis]), high = std::max(high, c[axis]);
+    for (int step = 0; step < 100 && low < high; ++step) {
+      const double e = 0.5 * (low + high);
+      double top = -INFINITY, bottom = INFINITY;
+      for (const glm::dvec3& c : corners) {
+        const double image = (c[axis] - e) / std::max(eyeZ - c.z, 1e-12 * scale);
+        top = std::max(top, image), bottom = std::min(bottom, image);
+      }
+      (top + bottom > 0 ? low : high) = e;
+    }
+    return 0.5 * (low + high);
+  };
+  c.eye = centred(0) * right + centred(1) * cameraUp + eyeZ * back;
+  // The target: straight ahead, at the depth of the box's centre (it only sets the direction).
+  c.target = c.eye - back * (eyeZ - centreZ);
   return c;
 }
 

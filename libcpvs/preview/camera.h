@@ -20,8 +20,9 @@ struct PreviewCamera {
 
 // A glTF camera (its aspect ratio is ignored: the image's size decides). The target is one unit ahead.
 PreviewCamera cameraFromScene(const Camera& camera);
-// Looks at the centre of `bounds` from the side (from +X+Z and above: a three-quarter view, `up` being the
-// scene's up axis), from the nearest point on that line that sees every corner of the box.
+// A three-quarter view of `bounds` (from +X+Z and above, `up` being the scene's up axis): the nearest eye
+// looking that way that sees every corner of the box, placed so the box's image is centred and fills the
+// frame (less a 5 % margin) across its binding axis.
 PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up = {0.0, 1.0, 0.0},
                             double yfov = 0.8);
 // Fills znear / zfar where they are 0 from the bounds (depth precision is the G-buffer's only need).
