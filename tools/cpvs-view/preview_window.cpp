@@ -91,6 +91,9 @@ struct WindowState {
   bool save = false;  // P: write the window's pixels after the next frame
   int saved = 0;
   bool dragging = false;
+  // The cursor's position as the event stream last reported it (not queried when the button goes down: by then
+  // the pointer may have moved on, and the drag's first motion would turn nothing).
+  bool cursorKnown = false;
   double lastX = 0, lastY = 0;
 };
 
@@ -149,16 +152,21 @@ void onMouseButton(GLFWwindow* window, int button, int action, int) {
   WindowState& s = stateOf(window);
   if (button != GLFW_MOUSE_BUTTON_LEFT) return;
   s.dragging = action == GLFW_PRESS;
-  glfwGetCursorPos(window, &s.lastX, &s.lastY);
+  if (s.dragging && !s.cursorKnown) {
+    glfwGetCursorPos(window, &s.lastX, &s.lastY);
+    s.cursorKnown = true;
+  }
 }
 
 void onCursor(GLFWwindow* window, double x, double y) {
   WindowState& s = stateOf(window);
-  if (!s.dragging) return;
-  orbitCamera(s.camera, -(x - s.lastX) * 0.01, -(y - s.lastY) * 0.01);
+  if (s.dragging && s.cursorKnown) {
+    orbitCamera(s.camera, -(x - s.lastX) * 0.01, -(y - s.lastY) * 0.01);
+    s.dirty = true;
+  }
   s.lastX = x;
   s.lastY = y;
-  s.dirty = true;
+  s.cursorKnown = true;
 }
 
 void onScroll(GLFWwindow* window, double, double dy) {
