@@ -443,6 +443,25 @@ TEST(PreviewImages, NonSquareTexturesAreResampledInSrgb) {
   expectTexturedQuadDecodedFromSrgb("resampled textured quad", std::move(texture));
 }
 
+TEST(PreviewImages, AutoExposureExposesMiddleGreyAndKeepsTheBrightestOffWhite) {
+  const auto grey = [](float l) { return glm::vec4(l, l, l, 1.0f); };
+  // Evenly lit: the log average goes to middle grey.
+  EXPECT_NEAR(autoExposure(std::vector<glm::vec4>(100, grey(0.5f))), 0.18 / 0.5, 1e-6);
+  // Half in shadow, lit only by a far light's tail: the shadowed pixels count as 1/1000 of the bright ones and
+  // the brightest 1 % are exposed to at most kBrightestAfterExposure (the plain log average, 0.18 / sqrt(1e-9),
+  // would expose them 2 800 times past that).
+  std::vector<glm::vec4> halfShadowed(100, grey(1.0f));
+  std::fill(halfShadowed.begin(), halfShadowed.begin() + 50, grey(1e-9f));
+  const double exposure = autoExposure(halfShadowed);
+  EXPECT_NEAR(exposure, std::min(0.18 / std::sqrt(1e-3), kBrightestAfterExposure), 1e-6);
+  // Uncovered and unlit pixels do not count; nothing lit: 1.
+  std::vector<glm::vec4> withBackground(10, grey(0.5f));
+  withBackground.push_back(glm::vec4(100.0f, 100.0f, 100.0f, 0.0f));
+  withBackground.push_back(grey(0.0f));
+  EXPECT_NEAR(autoExposure(withBackground), 0.18 / 0.5, 1e-6);
+  EXPECT_EQ(autoExposure(std::vector<glm::vec4>(4, grey(0.0f))), 1.0);
+}
+
 // ---- framing --------------------------------------------------------------------------------------------
 
 TEST(PreviewCamera, DefaultFramingFitsTheBoxCentredAndTight) {

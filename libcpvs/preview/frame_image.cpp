@@ -76,15 +76,21 @@ RgbImage dimmed(const RgbImage& image, double factor) {
 }  // namespace
 
 double autoExposure(const std::vector<glm::vec4>& radiance) {
-  double sum = 0;
-  size_t count = 0;
-  for (size_t i = 0; i < radiance.size(); ++i) {
-    const double l = luminance(radiance[i]);
-    if (radiance[i].w == 0.0f || !(l > 0) || !std::isfinite(l)) continue;
-    sum += std::log(l);
-    ++count;
+  std::vector<double> lit;
+  for (const glm::vec4& r : radiance) {
+    const double l = luminance(r);
+    if (r.w != 0.0f && l > 0 && std::isfinite(l)) lit.push_back(l);
   }
-  return count ? 0.18 / std::exp(sum / double(count)) : 1.0;
+  if (lit.empty()) return 1.0;
+  const auto p99 = lit.begin() + ptrdiff_t(0.99 * double(lit.size() - 1));
+  std::nth_element(lit.begin(), p99, lit.end());
+  const double bright = *p99;
+  // Pixels darker than 1/1000 of the bright ones count as that: a shadowed pixel lit only by a far light's tail
+  // would otherwise pull the log average toward zero and expose the lit surfaces far past white.
+  double sum = 0;
+  for (const double l : lit) sum += std::log(std::max(l, 1e-3 * bright));
+  const double middleGrey = 0.18 / std::exp(sum / double(lit.size()));
+  return std::min(middleGrey, kBrightestAfterExposure / bright);
 }
 
 RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure) {

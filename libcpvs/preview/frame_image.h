@@ -18,7 +18,12 @@ namespace cpvs {
 // stays readable.
 inline constexpr double kAmbient = 0.04;
 
-// The exposure that maps the log-average luminance of the lit, covered pixels to 0.18 (1 when none is lit).
+// The 99th percentile of the lit pixels' luminance is exposed to at most this (0.92 after the ACES curve), so
+// the brightest surfaces keep their shading.
+inline constexpr double kBrightestAfterExposure = 2.0;
+// The exposure that maps the log-average luminance of the lit, covered pixels (each at least 1/1000 of their
+// 99th percentile) to 0.18, or the smaller one that exposes that percentile to kBrightestAfterExposure; 1 when
+// no pixel is lit.
 double autoExposure(const std::vector<glm::vec4>& radiance);
 // exposure * radiance + kAmbient * base colour, tone-mapped (ACES fit) and sRGB-encoded; the background dark
 // grey. Rows flipped: row 0 of the image is the top.
