@@ -291,6 +291,41 @@ TEST(BakeTool, SameBytesTwiceAndForAnyThreadCount) {
   }
 }
 
+TEST(BakeTool, LightIntensitiesFromTheCommandLineReachTheFileAndChangeNoVoxel) {
+  const std::string dir = tempDir();
+  const auto bake = [&](const std::string& name, const std::string& lights) {
+    return runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + dir + "/" + name + ".cpvs --resolution 64 --quiet " +
+                   lights);
+  };
+  const auto plain = bake("plain", "--sun 0.3,-1,0.2 --spot 0,4,0,0,-1,0,0.6,20 --point 0,3,0,30");
+  if (plain.exitCode == int(tools::ExitCode::NotSupported)) GTEST_SKIP() << plain.output;
+  ASSERT_EQ(plain.exitCode, 0) << plain.output;
+  const auto lit = bake("lit", "--sun 0.3,-1,0.2,3.5 --spot 0,4,0,0,-1,0,0.6,20,120 --point 0,3,0,30,0");
+  ASSERT_EQ(lit.exitCode, 0) << lit.output;
+  const auto plainFile = orThrow(CpvsFile::open(dir + "/plain.cpvs"));
+  const auto litFile = orThrow(CpvsFile::open(dir + "/lit.cpvs"));
+  ASSERT_EQ(litFile->lights().size(), 3u);
+  const float expected[] = {3.5f, 120.0f, 0.0f};
+  for (size_t l = 0; l < 3; ++l) {
+    EXPECT_EQ(plainFile->lights()[l].light.intensity, 1.0f) << "the default, light " << l;
+    EXPECT_EQ(litFile->lights()[l].light.intensity, expected[l]) << "light " << l;
+    // Intensity shades; it shapes no voxel.
+    ASSERT_EQ(litFile->lights()[l].views.size(), plainFile->lights()[l].views.size());
+    for (size_t v = 0; v < litFile->lights()[l].views.size(); ++v) {
+      const DagView &a = litFile->lights()[l].views[v].dag, &b = plainFile->lights()[l].views[v].dag;
+      EXPECT_TRUE(std::equal(a.nodes.begin(), a.nodes.end(), b.nodes.begin(), b.nodes.end()) &&
+                  std::equal(a.leaves.begin(), a.leaves.end(), b.leaves.begin(), b.leaves.end()))
+          << "light " << l << " view " << v;
+    }
+  }
+  // A negative or non-numeric intensity, or one value too many, is a usage error naming the option.
+  for (const std::string bad : {"--spot 0,4,0,0,-1,0,0.6,20,-1", "--point 0,3,0,30,x", "--sun 0.3,-1,0.2,1,2"}) {
+    const auto r = bake("bad", bad);
+    EXPECT_EQ(r.exitCode, int(tools::ExitCode::Usage)) << bad << ": " << r.output;
+    EXPECT_NE(r.output.find(bad.substr(0, bad.find(' '))), std::string::npos) << r.output;
+  }
+}
+
 TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   const std::string dir = tempDir();
   const auto r = runTool(toolPath("cpvs-bake") + " " + scenePath() + " -o " + dir + "/o.cpvs --resolution 128 " +

@@ -1,10 +1,12 @@
 #include "tools/common/cli.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <new>
 #include <sstream>
 
@@ -13,7 +15,8 @@
 
 namespace cpvs::tools {
 
-std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected) {
+std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most) {
+  most = std::max(most, expected);
   std::vector<double> values;
   std::stringstream stream(text);
   std::string item;
@@ -25,9 +28,10 @@ std::vector<double> parseNumbers(const std::string& option, const std::string& t
       throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': '" + item + "' is not a finite number");
     values.push_back(value);
   }
-  if (values.size() != expected)
+  if (values.size() < expected || values.size() > most)
     throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': expected " + std::to_string(expected) +
-                                     " comma-separated numbers, got " + std::to_string(values.size()));
+                                                    (most > expected ? " or " + std::to_string(most) : std::string()) +
+                                                    " comma-separated numbers, got " + std::to_string(values.size()));
   return values;
 }
 
@@ -53,13 +57,18 @@ std::string exitCodeHelp() {
 }
 
 void LightOptions::addTo(CLI::App& app) {
-  app.add_option("--sun", suns, "Directional light X,Y,Z: the direction the light travels (repeatable)")
-      ->type_name("X,Y,Z");
+  app.add_option("--sun", suns,
+                 "Directional light X,Y,Z: the direction the light travels; optionally its illuminance in lux "
+                 "(default 1) (repeatable)")
+      ->type_name("X,Y,Z[,LUX]");
   app.add_option("--spot", spots,
-                 "Spot light PX,PY,PZ,DX,DY,DZ,OUTER_ANGLE_RAD,RANGE (repeatable; RANGE 0 = unlimited)")
-      ->type_name("P,D,ANGLE,RANGE");
-  app.add_option("--point", points, "Point light PX,PY,PZ,RANGE (repeatable; RANGE 0 = unlimited)")
-      ->type_name("PX,PY,PZ,RANGE");
+                 "Spot light PX,PY,PZ,DX,DY,DZ,OUTER_ANGLE_RAD,RANGE, optionally its intensity in candela (default 1) "
+                 "(repeatable; RANGE 0 = unlimited)")
+      ->type_name("P,D,ANGLE,RANGE[,CD]");
+  app.add_option("--point", points,
+                 "Point light PX,PY,PZ,RANGE, optionally its intensity in candela (default 1) (repeatable; RANGE 0 = "
+                 "unlimited)")
+      ->type_name("PX,PY,PZ,RANGE[,CD]");
   app.add_option("--exclude-mesh", excludedMeshes, "Drop a glTF mesh (all its primitives; NAME#k for one primitive) from the casters, e.g. a skybox (repeatable)")
       ->type_name("NAME");
 }
@@ -71,6 +80,16 @@ Light namedLight(LightType type, const char* stem, size_t index) {
   light.name = stem + std::to_string(index);
   light.type = type;
   return light;
+}
+
+// The optional intensity after a light's required values (KHR_lights_punctual's units; shading only: it changes
+// no voxel, but it is part of the light the file records).
+float lightIntensity(const char* flag, const std::string& text, const std::vector<double>& values, size_t required) {
+  if (values.size() == required) return 1.0f;
+  const double intensity = values[required];
+  if (!(intensity >= 0 && intensity <= std::numeric_limits<float>::max()))
+    throw Error(ErrorCategory::InvalidArgument, std::string(flag) + " '" + text + "': the intensity must be a non-negative float");
+  return float(intensity);
 }
 
 // RANGE as the options take it: 0 means unlimited.
@@ -86,13 +105,14 @@ void LightOptions::applyTo(Scene& scene) const {
   if (!any()) return;
   scene.lights.clear();
   for (size_t i = 0; i < suns.size(); ++i) {
-    const auto v = parseNumbers("--sun", suns[i], 3);
+    const auto v = parseNumbers("--sun", suns[i], 3, 4);
     Light light = namedLight(LightType::Directional, "sun", i);
     light.direction = unitDirection("--sun", suns[i], v[0], v[1], v[2]);
+    light.intensity = lightIntensity("--sun", suns[i], v, 3);
     scene.lights.push_back(light);
   }
   for (size_t i = 0; i < spots.size(); ++i) {
-    const auto v = parseNumbers("--spot", spots[i], 8);
+    const auto v = parseNumbers("--spot", spots[i], 8, 9);
     Light light = namedLight(LightType::Spot, "spot", i);
     light.position = {v[0], v[1], v[2]};
     light.direction = unitDirection("--spot", spots[i], v[3], v[4], v[5]);
@@ -100,13 +120,15 @@ void LightOptions::applyTo(Scene& scene) const {
       throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
     light.outerConeAngle = v[6];
     light.range = lightRange("--spot", spots[i], v[7]);
+    light.intensity = lightIntensity("--spot", spots[i], v, 8);
     scene.lights.push_back(light);
   }
   for (size_t i = 0; i < points.size(); ++i) {
-    const auto v = parseNumbers("--point", points[i], 4);
+    const auto v = parseNumbers("--point", points[i], 4, 5);
     Light light = namedLight(LightType::Point, "point", i);
     light.position = {v[0], v[1], v[2]};
     light.range = lightRange("--point", points[i], v[3]);
+    light.intensity = lightIntensity("--point", points[i], v, 4);
     scene.lights.push_back(light);
   }
 }

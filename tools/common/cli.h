@@ -30,8 +30,9 @@ struct LightOptions {
   void applyTo(Scene& scene) const;
 };
 
-// Parses `expected` comma-separated finite numbers ("1,2.5,-3"). Throws Error(InvalidArgument) naming the option.
-std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected);
+// Parses `expected` comma-separated finite numbers ("1,2.5,-3"), or between `expected` and `most` of them.
+// Throws Error(InvalidArgument) naming the option.
+std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most = 0);
 
 // Parses "4k", "16k", "512", "65536": a power of two from 8 to 256k. Throws Error(Usage).
 uint32_t parseResolution(const std::string& text);
