@@ -152,18 +152,38 @@ struct SliceTable {
   }
   uint32_t slice(float key, uint32_t hint) const {
     const double k = key;
-    // A few steps from the hint, else a binary search (a depth discontinuity jumps many slices).
-    uint32_t s = hint;
-    for (int step = 0; step < 4; ++step) {
-      if (k < bound[s]) {
-        --s;
-      } else if (k >= bound[s + 1]) {
-        ++s;
-      } else {
-        return s;
+    const double* b = bound.data();
+    const uint32_t n = resolution;
+    // From the hint, steps of 1, 2, 4, ... until the key is bracketed, then a binary search inside the bracket:
+    // a few compares where the slice changes little from texel to texel, a logarithm of the jump where it
+    // changes much (grazing surfaces, discontinuities). Invariant: b[lo] <= k < b[hi].
+    uint32_t lo, hi;
+    if (k >= b[hint + 1]) {
+      lo = hint + 1;
+      uint32_t step = 1;
+      hi = lo + step;
+      while (hi <= n && k >= b[hi]) {
+        lo = hi;
+        step *= 2;
+        hi = lo + step;
       }
+      hi = std::min(hi, n + 1);
+    } else if (k < b[hint]) {
+      hi = hint;
+      uint32_t step = 1;
+      while (hi > step && k < b[hi - step]) {
+        hi -= step;
+        step *= 2;
+      }
+      lo = hi > step ? hi - step : 0;
+    } else {
+      return hint;
     }
-    return uint32_t(std::upper_bound(bound.begin() + 1, bound.end() - 1, k) - bound.begin()) - 1;
+    while (hi - lo > 1) {
+      const uint32_t mid = lo + (hi - lo) / 2;
+      (k >= b[mid] ? lo : hi) = mid;
+    }
+    return lo;
   }
 };
 
