@@ -59,14 +59,24 @@ PY
 python3 "$work/same_pixels.py" "$work/window.png" "$work/headless.png"
 
 command -v xdotool > /dev/null || { echo "xdotool not installed: the keys are not tested"; exit 0; }
+# Waits (30 s at most) until cpvs-view's window is mapped and takes the focus; prints its id. The window exists
+# before it is mapped, and focusing it then fails (BadMatch): slow builds (sanitizers) showed that.
+focus="$work/focus_window.sh"
+cat > "$focus" <<'SH'
+for i in $(seq 300); do
+  id=$(xdotool search --onlyvisible --name cpvs-view 2> /dev/null | head -1)
+  if [ -n "$id" ] && timeout 5 xdotool windowfocus --sync "$id" 2> /dev/null; then echo "$id"; exit 0; fi
+  sleep 0.1
+done
+exit 1
+SH
 (cd "$work" && rm -f cpvs-view-0.png && xvfb-run -a -s "-screen 0 800x600x24" "${window_env[@]}" bash -c '
   "$0" "$1" "$2" --window --size 320x200 --exposure-scale 0.3 & pid=$!
-  id=$(timeout 30 xdotool search --sync --name cpvs-view | head -1)
-  if [ -z "$id" ]; then echo "the window did not appear"; kill $pid; exit 1; fi
-  xdotool windowfocus --sync "$id" key 4 o p
+  id=$(bash "$3") || { echo "the window did not appear"; kill $pid; exit 1; }
+  xdotool key 4 o p
   for i in $(seq 300); do [ -f cpvs-view-0.png ] && break; sleep 0.1; done
   xdotool key q
-  wait $pid' "$bin/cpvs-view" "$scene" "$work/tiny.cpvs")
+  wait $pid' "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" "$focus")
 [ -f "$work/cpvs-view-0.png" ] || { echo "P saved no window image"; exit 1; }
 "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 --exposure-scale 0.3 --shadows none \
   --overlay lights-per-tile -q -o "$work/headless-keys.png"
@@ -77,13 +87,12 @@ python3 "$work/same_pixels.py" "$work/cpvs-view-0.png" "$work/headless-keys.png"
   --report "$work/unturned.json"
 (cd "$work" && rm -f cpvs-view-0.png && xvfb-run -a -s "-screen 0 800x600x24" "${window_env[@]}" bash -c '
   "$0" "$1" "$2" --window --size 320x200 --exposure-scale 0.3 & pid=$!
-  id=$(timeout 30 xdotool search --sync --name cpvs-view | head -1)
-  if [ -z "$id" ]; then echo "the window did not appear"; kill $pid; exit 1; fi
-  xdotool windowfocus --sync "$id" mousemove --window "$id" --sync 100 100 mousedown 1
+  id=$(bash "$3") || { echo "the window did not appear"; kill $pid; exit 1; }
+  xdotool mousemove --window "$id" --sync 100 100 mousedown 1
   xdotool mousemove_relative --sync 100 0 mouseup 1 key p
   for i in $(seq 300); do [ -f cpvs-view-0.png ] && break; sleep 0.1; done
   xdotool key q
-  wait $pid' "$bin/cpvs-view" "$scene" "$work/tiny.cpvs")
+  wait $pid' "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" "$focus")
 [ -f "$work/cpvs-view-0.png" ] || { echo "P saved no window image after the drag"; exit 1; }
 turned=$(python3 - "$work/unturned.json" <<'PY'
 import json, math, sys
