@@ -2,13 +2,13 @@
 #include "formats/gltf/texture_decode.h"
 
 #include <algorithm>
-#include <map>
 #include <bit>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <set>
@@ -64,20 +64,15 @@ bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, 
   return true;
 }
 
-// With ImportOptions::loadBaseColorTextures: images are decoded (formats/gltf/texture_decode.h) into the map
-// the user data points at, by image index; a failure is kept as the reason.
-struct DecodedImages {
-  std::map<int, Texture> images;
-  std::map<int, std::string> failures;
-};
+// With ImportOptions::loadBaseColorTextures tinygltf hands every image's bytes (a file, a data URI or a buffer
+// view) to this callback. They are kept encoded, by image index, and decoded only for the images a material
+// uses as its base-colour texture: normal, metallic-roughness and occlusion images are never decoded.
+using EncodedImages = std::map<int, std::vector<unsigned char>>;
 
-bool decodeImage(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
-                 int size, void* userData) {
-  auto* decoded = static_cast<DecodedImages*>(userData);
-  Texture texture;
-  std::string why;
-  if (gltf::decodeTexture(bytes, size_t(std::max(size, 0)), texture, why)) decoded->images[index] = std::move(texture);
-  else decoded->failures[index] = why;
+bool keepImageBytes(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
+                    int size, void* userData) {
+  auto& kept = *static_cast<EncodedImages*>(userData);
+  if (bytes && size > 0) kept[index].assign(bytes, bytes + size);
   return true;  // never fails the import
 }
 
@@ -293,7 +288,7 @@ private:
     gltf::checkAssetVersion(path_, root);
 
     tinygltf::TinyGLTF loader;
-    if (options_.loadBaseColorTextures) loader.SetImageLoader(&decodeImage, &images_);
+    if (options_.loadBaseColorTextures) loader.SetImageLoader(&keepImageBytes, &encodedImages_);
     else loader.SetImageLoader(&skipImageDecoding, nullptr);
     // An absolute base directory, so that tinygltf's extra search in "." can be told apart and refused.
     const std::string baseDir = std::filesystem::absolute(path_, ec).parent_path().string();
@@ -754,35 +749,52 @@ private:
     if (info.texCoord != 0) return warnOnce("only TEXCOORD_0 base-colour textures are shown (" + what + " uses another)");
     if (size_t(info.index) >= model_.textures.size()) return warn(what + " does not exist; not shown");
     const int source = model_.textures[size_t(info.index)].source;
-    const auto decoded = images_.images.find(source);
-    if (decoded == images_.images.end()) {
-      const auto failure = images_.failures.find(source);
-      const std::string image = source >= 0 && size_t(source) < model_.images.size() && !model_.images[size_t(source)].uri.empty()
-                                    ? "'" + gltf::shortenDataUris(model_.images[size_t(source)].uri) + "'"
-                                    : "image " + std::to_string(source);
-      return warnOnce(what + " (" + image + ") not shown: " +
-                      (failure != images_.failures.end() ? failure->second : "not found, or not a PNG or JPEG"));
-    }
     const auto uv = primitive.attributes.find("TEXCOORD_0");
     if (uv == primitive.attributes.end()) return warn(what + ": the primitive has no TEXCOORD_0; not shown");
-    const tinygltf::Accessor& source2 = accessor(uv->second, where + ": TEXCOORD_0");
-    if (source2.type != TINYGLTF_TYPE_VEC2) return warn(where + ": TEXCOORD_0 is not VEC2; texture not shown");
-    const int componentType = source2.componentType;
-    const bool normalized = source2.normalized;
+    const tinygltf::Accessor& uvAccessor = accessor(uv->second, where + ": TEXCOORD_0");
+    if (uvAccessor.type != TINYGLTF_TYPE_VEC2) return warn(where + ": TEXCOORD_0 is not VEC2; texture not shown");
+    const int componentType = uvAccessor.componentType;
+    const bool normalized = uvAccessor.normalized;
     const std::vector<float> values = decodeAccessor<float>(
         uv->second, where + ": TEXCOORD_0", [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
     if (values.size() != mesh.positions.size() * 2) return warn(where + ": TEXCOORD_0 count differs from POSITION's; texture not shown");
+    std::string why;
+    const int32_t texture = textureOfImage(source, why);
+    if (texture < 0) {
+      const std::string image = source >= 0 && size_t(source) < model_.images.size() && !model_.images[size_t(source)].uri.empty()
+                                    ? "'" + gltf::shortenDataUris(model_.images[size_t(source)].uri) + "'"
+                                    : "image " + std::to_string(source);
+      return warnOnce(what + " (" + image + ") not shown: " + why);
+    }
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
       const glm::vec2 t(values[2 * i], values[2 * i + 1]);
       mesh.uvs.push_back(std::isfinite(t.x) && std::isfinite(t.y) ? t : glm::vec2(0.0f));
     }
-    auto [slot, added] = textureOfImage_.emplace(source, int32_t(scene_.textures.size()));
-    if (added) {
-      Texture texture = decoded->second;
-      texture.name = model_.images[size_t(source)].name.empty() ? "image" + std::to_string(source) : model_.images[size_t(source)].name;
+    mesh.baseColorTexture = texture;
+  }
+
+  // The Scene::textures index of glTF image `source`, decoded on its first use; -1 with `why` when it is
+  // missing or cannot be decoded.
+  int32_t textureOfImage(int source, std::string& why) {
+    if (const auto known = textureOfImage_.find(source); known != textureOfImage_.end()) {
+      if (known->second < 0) why = imageFailures_[source];
+      return known->second;
+    }
+    int32_t index = -1;
+    Texture texture;
+    const auto bytes = encodedImages_.find(source);
+    if (bytes == encodedImages_.end()) {
+      why = "not found, or not a PNG or JPEG";
+    } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
+      const std::string& name = model_.images[size_t(source)].name;
+      texture.name = name.empty() ? "image" + std::to_string(source) : name;
+      index = int32_t(scene_.textures.size());
       scene_.textures.push_back(std::move(texture));
     }
-    mesh.baseColorTexture = slot->second;
+    if (bytes != encodedImages_.end()) encodedImages_.erase(bytes);  // decoded or not, the bytes are done with
+    if (index < 0) imageFailures_[source] = why;
+    textureOfImage_[source] = index;
+    return index;
   }
 
   // The cpvs meshes made of a glTF mesh's triangle primitives, decoded on first use.
@@ -975,8 +987,9 @@ private:
 
   std::string path_;
   ImportOptions options_;
-  DecodedImages images_;                   // loadBaseColorTextures: by image index
-  std::map<int, int32_t> textureOfImage_;  // image index -> Scene::textures index
+  EncodedImages encodedImages_;               // loadBaseColorTextures: by image index, until decoded
+  std::map<int, int32_t> textureOfImage_;     // image index -> Scene::textures index (-1: failed)
+  std::map<int, std::string> imageFailures_;  // image index -> why it failed
   tinygltf::Model model_;
   Scene scene_;
   std::vector<Light> lightDefinitions_;

@@ -311,6 +311,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   std::vector<float> vertices;
   for (const Instance& instance : scene.instances) {
     const Mesh& mesh = scene.meshes[instance.mesh];
+    const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       glm::dvec3 p[3];
       for (int k = 0; k < 3; ++k)
@@ -322,7 +323,6 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
       for (int k = 0; k < 3; ++k) {
         const glm::vec3 q(p[k]);
         s.casterTriangles.corners.push_back(q);
-        const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
         const glm::vec2 uv = textured ? mesh.uvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
                                          mesh.baseColor.b, mesh.baseColor.a, uv.x, uv.y,
