@@ -510,12 +510,12 @@ GenScene generateCity(const CityOptions& o, CityInfo* info) {
 
   GenScene scene;
   scene.meshes.push_back(city.ground.take("ground"));
-  scene.nodes.push_back(GenNode{"ground", 0, -1, glm::dvec3(0.0), Quat{}});
+  scene.nodes.push_back(GenNode{"ground", 0, -1, glm::dvec3(0.0), Quat{}, {}});
   for (std::size_t i = 0; i < city.districts.size(); ++i) {
     if (city.districts[i].triangles() == 0) continue;
     const int dx = static_cast<int>(i) % y.districtsPerSide, dz = static_cast<int>(i) / y.districtsPerSide;
     const std::string name = "district_" + std::to_string(dx) + "_" + std::to_string(dz);
-    scene.nodes.push_back(GenNode{name, static_cast<int>(scene.meshes.size()), -1, city.districtOrigins[i], Quat{}});
+    scene.nodes.push_back(GenNode{name, static_cast<int>(scene.meshes.size()), -1, city.districtOrigins[i], Quat{}, {}});
     scene.meshes.push_back(city.districts[i].take(name));
   }
   std::vector<int> protoMesh(city.protos.size(), -1);
@@ -528,7 +528,7 @@ GenScene generateCity(const CityOptions& o, CityInfo* info) {
     }
     scene.nodes.push_back(GenNode{scene.meshes[static_cast<std::size_t>(protoMesh[p])].name + "." +
                                       std::to_string(uses[p]++),
-                                  protoMesh[p], -1, in.position, rotationAboutY(in.yaw)});
+                                  protoMesh[p], -1, in.position, rotationAboutY(in.yaw), {}});
   }
   if (o.spotLights > 0) {
     addSpots(scene, o, y);
@@ -538,7 +538,7 @@ GenScene generateCity(const CityOptions& o, CityInfo* info) {
     sun.intensity = 5.0;  // lux
     sun.color = {1.0, 0.96, 0.9};
     scene.lights.push_back(sun);
-    scene.nodes.push_back(GenNode{"sun", -1, 0, glm::dvec3(0.0, 400.0, 0.0), rotationFromMinusZ(sunDirection())});
+    scene.nodes.push_back(GenNode{"sun", -1, 0, glm::dvec3(0.0, 400.0, 0.0), rotationFromMinusZ(sunDirection()), {}});
   }
   if (info) {
     info->lotsPerSide = lots;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <utility>
 
 #include "det_math.h"
 
@@ -39,21 +41,65 @@ Quat rotationAboutY(double angle) {
   return Quat{0.0, detSin(angle / 2.0), 0.0, detCos(angle / 2.0)};
 }
 
+GenInstance instanceOf(const glm::dvec3& translation, const Quat& rotation) {
+  GenInstance i;
+  i.translation = glm::vec3(translation);
+  i.rotation = glm::vec4(static_cast<float>(rotation.x), static_cast<float>(rotation.y),
+                         static_cast<float>(rotation.z), static_cast<float>(rotation.w));
+  return i;
+}
+
+void useGpuInstancing(GenScene& scene) {
+  std::vector<GenNode> meshNodes, lightNodes;
+  std::vector<int> nodeOfMesh(scene.meshes.size(), -1);
+  for (GenNode& n : scene.nodes) {
+    if (n.mesh < 0) {
+      lightNodes.push_back(std::move(n));
+      continue;
+    }
+    if (!n.instances.empty()) throw std::logic_error("useGpuInstancing: node '" + n.name + "' is instanced already");
+    if (n.light >= 0) throw std::logic_error("useGpuInstancing: node '" + n.name + "' has a mesh and a light");
+    int& slot = nodeOfMesh[static_cast<std::size_t>(n.mesh)];
+    if (slot < 0) {
+      slot = static_cast<int>(meshNodes.size());
+      GenNode m;
+      m.name = scene.meshes[static_cast<std::size_t>(n.mesh)].name;
+      m.mesh = n.mesh;
+      meshNodes.push_back(std::move(m));
+    }
+    meshNodes[static_cast<std::size_t>(slot)].instances.push_back(instanceOf(n.translation, n.rotation));
+  }
+  scene.nodes = std::move(meshNodes);
+  for (GenNode& n : lightNodes) scene.nodes.push_back(std::move(n));
+}
+
 SceneStats computeStats(const GenScene& scene) {
   SceneStats s;
   s.meshes = scene.meshes.size();
   s.lights = scene.lights.size();
   for (const GenMesh& m : scene.meshes) s.storedTriangles += m.triangles();
   glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  const auto extend = [&](const glm::dvec3& w) {
+    lo = glm::min(lo, w);
+    hi = glm::max(hi, w);
+  };
   for (const GenNode& n : scene.nodes) {
     if (n.mesh < 0) continue;
-    ++s.instances;
     const GenMesh& m = scene.meshes[static_cast<std::size_t>(n.mesh)];
-    s.triangles += m.triangles();
-    for (const glm::vec3& p : m.positions) {
-      const glm::dvec3 w = rotate(n.rotation, glm::dvec3(p)) + n.translation;
-      lo = glm::min(lo, w);
-      hi = glm::max(hi, w);
+    if (n.instances.empty()) {
+      ++s.instances;
+      s.triangles += m.triangles();
+      for (const glm::vec3& p : m.positions) extend(rotate(n.rotation, glm::dvec3(p)) + n.translation);
+      continue;
+    }
+    s.instances += n.instances.size();
+    s.triangles += m.triangles() * n.instances.size();
+    for (const GenInstance& i : n.instances) {
+      const Quat r{i.rotation.x, i.rotation.y, i.rotation.z, i.rotation.w};
+      for (const glm::vec3& p : m.positions) {
+        const glm::dvec3 local = rotate(r, glm::dvec3(i.scale) * glm::dvec3(p)) + glm::dvec3(i.translation);
+        extend(rotate(n.rotation, local) + n.translation);
+      }
     }
   }
   if (s.instances > 0) {

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 namespace cpvs::scenegen {
 namespace {
@@ -43,6 +45,10 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
   std::string bin;
   json bufferViews = json::array(), accessors = json::array(), meshes = json::array();
   for (const GenMesh& m : scene.meshes) {
+    if (!m.texcoords.empty() && m.texcoords.size() != m.positions.size())
+      throw std::logic_error("mesh '" + m.name + "': texcoords and positions differ in count");
+    if (m.material >= static_cast<int>(scene.materials.size()))
+      throw std::logic_error("mesh '" + m.name + "': no such material");
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (const glm::vec3& p : m.positions) {
       lo = glm::min(lo, p);
@@ -70,18 +76,75 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
                          {"componentType", kUnsignedInt},
                          {"count", m.indices.size()},
                          {"type", "SCALAR"}});
-    meshes.push_back({{"name", m.name},
-                      {"primitives", json::array({{{"attributes", {{"POSITION", posAccessor}}},
-                                                   {"indices", posAccessor + 1},
-                                                   {"mode", 4}}})}});
+    json attributes = {{"POSITION", posAccessor}};
+    if (!m.texcoords.empty()) {  // after the indices, so that meshes without them keep their layout
+      const std::size_t uvOffset = appendBytes(bin, m.texcoords);
+      bufferViews.push_back({{"buffer", 0},
+                             {"byteOffset", uvOffset},
+                             {"byteLength", m.texcoords.size() * sizeof(glm::vec2)},
+                             {"target", kArrayBuffer}});
+      attributes["TEXCOORD_0"] = accessors.size();
+      accessors.push_back({{"bufferView", bufferViews.size() - 1},
+                           {"componentType", kFloat},
+                           {"count", m.texcoords.size()},
+                           {"type", "VEC2"}});
+    }
+    json primitive = {{"attributes", std::move(attributes)}, {"indices", posAccessor + 1}, {"mode", 4}};
+    if (m.material >= 0) primitive["material"] = m.material;
+    meshes.push_back({{"name", m.name}, {"primitives", json::array({std::move(primitive)})}});
   }
 
+  // EXT_mesh_gpu_instancing: per instanced node three float accessors (no buffer-view target: they are not
+  // vertex attributes). Nodes with the same instances (a tree's trunk and crown) share them.
+  static_assert(sizeof(GenInstance) == 10 * sizeof(float), "GenInstance is compared byte for byte");
+  std::vector<std::pair<const std::vector<GenInstance>*, json>> written;  // instances -> their attributes
+  const auto instanceAttributes = [&](const std::vector<GenInstance>& instances) -> json {
+    for (const auto& [other, attributes] : written) {
+      if (other->size() == instances.size() &&
+          std::memcmp(other->data(), instances.data(), instances.size() * sizeof(GenInstance)) == 0)
+        return attributes;
+    }
+    std::vector<glm::vec3> t, s;
+    std::vector<glm::vec4> r;
+    t.reserve(instances.size());
+    r.reserve(instances.size());
+    s.reserve(instances.size());
+    for (const GenInstance& i : instances) {
+      t.push_back(i.translation);
+      r.push_back(i.rotation);
+      s.push_back(i.scale);
+    }
+    json attributes = json::object();
+    const auto add = [&](const char* semantic, const auto& data, const char* type, std::size_t components) {
+      const std::size_t offset = appendBytes(bin, data);
+      bufferViews.push_back(
+          {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * components * sizeof(float)}});
+      attributes[semantic] = accessors.size();
+      accessors.push_back({{"bufferView", bufferViews.size() - 1},
+                           {"componentType", kFloat},
+                           {"count", data.size()},
+                           {"type", type}});
+    };
+    add("TRANSLATION", t, "VEC3", 3);
+    add("ROTATION", r, "VEC4", 4);
+    add("SCALE", s, "VEC3", 3);
+    written.emplace_back(&instances, attributes);
+    return attributes;
+  };
+
   json nodes = json::array(), roots = json::array();
+  bool instancing = false;
   for (std::size_t i = 0; i < scene.nodes.size(); ++i) {
     const GenNode& n = scene.nodes[i];
+    if (n.mesh >= static_cast<int>(scene.meshes.size())) throw std::logic_error("node '" + n.name + "': no such mesh");
     json node = {{"name", n.name}};
     if (n.mesh >= 0) node["mesh"] = n.mesh;
-    if (n.light >= 0) node["extensions"] = {{"KHR_lights_punctual", {{"light", n.light}}}};
+    if (n.light >= 0) node["extensions"]["KHR_lights_punctual"] = {{"light", n.light}};
+    if (!n.instances.empty()) {
+      if (n.mesh < 0) throw std::logic_error("node '" + n.name + "': instances without a mesh");
+      node["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", instanceAttributes(n.instances)}};
+      instancing = true;
+    }
     if (n.translation != glm::dvec3(0.0)) node["translation"] = vec3(n.translation);
     if (!n.rotation.isIdentity())
       node["rotation"] = json::array({n.rotation.x, n.rotation.y, n.rotation.z, n.rotation.w});
@@ -89,11 +152,52 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
     roots.push_back(i);
   }
 
+  // Materials and embedded PNG textures (one image and one sampler per texture).
+  json materials = json::array(), textures = json::array(), images = json::array(), samplers = json::array();
+  for (const GenMaterial& m : scene.materials) {
+    json pbr = {{"baseColorFactor",
+                 json::array({m.baseColorFactor.r, m.baseColorFactor.g, m.baseColorFactor.b, m.baseColorFactor.a})},
+                {"metallicFactor", 0.0},
+                {"roughnessFactor", 1.0}};
+    if (m.baseColorTexture >= 0) {
+      if (m.baseColorTexture >= static_cast<int>(scene.textures.size()))
+        throw std::logic_error("material '" + m.name + "': no such texture");
+      pbr["baseColorTexture"] = {{"index", m.baseColorTexture}, {"texCoord", m.texCoord}};
+    }
+    json j = {{"name", m.name}, {"pbrMetallicRoughness", std::move(pbr)}, {"doubleSided", m.doubleSided}};
+    switch (m.alphaMode) {
+      case GenMaterial::AlphaMode::Opaque: j["alphaMode"] = "OPAQUE"; break;
+      case GenMaterial::AlphaMode::Mask:
+        j["alphaMode"] = "MASK";
+        j["alphaCutoff"] = m.alphaCutoff;
+        break;
+      case GenMaterial::AlphaMode::Blend: j["alphaMode"] = "BLEND"; break;
+    }
+    materials.push_back(std::move(j));
+  }
+  for (std::size_t i = 0; i < scene.textures.size(); ++i) {
+    const GenTexture& t = scene.textures[i];
+    const std::size_t offset = bin.size();
+    bin += t.png;
+    while (bin.size() % 4 != 0) bin.push_back('\0');
+    bufferViews.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", t.png.size()}});
+    images.push_back({{"name", t.name}, {"bufferView", bufferViews.size() - 1}, {"mimeType", "image/png"}});
+    samplers.push_back(
+        {{"magFilter", t.magFilter}, {"minFilter", t.minFilter}, {"wrapS", t.wrapS}, {"wrapT", t.wrapT}});
+    textures.push_back({{"name", t.name}, {"sampler", i}, {"source", i}});
+  }
+
   gltf["buffers"] = json::array({{{"byteLength", bin.size()}}});
   gltf["bufferViews"] = std::move(bufferViews);
   gltf["accessors"] = std::move(accessors);
   gltf["meshes"] = std::move(meshes);
   gltf["nodes"] = std::move(nodes);
+  if (!materials.empty()) gltf["materials"] = std::move(materials);
+  if (!textures.empty()) {
+    gltf["textures"] = std::move(textures);
+    gltf["images"] = std::move(images);
+    gltf["samplers"] = std::move(samplers);
+  }
   gltf["scenes"] = json::array({{{"name", "scene"}, {"nodes", std::move(roots)}}});
   gltf["scene"] = 0;
 
@@ -111,8 +215,15 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
       lights.push_back(std::move(j));
     }
     gltf["extensions"] = {{"KHR_lights_punctual", {{"lights", std::move(lights)}}}};
-    gltf["extensionsUsed"] = json::array({"KHR_lights_punctual"});
   }
+  // A loader without EXT_mesh_gpu_instancing would draw each instanced mesh once, at its node: required.
+  json used = json::array();
+  if (instancing) {
+    used.push_back("EXT_mesh_gpu_instancing");
+    gltf["extensionsRequired"] = json::array({"EXT_mesh_gpu_instancing"});
+  }
+  if (!scene.lights.empty()) used.push_back("KHR_lights_punctual");
+  if (!used.empty()) gltf["extensionsUsed"] = std::move(used);
 
   std::string text = gltf.dump();
   while (text.size() % 4 != 0) text.push_back(' ');

@@ -102,13 +102,13 @@ GenScene generateLandscape(const LandscapeOptions& o) {
 
   GenScene scene;
   scene.meshes.push_back(m.take("landscape"));
-  scene.nodes.push_back(GenNode{"landscape", 0, -1, glm::dvec3(0.0), Quat{}});
+  scene.nodes.push_back(GenNode{"landscape", 0, -1, glm::dvec3(0.0), Quat{}, {}});
   GenLight sun;
   sun.name = "sun";
   sun.intensity = 5.0;
   sun.color = {1.0, 0.96, 0.9};
   scene.lights.push_back(sun);
-  scene.nodes.push_back(GenNode{"sun", -1, 0, glm::dvec3(0.0, 400.0, 0.0), rotationFromMinusZ(sunDirection())});
+  scene.nodes.push_back(GenNode{"sun", -1, 0, glm::dvec3(0.0, 400.0, 0.0), rotationFromMinusZ(sunDirection()), {}});
   return scene;
 }
 
