@@ -34,6 +34,27 @@ struct LandscapeOptions {
 // A closed fractal landscape: an fBm heightfield (1000 x 1000 units) with side walls and a bottom.
 GenScene generateLandscape(const LandscapeOptions& options);
 
+// The alpha-test scene: a ground quad and three cards at y = 1 (alpha-masked checker, blended glass,
+// opaque checker) under a sun shining straight down. Fixed; see docs/scenegen.md for its exact geometry.
+GenScene generateAlphaTest();
+
+struct FoliageOptions {
+  std::uint64_t seed = 1;
+  std::uint64_t targetTriangles = 200000;
+  int spotLights = 16;
+};
+
+struct FoliageInfo {
+  int trees = 0;
+  int prototypes = 0;  // tree prototypes placed at least once
+  int buildings = 0;
+  double leafCoverage = 0.0;  // the share of leaf-texture texels with alpha 255
+};
+
+// A wooded level (400 x 400 units): a ground quad, box buildings with glass windows and canopies (BLEND),
+// and trees placed by EXT_mesh_gpu_instancing (trunk + alpha-masked leaf cards), lit by a sun and spots.
+GenScene generateFoliage(const FoliageOptions& options, FoliageInfo* info = nullptr);
+
 // The direction the default sun of the city and landscape travels (normalised (-0.4, -1, -0.3)).
 glm::dvec3 sunDirection();
 

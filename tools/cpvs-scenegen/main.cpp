@@ -1,5 +1,6 @@
 // cpvs-scenegen: writes the benchmark scenes (closed city, open city, fractal landscape, city with spot
-// lights) as binary glTF. Same arguments, same bytes. See docs/scenegen.md.
+// lights, the alpha-test scene, the foliage level) as binary glTF. Same arguments, same bytes. See
+// docs/scenegen.md.
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -94,35 +95,59 @@ std::string fmt(const char* format, double a, double b, double c) {
   return buf;
 }
 
-int run(const std::string& kind, const std::string& output, std::uint64_t triangles, std::uint64_t seed,
-        int lights) {
+struct Request {
+  std::string kind, output;
+  std::uint64_t triangles = 100000, seed = 1;
+  int lights = 165;
+  bool gpuInstancing = false;
+};
+
+int run(const Request& r) {
   using namespace cpvs::scenegen;
   const auto start = std::chrono::steady_clock::now();
+  const std::string& kind = r.kind;
+  const std::string& output = r.output;
+  const std::uint64_t triangles = r.triangles, seed = r.seed;
   GenScene scene;
   std::string layout;
   if (kind == "landscape") {
     scene = generateLandscape({seed, triangles});
+  } else if (kind == "alpha-test") {
+    scene = generateAlphaTest();
+  } else if (kind == "foliage") {
+    FoliageInfo info;
+    scene = generateFoliage({seed, triangles, r.lights}, &info);
+    layout = ", " + std::to_string(info.trees) + " trees of " + std::to_string(info.prototypes) +
+             " prototypes, " + std::to_string(info.buildings) + " buildings" +
+             fmt(" (leaf texture %.0f %% covered)", 100.0 * info.leafCoverage, 0.0, 0.0);
   } else {
     CityOptions o;
     o.seed = seed;
     o.targetTriangles = triangles;
     o.open = kind == "open-city";
-    o.spotLights = kind == "city-spots" ? lights : 0;
+    o.spotLights = kind == "city-spots" ? r.lights : 0;
     CityInfo info;
     scene = generateCity(o, &info);
     layout = ", " + std::to_string(info.blocksPerSide) + "x" + std::to_string(info.blocksPerSide) + " blocks of " +
              std::to_string(info.lotsPerBlockSide) + "x" + std::to_string(info.lotsPerBlockSide) + " lots" +
              fmt(" (lot %.1f, detail %.2f)", info.lotSize, info.detail, 0.0);
+    if (r.gpuInstancing) {
+      useGpuInstancing(scene);
+      layout += ", GPU instancing";
+    }
   }
   const SceneStats stats = computeStats(scene);
-  if (kind != "open-city" && static_cast<double>(stats.triangles) < 0.8 * static_cast<double>(triangles))
+  if (kind != "open-city" && kind != "alpha-test" &&
+      static_cast<double>(stats.triangles) < 0.8 * static_cast<double>(triangles))
     std::cerr << "cpvs-scenegen: warning: " << kind << " tops out at " << stats.triangles
               << " triangles, below the requested " << triangles << "\n";
-  nlohmann::json extras = {{"kind", kind},
-                           {"seed", std::to_string(seed)},
-                           {"requestedTriangles", triangles},
-                           {"triangles", stats.triangles}};
-  if (kind == "city-spots") extras["lights"] = lights;
+  nlohmann::json extras = {{"kind", kind}, {"triangles", stats.triangles}};
+  if (kind != "alpha-test") {  // the alpha-test scene is fixed
+    extras["seed"] = std::to_string(seed);
+    extras["requestedTriangles"] = triangles;
+  }
+  if (kind == "city-spots" || kind == "foliage") extras["lights"] = r.lights;
+  if (r.gpuInstancing) extras["gpuInstancing"] = true;
   const std::string bytes = writeGlb(scene, kGenerator, extras);
   writeAtomically(output, bytes);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -143,37 +168,48 @@ int main(int argc, char** argv) {
   CLI::App app{
       "cpvs-scenegen: writes deterministic benchmark scenes as binary glTF (.glb), modelled on the scenes of\n"
       "Kaempe et al. (CPVS): a closed city, the same city open (single-sided, no caps), a closed fractal\n"
-      "landscape, and the closed city lit by many spot lights (KHR_lights_punctual). y is up; the scenes\n"
-      "span about 1000 x 1000 units. The same arguments always give the same bytes.",
+      "landscape, and the closed city lit by many spot lights (KHR_lights_punctual); and two scenes for\n"
+      "alpha-tested casters: the small, fixed alpha-test scene (a masked, a blended and an opaque card over a\n"
+      "ground quad) and a foliage level (trees of alpha-masked leaf cards placed by EXT_mesh_gpu_instancing,\n"
+      "buildings with glass). y is up. The same arguments always give the same bytes.",
       "cpvs-scenegen"};
-  std::string kind, output;
-  std::uint64_t triangles = 100000, seed = 1;
-  int lights = 165;
-  app.add_option("kind", kind, "Scene to write: city, open-city, landscape or city-spots")
+  Request r;
+  app.add_option("kind", r.kind, "Scene to write: city, open-city, landscape, city-spots, alpha-test or foliage")
       ->required()
-      ->check(CLI::IsMember({"city", "open-city", "landscape", "city-spots"}));
-  app.add_option("-o,--output", output, "Output .glb file (written atomically)")->required();
-  app.add_option("--triangles", triangles, "Triangle budget after instancing (approximated; the actual count is printed)")
-      ->capture_default_str()
-      ->check(CLI::Range(std::uint64_t{5000}, std::uint64_t{20000000}));
-  app.add_option("--seed", seed, "Random seed (any 64-bit integer)")->capture_default_str();
+      ->check(CLI::IsMember({"city", "open-city", "landscape", "city-spots", "alpha-test", "foliage"}));
+  app.add_option("-o,--output", r.output, "Output .glb file (written atomically)")->required();
+  CLI::Option* trianglesOption =
+      app.add_option("--triangles", r.triangles,
+                     "Triangle budget after instancing (approximated; the actual count is printed; default "
+                     "100000, foliage 200000)")
+          ->check(CLI::Range(std::uint64_t{5000}, std::uint64_t{20000000}));
+  CLI::Option* seedOption = app.add_option("--seed", r.seed, "Random seed (any 64-bit integer)")->capture_default_str();
   CLI::Option* lightsOption =
-      app.add_option("--lights", lights, "Number of spot lights (city-spots only)")
-          ->capture_default_str()
+      app.add_option("--lights", r.lights, "Number of spot lights (city-spots: default 165; foliage: default 16)")
           ->check(CLI::Range(1, 10000));
+  CLI::Option* instancingOption = app.add_flag(
+      "--gpu-instancing", r.gpuInstancing,
+      "city, open-city, city-spots: place the meshes through EXT_mesh_gpu_instancing (one node per mesh)");
   app.set_version_flag("--version", kGenerator);
   app.footer(
       "Exit codes: 0 ok, 1 usage error, 3 output cannot be written, 4 runtime failure (e.g. out of memory).\n"
       "Example: cpvs-scenegen city --triangles 1000000 -o closed_city_1m.glb");
   try {
     app.parse(argc, argv);
-    if (lightsOption->count() > 0 && kind != "city-spots")
-      throw CLI::ValidationError("--lights", "only applies to the city-spots scene");
+    const bool city = r.kind == "city" || r.kind == "open-city" || r.kind == "city-spots";
+    if (lightsOption->count() > 0 && r.kind != "city-spots" && r.kind != "foliage")
+      throw CLI::ValidationError("--lights", "only applies to the city-spots and foliage scenes");
+    if (instancingOption->count() > 0 && !city)
+      throw CLI::ValidationError("--gpu-instancing", "only applies to the city, open-city and city-spots scenes");
+    if (r.kind == "alpha-test" && (trianglesOption->count() > 0 || seedOption->count() > 0))
+      throw CLI::ValidationError("--triangles/--seed", "do not apply to the fixed alpha-test scene");
+    if (trianglesOption->count() == 0 && r.kind == "foliage") r.triangles = 200000;
+    if (lightsOption->count() == 0 && r.kind == "foliage") r.lights = 16;
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? kExitOk : kExitUsage;
   }
   try {
-    return run(kind, output, triangles, seed, lights);
+    return run(r);
   } catch (const OutputError& e) {
     std::cerr << "cpvs-scenegen: error: " << e.message << "\n";
     return kExitOutput;
