@@ -60,6 +60,16 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   XXH3_64bits_update(state, world.indices.data(), world.indices.size() * sizeof(uint32_t));
   const uint64_t closed = world.closedTriangleCount;
   XXH3_64bits_update(state, &closed, sizeof closed);
+  if (world.masked.count()) {  // what the alpha test reads: which triangles, their coordinates, the masks' bits
+    const uint64_t begin = world.masked.begin;
+    XXH3_64bits_update(state, &begin, sizeof begin);
+    XXH3_64bits_update(state, world.masked.maskOf.data(), world.masked.maskOf.size() * sizeof(uint32_t));
+    XXH3_64bits_update(state, world.masked.uvs.data(), world.masked.uvs.size() * sizeof(glm::vec2));
+    for (const CoverageMask& mask : world.masked.masks) {
+      const uint64_t h = mask.hash();
+      XXH3_64bits_update(state, &h, sizeof h);
+    }
+  }
   for (const Light& l : lights) {
     XXH3_64bits_update(state, l.name.data(), l.name.size());
     const double values[] = {double(l.type), l.color.r, l.color.g, l.color.b, l.intensity, l.range,

@@ -52,6 +52,18 @@ uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const st
     hashVector(state, geometry[i].positions);
     hashVector(state, geometry[i].closedIndices);
     hashVector(state, geometry[i].openIndices);
+    if (geometry[i].hasMasks()) {  // only the masks this view's triangles are cut by
+      hashVector(state, geometry[i].maskOf);
+      hashVector(state, geometry[i].maskUvs);
+      std::vector<bool> used(geometry[i].masks->size(), false);
+      for (int32_t m : geometry[i].maskOf)
+        if (m >= 0) used[size_t(m)] = true;
+      for (size_t m = 0; m < used.size(); ++m) {
+        if (!used[m]) continue;
+        const uint64_t h = (*geometry[i].masks)[m].hash();
+        XXH3_64bits_update(state, &h, sizeof h);
+      }
+    }
   }
   const uint64_t key = XXH3_64bits_digest(state);
   XXH3_freeState(state);

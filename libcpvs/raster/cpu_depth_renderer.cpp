@@ -45,6 +45,19 @@ struct RasterTriangle {
   int32_t x0, y0;
   Kind kind;
   int32_t i0, i1, j0, j1;         // covered texels lie in [i0, i1] x [j0, j1] (region coordinates)
+  int32_t masked = -1;            // alpha-tested: index into the region's MaskedTriangle list
+};
+
+// What an alpha-tested triangle is cut by, and where its mask is looked up.
+struct MaskedTriangle {
+  const CoverageMask* mask;
+  MaskInterpolation uv;
+  // Whether the triangle blocks light at view texel (X, Y)'s centre.
+  bool blocksAt(int64_t x, int64_t y) const {
+    double u, v;
+    if (!uv.at(double(x) + 0.5, double(y) + 0.5, u, v)) return true;
+    return mask->blocksAt(u, v);
+  }
 };
 
 // Coordinates below 2^29 (in 1/256 texel) keep every edge function within int64.
@@ -200,13 +213,15 @@ private:
   std::vector<float> enterKey_, frontCursor_, backCursor_, nearestFront_, nearestBack_;
   std::vector<uint8_t> kind_, state_;
   std::vector<uint16_t> backCount_;
-  std::vector<RasterTriangle> setUp(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect) const;
+  std::vector<RasterTriangle> setUp(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                                    std::vector<MaskedTriangle>& masked) const;
 };
 
 // Snaps one (sub)triangle and appends it when it covers part of the region.
 void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const double (&v)[3], const TriangleSetup& s,
-                 bool closed, bool mirrored, const RegionRect& rect) {
+                 bool closed, bool mirrored, const RegionRect& rect, int32_t masked) {
   RasterTriangle t;
+  t.masked = masked;
   constexpr double kLimit = double(int64_t(1) << 60);
   for (int k = 0; k < 3; ++k) {
     const double su = std::round(u[k] * 256.0), sv = std::round(v[k] * 256.0);
@@ -243,7 +258,7 @@ void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const d
 }
 
 std::vector<RasterTriangle> CpuDepthRenderer::setUp(const ViewGeometry& geometry, const LightView& view,
-                                                    const RegionRect& rect) const {
+                                                    const RegionRect& rect, std::vector<MaskedTriangle>& masked) const {
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
   const double nearClip = 0.5 * view.near;
   const bool mirrored = glm::determinant(glm::dmat3(view.viewFromWorld)) < 0;
@@ -257,8 +272,15 @@ std::vector<RasterTriangle> CpuDepthRenderer::setUp(const ViewGeometry& geometry
     glm::dvec3 p[3];
     for (int k = 0; k < 3; ++k) p[k] = glm::dvec3(geometry.positions[idx[k]]);
     const TriangleSetup s = setUpTriangle(view, p[0], p[1], p[2]);
+    int32_t maskedIndex = -1;
+    if (geometry.hasMasks() && geometry.maskOf[t] >= 0) {
+      const glm::dvec2 uv[3] = {glm::dvec2(geometry.maskUvs[idx[0]]), glm::dvec2(geometry.maskUvs[idx[1]]),
+                                glm::dvec2(geometry.maskUvs[idx[2]])};
+      maskedIndex = int32_t(masked.size());
+      masked.push_back({&(*geometry.masks)[size_t(geometry.maskOf[t])], setUpMaskInterpolation(view, p, uv)});
+    }
     if (s.safe) {
-      addTriangle(out, s.u, s.v, s, closed, mirrored, rect);
+      addTriangle(out, s.u, s.v, s, closed, mirrored, rect, maskedIndex);
       continue;
     }
     // Clip at d = near / 2, where the GL renderer's homogeneous clipping cuts it, and fan the polygon.
@@ -279,7 +301,7 @@ std::vector<RasterTriangle> CpuDepthRenderer::setUp(const ViewGeometry& geometry
     }
     for (int k = 1; k + 1 < m; ++k) {
       const double tu[3] = {u[0], u[k], u[k + 1]}, tv[3] = {v[0], v[k], v[k + 1]};
-      addTriangle(out, tu, tv, s, closed, mirrored, rect);
+      addTriangle(out, tu, tv, s, closed, mirrored, rect, maskedIndex);
     }
   }
   return out;
@@ -309,7 +331,8 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     if (stats) *stats = local;
     return region;
   }
-  const std::vector<RasterTriangle> triangles = setUp(culled, view, rect);
+  std::vector<MaskedTriangle> masked;
+  const std::vector<RasterTriangle> triangles = setUp(culled, view, rect, masked);
   const DepthFunction depthOf(view);
   // Comparisons run on a key that grows with depth: q itself (orthographic) or -q (perspective, q = 1/d), in
   // float like the GL renderer's depth buffer, so surfaces that meet (a box standing on another) tie as there.
@@ -337,6 +360,17 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
         float* keys = &enterKey[size_t(j) * width];
         uint8_t* kinds = &kind[size_t(j) * width];
+        if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
+          const MaskedTriangle& m = masked[size_t(t.masked)];
+          for (int32_t i = i0; i < i1; ++i) {
+            const float key = keyOf(depthAt(t, rowQ, i));
+            if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
+              keys[i] = key;
+              kinds[i] = t.kind;
+            }
+          }
+          return;
+        }
         for (int32_t i = i0; i < i1; ++i) {
           const float key = keyOf(depthAt(t, rowQ, i));
           if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {

@@ -60,14 +60,24 @@ layout(location = 0) in vec4 clipPosition;
 layout(location = 1) in vec3 plane;     // q0, dq/du, dq/dv
 layout(location = 2) in ivec2 origin;   // reference texel (u0, v0), view texel coordinates
 layout(location = 3) in vec2 range;     // q of the triangle lies in [range.x, range.y]
+layout(location = 4) in int mask;       // alpha-tested: the mask's index, else -1
+layout(location = 5) in vec3 maskU;     // mask coordinates (U, V) / W, affine around the reference texel
+layout(location = 6) in vec3 maskV;
+layout(location = 7) in vec3 maskW;
 flat out vec3 vPlane;
 flat out ivec2 vOrigin;
 flat out vec2 vRange;
+flat out int vMask;
+flat out vec3 vMaskU, vMaskV, vMaskW;
 void main() {
   gl_Position = clipPosition;
   vPlane = plane;
   vOrigin = origin;
   vRange = range;
+  vMask = mask;
+  vMaskU = maskU;
+  vMaskV = maskV;
+  vMaskW = maskW;
 }
 )";
 
@@ -96,10 +106,37 @@ float storedDepth() {
 }
 )";
 
+// The coverage-mask rule of libcpvs/scene/coverage_mask.h: the texel containing (u, v), wrapped, in the mask
+// bytes of all the view's masks (headers: first byte, width, height, wrap S | wrap T << 16).
 const char* kEnterFS = R"(
 uniform int closedGeometry;
+uniform usamplerBuffer maskBytes;
+uniform isamplerBuffer maskHeaders;
+flat in int vMask;
+flat in vec3 vMaskU, vMaskV, vMaskW;
 layout(location = 0) out uint kind;
+int wrapTexel(float coordinate, int size, int wrap) {
+  int i = int(floor(clamp(coordinate * float(size), -1073741824.0, 1073741824.0)));
+  if (wrap == 33071) return clamp(i, 0, size - 1);
+  if (wrap == 33648) {
+    int m = ((i % (2 * size)) + 2 * size) % (2 * size);
+    return m < size ? m : 2 * size - 1 - m;
+  }
+  return ((i % size) + size) % size;
+}
+bool blocksLight() {
+  vec2 du = vec2(ivec2(gl_FragCoord.xy) + regionOrigin - vOrigin) + 0.5;
+  float w = vMaskW.x + vMaskW.y * du.x + vMaskW.z * du.y;
+  if (w == 0.0) return true;
+  float u = (vMaskU.x + vMaskU.y * du.x + vMaskU.z * du.y) / w;
+  float v = (vMaskV.x + vMaskV.y * du.x + vMaskV.z * du.y) / w;
+  if (isnan(u) || isnan(v) || isinf(u) || isinf(v)) return true;
+  ivec4 h = texelFetch(maskHeaders, vMask);
+  int x = wrapTexel(u, h.y, h.w & 0xFFFF), y = wrapTexel(v, h.z, h.w >> 16);
+  return texelFetch(maskBytes, h.x + y * h.y + x).r != 0u;
+}
 void main() {
+  if (vMask >= 0 && !blocksLight()) discard;
   gl_FragDepth = storedDepth();
   kind = closedGeometry != 0 ? (gl_FrontFacing ? 1u : 2u) : 3u;
 }
@@ -252,6 +289,44 @@ struct ViewportBlock {
   uint32_t x0 = 0, y0 = 0, size = 0;  // texels [x0, x0 + size) x [y0, y0 + size) of the view
 };
 
+// An alpha-tested triangle's mask and its mask coordinates (MaskInterpolation) around the triangle's
+// reference texel, three times (one per vertex, flat); mask -1 for the others.
+struct GpuMaskVertex {
+  int32_t mask;
+  float u[3], v[3], w[3];
+};
+static_assert(sizeof(GpuMaskVertex) == 40);
+
+void buildMaskVertices(const ViewGeometry& geometry, const LightView& view, GpuMaskVertex* out) {
+  const size_t closedCount = geometry.closedIndices.size() / 3;
+  const size_t count = closedCount + geometry.openIndices.size() / 3;
+  for (size_t t = 0; t < count; ++t) {
+    GpuMaskVertex m{-1, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
+    if (geometry.maskOf[t] >= 0) {
+      const uint32_t* idx = t < closedCount ? &geometry.closedIndices[3 * t] : &geometry.openIndices[3 * (t - closedCount)];
+      glm::dvec3 p[3];
+      glm::dvec2 uv[3];
+      for (int k = 0; k < 3; ++k) {
+        p[k] = glm::dvec3(geometry.positions[idx[k]]);
+        uv[k] = glm::dvec2(geometry.maskUvs[idx[k]]);
+      }
+      const TriangleSetup s = setUpTriangle(view, p[0], p[1], p[2]);
+      const MaskInterpolation mi = setUpMaskInterpolation(view, p, uv);
+      // Around the reference texel (u0, v0), as the depth plane: c0 + c1 x + c2 y = c0' + c1 (x - u0) + c2 (y - v0).
+      const auto around = [&](const double (&c)[3], float (&o)[3]) {
+        o[0] = float(c[0] + c[1] * s.u0 + c[2] * s.v0);
+        o[1] = float(c[1]);
+        o[2] = float(c[2]);
+      };
+      m.mask = geometry.maskOf[t];
+      around(mi.U, m.u);
+      around(mi.V, m.v);
+      around(mi.W, m.w);
+    }
+    for (int k = 0; k < 3; ++k) out[3 * t + size_t(k)] = m;
+  }
+}
+
 void buildVertices(const ViewGeometry& geometry, const LightView& view, const ViewportBlock& block, GpuVertex* out) {
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
   const double halfViewport = 0.5 * block.size;
@@ -343,7 +418,16 @@ public:
     g.VertexAttribIPointer(2, 2, GL_INT, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, origin)));
     g.VertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(GpuVertex, range)));
     for (GLuint a = 0; a < 4; ++a) g.EnableVertexAttribArray(a);
+    g.GenBuffers(1, &maskVertexBuffer_);
+    g.BindBuffer(GL_ARRAY_BUFFER, maskVertexBuffer_);
+    const GLsizei maskStride = sizeof(GpuMaskVertex);
+    g.VertexAttribIPointer(4, 1, GL_INT, maskStride, reinterpret_cast<const void*>(offsetof(GpuMaskVertex, mask)));
+    g.VertexAttribPointer(5, 3, GL_FLOAT, GL_FALSE, maskStride, reinterpret_cast<const void*>(offsetof(GpuMaskVertex, u)));
+    g.VertexAttribPointer(6, 3, GL_FLOAT, GL_FALSE, maskStride, reinterpret_cast<const void*>(offsetof(GpuMaskVertex, v)));
+    g.VertexAttribPointer(7, 3, GL_FLOAT, GL_FALSE, maskStride, reinterpret_cast<const void*>(offsetof(GpuMaskVertex, w)));
     g.BindVertexArray(0);
+    g.GenBuffers(2, maskBuffers_);
+    g.GenTextures(2, maskTextures_);
     g.GenQueries(3, queries_);
     checkError("creating the depth renderer");
   }
@@ -357,6 +441,9 @@ public:
         if (p) g.DeleteProgram(p);
       g.DeleteQueries(3, queries_);
       g.DeleteBuffers(1, &vertexBuffer_);
+      g.DeleteBuffers(1, &maskVertexBuffer_);
+      g.DeleteBuffers(2, maskBuffers_);
+      g.DeleteTextures(2, maskTextures_);
       g.DeleteVertexArrays(1, &geometryVao_);
       g.DeleteVertexArrays(1, &emptyVao_);
     } catch (...) {
@@ -477,6 +564,41 @@ private:
     t.peel = false;
   }
 
+  // The masks' bytes and headers as buffer textures, uploaded again only when the masks change.
+  void uploadMasks(const std::vector<CoverageMask>& masks) {
+    std::vector<uint64_t> hashes;
+    for (const CoverageMask& m : masks) hashes.push_back(m.hash());
+    if (uploadedMasks_ == &masks && hashes == uploadedMaskHashes_) return;
+    const gl::Functions& g = context_->gl();
+    std::vector<uint8_t> bytes;
+    std::vector<int32_t> headers;
+    for (const CoverageMask& m : masks) {
+      headers.insert(headers.end(), {int32_t(bytes.size()), int32_t(m.width), int32_t(m.height),
+                                     int32_t(uint32_t(m.wrapS) | (uint32_t(m.wrapT) << 16))});
+      bytes.insert(bytes.end(), m.blocks.begin(), m.blocks.end());
+    }
+    GLint maxTexels = 0;
+    g.GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxTexels);
+    if (bytes.size() > size_t(maxTexels))
+      throw Error(ErrorCategory::NotSupported, "alpha-tested materials: " + std::to_string(bytes.size()) +
+                                                   " mask texels exceed this GL's buffer texture limit (" +
+                                                   std::to_string(maxTexels) + "); bake with --backend cpu");
+    const auto upload = [&](int i, const void* data, size_t size, GLenum format) {
+      g.BindBuffer(GL_TEXTURE_BUFFER, maskBuffers_[i]);
+      const uint8_t none[16] = {};
+      g.BufferData(GL_TEXTURE_BUFFER, GLsizeiptr(size ? size : sizeof none), size ? data : none, GL_STATIC_DRAW);
+      g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[i]);
+      g.TexBuffer(GL_TEXTURE_BUFFER, format, maskBuffers_[i]);
+    };
+    upload(0, bytes.data(), bytes.size(), GL_R8UI);
+    upload(1, headers.data(), headers.size() * sizeof(int32_t), GL_RGBA32I);
+    g.BindBuffer(GL_TEXTURE_BUFFER, 0);
+    g.BindTexture(GL_TEXTURE_BUFFER, 0);
+    checkError("uploading coverage masks");
+    uploadedMasks_ = &masks;
+    uploadedMaskHashes_ = std::move(hashes);
+  }
+
   void bindTexture(GLuint program, const char* name, int unit, GLuint texture) const {
     const gl::Functions& g = context_->gl();
     g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
@@ -502,6 +624,9 @@ private:
   GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0,
          activeProgram_ = 0;
   GLuint geometryVao_ = 0, emptyVao_ = 0, vertexBuffer_ = 0;
+  GLuint maskVertexBuffer_ = 0, maskBuffers_[2] = {0, 0}, maskTextures_[2] = {0, 0};  // mask bytes, headers
+  const std::vector<CoverageMask>* uploadedMasks_ = nullptr;  // what maskBuffers_ hold
+  std::vector<uint64_t> uploadedMaskHashes_;
   GLuint queries_[3] = {0, 0, 0};
   Targets targets_;
 };
@@ -563,6 +688,19 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   g.BindVertexArray(geometryVao_);
   g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer_);
   g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(GpuVertex)), vertices.data(), GL_STREAM_DRAW);
+  const bool masked = culled.hasMasks();
+  if (masked) {
+    uploadMasks(*culled.masks);
+    std::vector<GpuMaskVertex> maskVertices(vertices.size());
+    buildMaskVertices(culled, view, maskVertices.data());
+    g.BindBuffer(GL_ARRAY_BUFFER, maskVertexBuffer_);
+    g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(maskVertices.size() * sizeof(GpuMaskVertex)), maskVertices.data(),
+                 GL_STREAM_DRAW);
+    for (GLuint a = 4; a < 8; ++a) g.EnableVertexAttribArray(a);
+  } else {
+    for (GLuint a = 4; a < 8; ++a) g.DisableVertexAttribArray(a);
+    g.VertexAttribI4i(4, -1, 0, 0, 0);  // every triangle opaque
+  }
   checkError("uploading geometry");
   auto drawClosed = [&] {
     if (closedCount) g.DrawArrays(GL_TRIANGLES, 0, GLsizei(3 * closedCount));
@@ -594,6 +732,14 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
   g.DepthMask(GL_TRUE);
   g.UseProgram(enterProgram_);
   setDepthUniforms(enterProgram_, view, rect);
+  if (masked) {
+    g.ActiveTexture(GL_TEXTURE0);
+    g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[0]);
+    g.Uniform1i(uniform(enterProgram_, "maskBytes"), 0);
+    g.ActiveTexture(GL_TEXTURE1);
+    g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[1]);
+    g.Uniform1i(uniform(enterProgram_, "maskHeaders"), 1);
+  }
   g.Disable(GL_CULL_FACE);
   g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 0);
   drawOpen();

@@ -56,6 +56,9 @@ namespace cpvs::gl {
   X(PFNGLSCISSORPROC, Scissor)                                                        \
   X(PFNGLUNIFORM2IPROC, Uniform2i)                                                    \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)                        \
+  X(PFNGLDISABLEVERTEXATTRIBARRAYPROC, DisableVertexAttribArray)                      \
+  X(PFNGLVERTEXATTRIBI4IPROC, VertexAttribI4i)                                        \
+  X(PFNGLTEXBUFFERPROC, TexBuffer)                                                    \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)                                              \
   X(PFNGLDRAWARRAYSPROC, DrawArrays)                                                  \
   X(PFNGLCREATESHADERPROC, CreateShader)                                              \

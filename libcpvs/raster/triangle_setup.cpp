@@ -82,6 +82,43 @@ TriangleSetup setUpTriangle(const LightView& view, const glm::dvec3& p0, const g
   return s;
 }
 
+MaskInterpolation setUpMaskInterpolation(const LightView& view, const glm::dvec3 (&p)[3], const glm::dvec2 (&uv)[3]) {
+  // Barycentric weight of corner i, up to a common factor, as an affine function L_i(a, b) of the ray's
+  // lateral coordinates: orthographic rays (a, b, 0) + s (0, 0, -1) give the 2D cross product of the other two
+  // corners around (a, b); perspective rays s (a, b, -1) give the volume (a, b, -1) . (p_j x p_k).
+  const bool perspective = view.projection == Projection::Perspective;
+  double La[3], Lb[3], Lc[3];
+  for (int i = 0; i < 3; ++i) {
+    const glm::dvec3 &A = p[(i + 1) % 3], &B = p[(i + 2) % 3];
+    if (perspective) {
+      const glm::dvec3 c = glm::cross(A, B);
+      La[i] = c.x;
+      Lb[i] = c.y;
+      Lc[i] = -c.z;
+    } else {
+      La[i] = A.y - B.y;
+      Lb[i] = B.x - A.x;
+      Lc[i] = A.x * B.y - A.y * B.x;
+    }
+  }
+  // (a, b) of view texel coordinates (x, y): a = xMin + x ex / N.
+  const double n = view.resolution, sx = (view.xMax - view.xMin) / n, sy = (view.yMax - view.yMin) / n;
+  MaskInterpolation m{};
+  for (int i = 0; i < 3; ++i) {
+    const double c0 = La[i] * view.xMin + Lb[i] * view.yMin + Lc[i], cx = La[i] * sx, cy = Lb[i] * sy;
+    m.U[0] += c0 * uv[i].x;
+    m.U[1] += cx * uv[i].x;
+    m.U[2] += cy * uv[i].x;
+    m.V[0] += c0 * uv[i].y;
+    m.V[1] += cx * uv[i].y;
+    m.V[2] += cy * uv[i].y;
+    m.W[0] += c0;
+    m.W[1] += cx;
+    m.W[2] += cy;
+  }
+  return m;
+}
+
 DepthFunction::DepthFunction(const LightView& view) : mode(depthMode(view)) {
   const bool logarithmic = view.mapping == DepthMapping::Logarithmic;
   nearDepth = view.near;

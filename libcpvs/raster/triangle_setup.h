@@ -29,6 +29,24 @@ struct TriangleSetup {
 
 TriangleSetup setUpTriangle(const LightView& view, const glm::dvec3& p0, const glm::dvec3& p1, const glm::dvec3& p2);
 
+// Where an alpha-tested triangle's mask is looked up (libcpvs/scene/coverage_mask.h): the coordinates of the
+// point the ray through view texel coordinates (x, y) meets on the triangle's plane (texel centres at X + 0.5,
+// as the GL renderer samples), uv = (U, V) / W with U, V and W affine in (x, y): exact barycentric
+// interpolation for orthographic and perspective views alike, and the same for any clipped part.
+struct MaskInterpolation {
+  double U[3], V[3], W[3];  // value = c[0] + c[1] x + c[2] y
+  // False where the ray runs in the triangle's plane (it then blocks light, the conservative answer).
+  bool at(double x, double y, double& u, double& v) const {
+    const double w = W[0] + W[1] * x + W[2] * y;
+    if (w == 0.0) return false;
+    u = (U[0] + U[1] * x + U[2] * y) / w;
+    v = (V[0] + V[1] * x + V[2] * y) / w;
+    return true;
+  }
+};
+// p: the triangle's corners in view space, uv: their mask coordinates.
+MaskInterpolation setUpMaskInterpolation(const LightView& view, const glm::dvec3 (&p)[3], const glm::dvec2 (&uv)[3]);
+
 // t in [0, 1] of a q value (before the clamp to [qMin, qMax]).
 struct DepthFunction {
   explicit DepthFunction(const LightView& view);

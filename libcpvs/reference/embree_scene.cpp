@@ -49,6 +49,19 @@ void collectFilter(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// Alpha-tested triangles: a hit where the triangle's coverage mask lets light through is no hit (the same
+// rule as the depth rasterisers, libcpvs/scene/coverage_mask.h). Geometry filters run before the context
+// filter of allHits, so cut-away hits are never collected either.
+void alphaFilter(const RTCFilterFunctionNArguments* args) {
+  const MaskedTriangles* masked = static_cast<const MaskedTriangles*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const uint32_t prim = RTCHitN_primID(args->hit, args->N, i);
+    if (!masked->blocksAt(prim, RTCHitN_u(args->hit, args->N, i), RTCHitN_v(args->hit, args->N, i)))
+      args->valid[i] = 0;
+  }
+}
+
 float toFloatT(double t) {
   if (t >= double(std::numeric_limits<float>::max())) return std::numeric_limits<float>::infinity();
   return float(t);
@@ -60,6 +73,7 @@ EmbreeScene::EmbreeScene(const WorldGeometry& geometry) : impl_(std::make_unique
   positions_ = geometry.positions;
   indices_ = geometry.indices;
   closedTriangleCount_ = geometry.closedTriangleCount;
+  masked_ = geometry.masked;
   center_ = geometry.bounds.empty() ? glm::dvec3(0.0) : geometry.bounds.center();
   scale_ = geometry.bounds.empty() ? 1.0 : std::max(1e-30, glm::length(geometry.bounds.extent()));
 
@@ -89,6 +103,11 @@ EmbreeScene::EmbreeScene(const WorldGeometry& geometry) : impl_(std::make_unique
         throw Error(ErrorCategory::InvalidInput, "Embree scene: vertex index " + std::to_string(indices_[i]) +
                                                 " out of range at index " + std::to_string(i));
       idx[i] = indices_[i];
+    }
+    if (masked_.count()) {
+      rtcSetGeometryUserData(geom, &masked_);
+      rtcSetGeometryIntersectFilterFunction(geom, &alphaFilter);
+      rtcSetGeometryOccludedFilterFunction(geom, &alphaFilter);
     }
     rtcCommitGeometry(geom);
     rtcAttachGeometry(impl_->scene, geom);

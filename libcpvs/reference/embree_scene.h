@@ -27,7 +27,8 @@ struct RayHit {
 
 class EmbreeScene {
 public:
-  // Builds a robust BVH over all triangles (RTC_SCENE_FLAG_ROBUST). Throws Error(RuntimeFailure) when
+  // Builds a robust BVH over all triangles (RTC_SCENE_FLAG_ROBUST). Alpha-tested triangles
+  // (WorldGeometry::masked) are hit only where their coverage mask blocks light. Throws Error(RuntimeFailure) when
   // Embree reports an error (reported through the device error callback).
   explicit EmbreeScene(const WorldGeometry& geometry);
   ~EmbreeScene();
@@ -73,6 +74,7 @@ private:
   std::vector<glm::dvec3> positions_;  // world space, double
   std::vector<uint32_t> indices_;
   size_t closedTriangleCount_ = 0;
+  MaskedTriangles masked_;  // alpha-tested triangles, cut by their masks in every query
 };
 
 }  // namespace cpvs

@@ -17,6 +17,7 @@ ShadowReference::ShadowReference(const WorldGeometry& world, NormalOrientation o
     WorldGeometry own = world;
     own.indices.erase(own.indices.begin() + long(3 * world.closingBegin), own.indices.begin() + long(3 * world.closingEnd));
     own.closedTriangleCount = world.closingBegin;
+    if (own.masked.count()) own.masked.begin -= world.closingEnd - world.closingBegin;  // they follow the closing ones
     own.closingBegin = own.closingEnd = 0;
     scene_ = std::make_unique<EmbreeScene>(own);
   } else {

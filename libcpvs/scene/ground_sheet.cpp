@@ -129,6 +129,7 @@ std::string examine(const Scene& scene, const std::vector<InstanceTriangles>& ra
                     std::vector<std::pair<uint32_t, uint32_t>>& boundary) {
   spansScene = false;
   const Mesh& mesh = scene.meshes[scene.instances[r.instance].mesh];
+  if (mesh.coverageMask >= 0) return "alpha-tested (cut by its material's alpha)";
   if (mesh.closed || mesh.boundaryEdges == 0) return "closed";
   if (mesh.nonManifoldEdges || mesh.inconsistentEdges) return "non-manifold or inconsistently wound";
 

@@ -79,19 +79,40 @@ GroundSheets parseGroundSheets(const std::string& name) {
 
 const char* groundSheetsName(GroundSheets ground) { return ground == GroundSheets::Off ? "off" : "auto"; }
 
+namespace {
+
+enum class CasterKind { None, Closed, Open, Masked };
+
+CasterKind casterKind(const Mesh& mesh, const Instance& instance) {
+  if (!mesh.castsShadows || !instance.castsShadows) return CasterKind::None;
+  if (mesh.coverageMask >= 0) return CasterKind::Masked;  // a mesh with cut-away texels is never a solid
+  return mesh.closed ? CasterKind::Closed : CasterKind::Open;
+}
+
+}  // namespace
+
 WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   std::vector<UsedVertices> used;
   used.reserve(scene.meshes.size());
-  size_t closedTriangles = 0, totalTriangles = 0, totalVertices = 0;
+  size_t closedTriangles = 0, totalTriangles = 0, totalVertices = 0, maskedTriangles = 0;
   for (const Mesh& mesh : scene.meshes) used.push_back(findUsedVertices(mesh));
   for (const Instance& instance : scene.instances) {
     if (instance.mesh >= scene.meshes.size())
       throw Error(ErrorCategory::InvalidInput, "instance '" + instance.node + "': mesh index " +
                                               std::to_string(instance.mesh) + " out of range");
     const Mesh& mesh = scene.meshes[instance.mesh];
+    const CasterKind kind = casterKind(mesh, instance);
+    if (kind == CasterKind::None) continue;
+    if (kind == CasterKind::Masked) {
+      if (size_t(mesh.coverageMask) >= scene.coverageMasks.size() || mesh.maskUvs.size() != mesh.positions.size())
+        throw Error(ErrorCategory::InvalidInput, "mesh '" + mesh.name + "': coverage mask " +
+                                                    std::to_string(mesh.coverageMask) +
+                                                    " or its coordinates do not exist");
+      maskedTriangles += mesh.triangleCount();
+    }
     totalTriangles += mesh.triangleCount();
     totalVertices += used[instance.mesh].original.size();
-    if (mesh.closed) closedTriangles += mesh.triangleCount();
+    if (kind == CasterKind::Closed) closedTriangles += mesh.triangleCount();
   }
 
   WorldGeometry world;
@@ -99,18 +120,36 @@ WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   world.indices.reserve(3 * totalTriangles);
   std::vector<InstanceTriangles> ranges;
   ranges.reserve(scene.instances.size());
-  for (bool closedPass : {true, false}) {
+  // Closed solids first, then open surfaces, then the alpha-tested ones (so that they stay last when ground
+  // sheets are closed: they are never sheets).
+  std::vector<int32_t> maskIndex(scene.coverageMasks.size(), -1);
+  for (CasterKind pass : {CasterKind::Closed, CasterKind::Open, CasterKind::Masked}) {
     for (size_t i = 0; i < scene.instances.size(); ++i) {
       const Instance& instance = scene.instances[i];
       const Mesh& mesh = scene.meshes[instance.mesh];
-      if (mesh.closed != closedPass) continue;
+      if (casterKind(mesh, instance) != pass) continue;
       const size_t begin = world.triangleCount();
-      appendInstance(mesh, used[instance.mesh], instance, mesh.closed && mesh.insideOut, world);
+      appendInstance(mesh, used[instance.mesh], instance, pass == CasterKind::Closed && mesh.insideOut, world);
       ranges.push_back({i, begin, world.triangleCount()});
+      if (pass != CasterKind::Masked) continue;
+      int32_t& mask = maskIndex[size_t(mesh.coverageMask)];
+      if (mask < 0) {
+        mask = int32_t(world.masked.masks.size());
+        world.masked.masks.push_back(scene.coverageMasks[size_t(mesh.coverageMask)]);
+      }
+      // appendInstance may have swapped corners 1 and 2 (mirroring): take the coordinates the way it did.
+      const bool mirrored = glm::determinant(glm::dmat3(instance.worldFromLocal)) < 0.0;
+      for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+        world.masked.maskOf.push_back(uint32_t(mask));
+        const uint32_t a = mesh.indices[t], b = mesh.indices[t + (mirrored ? 2 : 1)],
+                       c = mesh.indices[t + (mirrored ? 1 : 2)];
+        world.masked.uvs.insert(world.masked.uvs.end(), {mesh.maskUvs[a], mesh.maskUvs[b], mesh.maskUvs[c]});
+      }
     }
   }
   world.closedTriangleCount = closedTriangles;
   if (ground == GroundSheets::Auto) closeGroundSheets(scene, ranges, world);
+  world.masked.begin = world.triangleCount() - maskedTriangles;
   return world;
 }
 

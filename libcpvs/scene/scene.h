@@ -8,6 +8,7 @@
 #include <glm/glm.hpp>
 
 #include "libcpvs/runtime/light.h"
+#include "libcpvs/scene/coverage_mask.h"
 
 namespace cpvs {
 
@@ -41,6 +42,14 @@ struct Mesh {
   // Scene::textures, -1 none) and its coordinates, one per position.
   int32_t baseColorTexture = -1;
   std::vector<glm::vec2> uvs;
+  // As a shadow caster (libcpvs/scene/coverage_mask.h, docs/alpha.md): the material's name, whether the mesh
+  // casts at all (its material's alpha rule, a glTF extras flag), and the coverage mask its triangles are cut
+  // by (index into Scene::coverageMasks, -1: none) with the mask's coordinates, one per position.
+  std::string material;
+  bool castsShadows = true;
+  bool cutAway = false;  // the alpha test cuts every texel (clear glass under --transparent clip): not seen either
+  int32_t coverageMask = -1;
+  std::vector<glm::vec2> maskUvs;
   size_t triangleCount() const { return indices.size() / 3; }
 };
 
@@ -49,6 +58,7 @@ struct Instance {
   uint32_t mesh = 0;
   glm::dmat4 worldFromLocal{1.0};
   std::string node;
+  bool castsShadows = true;  // false: shown by cpvs-view, but no shadow comes from it (a node's extras flag)
 };
 
 // A decoded base-colour texture: RGBA8, sRGB-encoded as stored, row 0 the image's first row.
@@ -76,6 +86,7 @@ struct Scene {
   std::vector<Light> lights;
   std::vector<Camera> cameras;
   std::vector<Texture> textures;  // only with ImportOptions::loadBaseColorTextures
+  std::vector<CoverageMask> coverageMasks;  // of the alpha-tested materials that meshes use
   std::vector<std::string> warnings;
 };
 
@@ -88,6 +99,26 @@ struct GroundSheet {
   bool used = false;  // closed into a solid
   std::string reason; // why not, when !used
   size_t closingTriangles = 0;  // skirt and bottom added when used
+};
+
+// The alpha-tested triangles of a WorldGeometry, [begin, begin + count()): triangle t is cut by
+// masks[maskOf[t - begin]], its corners at mask coordinates uvs[3 (t - begin) + k].
+struct MaskedTriangles {
+  size_t begin = 0;
+  std::vector<uint32_t> maskOf;
+  std::vector<glm::vec2> uvs;
+  std::vector<CoverageMask> masks;
+  size_t count() const { return maskOf.size(); }
+  bool contains(size_t triangle) const { return triangle >= begin && triangle - begin < maskOf.size(); }
+  // Whether triangle t blocks light at barycentric coordinates (b1, b2) of its corners 1 and 2 (every
+  // triangle that is not alpha-tested does).
+  bool blocksAt(size_t triangle, double b1, double b2) const {
+    if (!contains(triangle)) return true;
+    const size_t m = triangle - begin;
+    const glm::dvec2 uv = (1.0 - b1 - b2) * glm::dvec2(uvs[3 * m]) + b1 * glm::dvec2(uvs[3 * m + 1]) +
+                          b2 * glm::dvec2(uvs[3 * m + 2]);
+    return masks[maskOf[m]].blocksAt(uv.x, uv.y);
+  }
 };
 
 // All instances flattened into one world-space triangle soup in double precision (so scenes far from the
@@ -104,6 +135,9 @@ struct WorldGeometry {
   size_t groundBegin = 0, closingBegin = 0, closingEnd = 0;
   Bounds bounds;  // of the scene's own triangles
   std::vector<GroundSheet> groundSheets;
+  // Alpha-tested triangles: the last ones, never closed.
+  MaskedTriangles masked;
+  bool isMasked(size_t triangle) const { return masked.contains(triangle); }
   size_t triangleCount() const { return indices.size() / 3; }
   size_t sceneTriangleCount() const { return triangleCount() - (closingEnd - closingBegin); }
   bool isClosed(size_t triangle) const { return triangle < closedTriangleCount; }
@@ -117,9 +151,10 @@ enum class GroundSheets : uint8_t { Auto = 0, Off = 1 };
 GroundSheets parseGroundSheets(const std::string& name);
 const char* groundSheetsName(GroundSheets ground);
 
-// Flattens the scene. Negative-determinant transforms and inside-out closed meshes get their winding
-// flipped so every closed triangle faces out of its solid. With GroundSheets::Auto, ground sheets are closed
-// into solids (libcpvs/scene/ground_sheet.h).
+// Flattens the scene's shadow casters (instances and meshes that cast: castsShadows). Negative-determinant
+// transforms and inside-out closed meshes get their winding flipped so every closed triangle faces out of its
+// solid. Alpha-tested meshes (coverageMask >= 0) are never closed and come last. With GroundSheets::Auto,
+// ground sheets are closed into solids (libcpvs/scene/ground_sheet.h).
 WorldGeometry flatten(const Scene& scene, GroundSheets ground = GroundSheets::Auto);
 
 // The bounds of every instance's vertices in world space (what a camera frames; WorldGeometry::bounds is the

@@ -36,7 +36,10 @@ std::vector<SurfaceSample> sampleSurfaces(const WorldGeometry& world, size_t cou
   if (!(total > 0.0)) return samples;
   samples.reserve(count);
   SplitMix64 rng{seed};
-  while (samples.size() < count) {
+  // Points that fall on a cut-away texel of an alpha-tested triangle are drawn again; a scene whose area is
+  // almost all cut away stops after a bounded number of draws with fewer points.
+  const uint64_t maxDraws = 64 * uint64_t(count) + 1000000;
+  for (uint64_t draws = 0; samples.size() < count && draws < maxDraws; ++draws) {
     const double pick = rng.uniform() * total;
     size_t t = size_t(std::upper_bound(cumulative.begin(), cumulative.end(), pick) - cumulative.begin());
     t = std::min(t, triangles - 1);
@@ -46,6 +49,7 @@ std::vector<SurfaceSample> sampleSurfaces(const WorldGeometry& world, size_t cou
     const glm::dvec3& c = world.positions[world.indices[3 * t + 2]];
     // Uniform in the triangle: the square-root warp of two uniforms.
     const double r1 = std::sqrt(rng.uniform()), r2 = rng.uniform();
+    if (!world.masked.blocksAt(t, r1 * (1.0 - r2), r1 * r2)) continue;
     const glm::dvec3 p = (1.0 - r1) * a + r1 * (1.0 - r2) * b + r1 * r2 * c;
     const glm::dvec3 n = glm::cross(b - a, c - a);
     const double length = glm::length(n);

@@ -18,7 +18,8 @@ struct SurfaceSample {
 // `count` points, each on a triangle chosen with probability proportional to its area, uniform within it.
 // The same geometry, count and seed give the same points on every machine (no std:: distributions: their
 // algorithms are implementation-defined). Degenerate triangles are never chosen. Empty when the geometry
-// has no area.
+// has no area. Never on a cut-away texel of an alpha-tested triangle (fewer than `count` points only when
+// nearly all the area is cut away).
 std::vector<SurfaceSample> sampleSurfaces(const WorldGeometry& world, size_t count, uint64_t seed);
 
 }  // namespace cpvs

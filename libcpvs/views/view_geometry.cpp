@@ -36,6 +36,8 @@ ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& vie
   std::vector<glm::dvec3> poly, scratch;
   std::vector<glm::vec3> openPositions;
   std::vector<glm::vec4> openBounds;
+  std::vector<int32_t> openMasks;  // closed triangles are never masked
+  std::vector<glm::vec2> openUvs;
 
   for (size_t t = 0; t < world.triangleCount(); ++t) {
     const glm::dvec3 v[3] = {viewPositions[world.indices[3 * t]], viewPositions[world.indices[3 * t + 1]],
@@ -54,6 +56,19 @@ ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& vie
     auto& positions = closed ? out.positions : openPositions;
     for (int k = 0; k < 3; ++k) positions.push_back(glm::vec3(v[k]));
     (closed ? out.gridBounds : openBounds).push_back(bounds);
+    if (closed) continue;
+    if (world.isMasked(t)) {
+      const size_t m = t - world.masked.begin;
+      if (openMasks.empty()) {  // the first alpha-tested triangle of this view
+        openMasks.assign(openBounds.size() - 1, -1);
+        openUvs.assign(openPositions.size() - 3, glm::vec2(0.0f));
+      }
+      openMasks.push_back(int32_t(world.masked.maskOf[m]));
+      openUvs.insert(openUvs.end(), &world.masked.uvs[3 * m], &world.masked.uvs[3 * m] + 3);
+    } else if (!openMasks.empty()) {
+      openMasks.push_back(-1);
+      openUvs.insert(openUvs.end(), 3, glm::vec2(0.0f));
+    }
   }
 
   // Closed triangles first, then open ones; every triangle has its own three vertices.
@@ -64,6 +79,13 @@ ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& vie
   out.openIndices.resize(out.positions.size() - 3 * closedCount);
   for (uint32_t i = 0; i < out.closedIndices.size(); ++i) out.closedIndices[i] = i;
   for (uint32_t i = 0; i < out.openIndices.size(); ++i) out.openIndices[i] = uint32_t(3 * closedCount) + i;
+  if (!openMasks.empty()) {
+    out.maskOf.assign(closedCount, -1);
+    out.maskOf.insert(out.maskOf.end(), openMasks.begin(), openMasks.end());
+    out.maskUvs.assign(3 * closedCount, glm::vec2(0.0f));
+    out.maskUvs.insert(out.maskUvs.end(), openUvs.begin(), openUvs.end());
+    out.masks = &world.masked.masks;
+  }
   return out;
 }
 
@@ -79,12 +101,15 @@ ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect) 
       for (int k = 0; k < 3; ++k) {
         outIndices.push_back(uint32_t(out.positions.size()));
         out.positions.push_back(geometry.positions[indices[3 * t + k]]);
+        if (geometry.hasMasks()) out.maskUvs.push_back(geometry.maskUvs[indices[3 * t + k]]);
       }
       out.gridBounds.push_back(b);
+      if (geometry.hasMasks()) out.maskOf.push_back(geometry.maskOf[firstTriangle + t]);
     }
   };
   keep(geometry.closedIndices, out.closedIndices, 0);
   keep(geometry.openIndices, out.openIndices, closedCount);
+  if (geometry.hasMasks()) out.masks = geometry.masks;
   return out;
 }
 

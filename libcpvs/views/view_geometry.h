@@ -19,6 +19,13 @@ struct ViewGeometry {
   // Per triangle (closed first, then open): grid-space lateral bounds [uMin, uMax] x [vMin, vMax] of the
   // part inside the view, for cheap region culling.
   std::vector<glm::vec4> gridBounds;
+  // Alpha-tested triangles (libcpvs/scene/coverage_mask.h); all three empty when the view has none. Per
+  // triangle (closed first, then open) the index of its mask in *masks, or -1; per position its mask
+  // coordinates. `masks` points into the WorldGeometry the view was gathered from.
+  std::vector<int32_t> maskOf;
+  std::vector<glm::vec2> maskUvs;
+  const std::vector<CoverageMask>* masks = nullptr;
+  bool hasMasks() const { return !maskOf.empty(); }
   size_t triangleCount() const { return (closedIndices.size() + openIndices.size()) / 3; }
 };
 
