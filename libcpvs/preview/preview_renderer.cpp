@@ -80,7 +80,7 @@ double Frame::milliseconds(const std::string& pass) const {
 namespace {
 
 constexpr uint32_t kMaxImageEdge = 16384;
-constexpr GLsizei kVertexFloats = 13;
+constexpr GLsizei kVertexFloats = 16;
 constexpr GLuint kBaseColorUnit = 4;  // gbuffer.frag's sampler binding
 // Base-colour textures share one sRGB array: each resampled to this edge at most (the largest texture's own
 // size when smaller), mipmapped.
@@ -151,6 +151,7 @@ struct PreviewRenderer::State {
   size_t textureBytes = 0;
   uint32_t mapSize = 0, mapLayers = 0;
   GLuint vertexArray = 0, vertexBuffer = 0;
+  GLuint maskHeaders = 0, maskBytes = 0;  // the coverage masks gbuffer.frag cuts with (bindings 14, 15)
   GLsizei vertexCount = 0;
   GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;
   std::vector<uint32_t> lightWordsData;  // as uploaded; the disabled flags change between frames
@@ -311,7 +312,9 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   std::vector<float> vertices;
   for (const Instance& instance : scene.instances) {
     const Mesh& mesh = scene.meshes[instance.mesh];
+    if (mesh.cutAway) continue;  // the alpha test leaves nothing of it (clear glass): neither casts nor is seen
     const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
+    const bool masked = mesh.coverageMask >= 0 && mesh.maskUvs.size() == mesh.positions.size();
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       glm::dvec3 p[3];
       for (int k = 0; k < 3; ++k)
@@ -324,9 +327,11 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
         const glm::vec3 q(p[k]);
         s.casterTriangles.corners.push_back(q);
         const glm::vec2 uv = textured ? mesh.uvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
+        const glm::vec2 maskUv = masked ? mesh.maskUvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
                                          mesh.baseColor.b, mesh.baseColor.a, uv.x, uv.y,
-                                         textured ? float(mesh.baseColorTexture) : -1.0f});
+                                         textured ? float(mesh.baseColorTexture) : -1.0f, maskUv.x, maskUv.y,
+                                         masked ? float(mesh.coverageMask) : -1.0f});
       }
       ++s.triangles;
     }
@@ -342,10 +347,25 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
   g.VertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));
   g.VertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(10 * sizeof(float)));
-  for (GLuint a = 0; a < 4; ++a) g.EnableVertexAttribArray(a);
+  g.VertexAttribPointer(4, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(13 * sizeof(float)));
+  for (GLuint a = 0; a < 5; ++a) g.EnableVertexAttribArray(a);
   g.BindVertexArray(0);
   s.vertexCount = GLsizei(vertices.size() / kVertexFloats);
   s.uploadTextures(scene.textures);
+  {  // The coverage masks: headers (first byte, width, height, wrap S | wrap T << 16), then the bytes.
+    std::vector<int32_t> headers;
+    std::vector<uint8_t> bytes;
+    for (const CoverageMask& m : scene.coverageMasks) {
+      headers.insert(headers.end(), {int32_t(bytes.size()), int32_t(m.width), int32_t(m.height),
+                                     int32_t(uint32_t(m.wrapS) | (uint32_t(m.wrapT) << 16))});
+      bytes.insert(bytes.end(), m.blocks.begin(), m.blocks.end());
+    }
+    headers.resize(std::max<size_t>(headers.size(), 4), 0);
+    bytes.resize(std::max<size_t>((bytes.size() + 3) / 4 * 4, 4), 0);
+    s.maskHeaders = gl::createStorageBuffer(c, headers.data(), headers.size() * sizeof(int32_t));
+    s.maskBytes = gl::createStorageBuffer(c, bytes.data(), bytes.size());
+    s.textureBytes += headers.size() * sizeof(int32_t) + bytes.size();
+  }
   gl::checkError(c, "uploading " + std::to_string(s.triangles) + " triangles");
 
   const GpuSceneRecords records = packGpuScene(s.lights);
@@ -638,6 +658,8 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
     g.UseProgram(s.gbufferProgram);
     g.ActiveTexture(GL_TEXTURE0 + kBaseColorUnit);
     g.BindTexture(GL_TEXTURE_2D_ARRAY, s.baseColorArray);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 14, s.maskHeaders);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 15, s.maskBytes);
     const glm::mat4 matrix(clipFromWorld(camera, aspect));
     g.UniformMatrix4fv(g.GetUniformLocation(s.gbufferProgram, "clipFromWorld"), 1, GL_FALSE, &matrix[0][0]);
     g.BindVertexArray(s.vertexArray);
