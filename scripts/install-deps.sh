@@ -6,6 +6,7 @@ packages=(
   build-essential cmake ninja-build pkg-config python3
   libembree-dev libopenexr-dev libtinygltf-dev libglm-dev
   libosmesa6-dev libegl-dev libegl-mesa0 libgl-dev
+  libmeshoptimizer-dev libdraco-dev # compressed glTF (EXT_meshopt_compression, KHR_draco_mesh_compression)
   libgtest-dev libgmock-dev libbenchmark-dev
   nlohmann-json3-dev libcli11-dev libstb-dev libtbb-dev libxxhash-dev libjemalloc-dev
   assimp-testmodels clang libclang-rt-14-dev

@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "formats/gltf/compressed_geometry.h"
 #include "formats/gltf/untrusted_input.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/scene/mesh_topology.h"
@@ -35,9 +36,40 @@ constexpr const char* kLightsExtension = "KHR_lights_punctual";
 constexpr size_t kMaxZeroInitialisedElements = size_t(1) << 24;
 constexpr size_t kMaxElements = size_t(UINT32_MAX);  // cpvs meshes index with uint32
 
-// Required extensions that change what the geometry is; importing without them would give wrong shadows.
-const std::set<std::string> kUnsupportedGeometryExtensions = {
-    "KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression", "EXT_mesh_gpu_instancing"};
+constexpr const char* kInstancingExtension = "EXT_mesh_gpu_instancing";
+// Extensions that change what the geometry is and that cpvs does not import: importing without them would
+// give wrong shadows, so a file that names one in extensionsUsed or extensionsRequired is refused
+// (ErrorCategory::NotSupported) before any buffer is read, with how to write the file without it. Material,
+// texture, animation, skin, morph and metadata extensions are not among them (docs/cli.md keeps the lists).
+const std::map<std::string, std::string> kUnsupportedGeometryExtensions = {
+    {"KHR_node_visibility",
+     "hidden nodes would cast shadows: delete the hidden nodes and write the file without the extension, e.g. "
+     "in Blender"},
+    {"KHR_mesh_primitive_restart",
+     "strips and fans with restart values: write them as separate primitives or triangle lists, e.g. by "
+     "re-exporting without primitive restart"},
+};
+// The geometry extensions cpvs imports (compressed geometry: formats/gltf/compressed_geometry.h).
+const std::set<std::string> kSupportedGeometryExtensions = {"EXT_meshopt_compression", "KHR_meshopt_compression",
+                                                            "KHR_draco_mesh_compression", kInstancingExtension};
+// Instances one EXT_mesh_gpu_instancing node may add (instances times primitives): each costs memory.
+constexpr size_t kMaxGpuInstances = size_t(1) << 22;
+
+// `bytes` (a .gltf or .glb) with its JSON replaced by `root`; a GLB keeps the chunks after its JSON as they are.
+std::vector<unsigned char> withJson(const std::vector<unsigned char>& bytes, bool binary, const gltf::JsonText& json,
+                                    const nlohmann::json& root) {
+  std::string text = root.dump();
+  if (!binary) return std::vector<unsigned char>(text.begin(), text.end());
+  while (text.size() % 4) text += ' ';
+  const size_t rest = bytes.size() - (json.begin + json.length);
+  const uint64_t total = 20 + uint64_t(text.size()) + rest;
+  const uint32_t header[5] = {0x46546C67u, 2u, uint32_t(total), uint32_t(text.size()), 0x4E4F534Au};  // "glTF", "JSON"
+  std::vector<unsigned char> out(sizeof header);
+  std::memcpy(out.data(), header, sizeof header);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), bytes.begin() + std::ptrdiff_t(json.begin + json.length), bytes.end());
+  return out;
+}
 const std::set<std::string> kSupportedExtensions = {kLightsExtension, "KHR_mesh_quantization"};
 
 std::string lowercase(std::string s) {
@@ -282,10 +314,19 @@ private:
     const gltf::JsonText json = gltf::locateJson(path_, bytes);
     const std::span<const uint8_t> jsonBytes(bytes.data() + json.begin, json.length);
     gltf::checkJsonNesting(path_, jsonBytes);
-    const nlohmann::json root = nlohmann::json::parse(jsonBytes.begin(), jsonBytes.end(), nullptr,
-                                                      /*allow_exceptions=*/false);
+    nlohmann::json root = nlohmann::json::parse(jsonBytes.begin(), jsonBytes.end(), nullptr,
+                                                /*allow_exceptions=*/false);
     if (root.is_discarded()) fail("the JSON cannot be parsed");
     gltf::checkAssetVersion(path_, root);
+    checkGeometryExtensions(root);
+    // meshopt fallback buffers have no data and Draco primitives' indices no bufferView, which tinygltf
+    // refuses: both get placeholders in what it parses.
+    meshopt_ = gltf::prepareMeshopt(path_, root, binary);
+    dracoIndices_ = gltf::prepareDracoIndices(root);
+    if (!meshopt_.empty() || !dracoIndices_.empty()) {
+      bytes = withJson(bytes, binary, json, root);
+      if (bytes.size() >= UINT32_MAX) fail("larger than 4 GiB once its JSON is rewritten");
+    }
 
     tinygltf::TinyGLTF loader;
     if (options_.loadBaseColorTextures) loader.SetImageLoader(&keepImageBytes, &encodedImages_);
@@ -322,6 +363,24 @@ private:
     // tinygltf silently ignores optional properties of the wrong JSON type ("mesh": "0" would just lose the
     // mesh), so the properties cpvs relies on are type-checked here.
     checkJsonTypes(root);
+    gltf::restoreDracoIndices(dracoIndices_, model_);
+    gltf::decodeMeshopt(path_, meshopt_, model_);
+  }
+
+  // A file that names a geometry extension cpvs cannot import is refused before any buffer is read.
+  void checkGeometryExtensions(const nlohmann::json& root) const {
+    for (const char* key : {"extensionsRequired", "extensionsUsed"}) {
+      const auto list = root.find(key);
+      if (list == root.end() || !list->is_array()) continue;  // checkJsonTypes names a wrong type
+      for (const nlohmann::json& name : *list) {
+        if (!name.is_string()) continue;
+        const auto unsupported = kUnsupportedGeometryExtensions.find(name.get<std::string>());
+        if (unsupported == kUnsupportedGeometryExtensions.end()) continue;
+        throw Error(ErrorCategory::NotSupported, path_ + ": " + key + " names " + unsupported->first +
+                                                     ", which changes the geometry and which cpvs cannot import (" +
+                                                     unsupported->second + ")");
+      }
+    }
   }
 
   // JSON kinds that tinygltf would otherwise coerce or drop without a word.
@@ -470,11 +529,7 @@ private:
 
   void checkRequiredExtensions() {
     for (const std::string& extension : model_.extensionsRequired) {
-      if (kUnsupportedGeometryExtensions.count(extension))
-        fail("requires extension " + extension +
-             ", which cpvs cannot import; write the file without it first (e.g. `gltf-transform copy` after "
-             "decoding, or gltfpack without -cc)");
-      if (!kSupportedExtensions.count(extension))
+      if (!kSupportedExtensions.count(extension) && !kSupportedGeometryExtensions.count(extension))
         warn("requires extension " + extension + ", which cpvs ignores (geometry imported as if it were absent)");
     }
   }
@@ -656,9 +711,8 @@ private:
       if (size_t(node.mesh) >= model_.meshes.size())
         fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
       if (node.skin >= 0) warnOnce("skinned meshes are imported in their bind pose (skins are ignored)");
-      if (node.extensions.count("EXT_mesh_gpu_instancing"))
-        warnOnce("EXT_mesh_gpu_instancing is ignored: each such node places its mesh once");
       for (uint32_t mesh : meshIds(node.mesh)) scene_.instances.push_back({mesh, worldFromLocal, nodeName});
+      placeGpuInstances(index);
     } else if (node.mesh < -1) {
       fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
     }
@@ -682,6 +736,102 @@ private:
     if (!(length > 0.0) || !std::isfinite(length)) fail(describeNode(index) + ": the light's transform is degenerate");
     light.direction = direction / length;
     scene_.lights.push_back(light);
+  }
+
+  // EXT_mesh_gpu_instancing: the node's mesh is placed once per instance instead of once. The instances
+  // replace the ones place() has just added for the node (the last of scene_.instances), each moved by its
+  // instance transform (world = node * T * R * S) and named "<node>[<k>]".
+  void placeGpuInstances(int index) {
+    const tinygltf::Node& node = model_.nodes[size_t(index)];
+    const auto extension = node.extensions.find(kInstancingExtension);
+    if (extension == node.extensions.end()) return;
+    const std::vector<glm::dmat4> transforms = gpuInstanceTransforms(index, extension->second);
+    const size_t primitives = meshIds(node.mesh).size();
+    if (primitives > scene_.instances.size()) return;
+    if (transforms.size() * primitives > kMaxGpuInstances)
+      fail(describeNode(index) + ": " + kInstancingExtension + " places " + std::to_string(transforms.size()) +
+           " instances of " + std::to_string(primitives) + " primitives, more than " + std::to_string(kMaxGpuInstances));
+    const std::vector<Instance> placed(scene_.instances.end() - std::ptrdiff_t(primitives), scene_.instances.end());
+    scene_.instances.resize(scene_.instances.size() - primitives);
+    scene_.instances.reserve(scene_.instances.size() + transforms.size() * primitives);
+    for (size_t k = 0; k < transforms.size(); ++k)
+      for (const Instance& one : placed) {
+        Instance instance = one;
+        instance.worldFromLocal = one.worldFromLocal * transforms[k];
+        instance.node = one.node + "[" + std::to_string(k) + "]";
+        scene_.instances.push_back(std::move(instance));
+      }
+  }
+
+  // The instance transforms (T * R * S) of an EXT_mesh_gpu_instancing node: TRANSLATION and SCALE are VEC3
+  // (float, or the integer types KHR_mesh_quantization allows), ROTATION a VEC4 quaternion (float, or
+  // normalized byte or short); each defaults to the identity. Every attribute accessor must have the same count.
+  std::vector<glm::dmat4> gpuInstanceTransforms(int index, const tinygltf::Value& extension) const {
+    const std::string what = describeNode(index) + ": " + kInstancingExtension;
+    if (!extension.IsObject() || !extension.Has("attributes") || !extension.Get("attributes").IsObject())
+      fail(what + ".attributes is missing or not an object");
+    const tinygltf::Value& attributes = extension.Get("attributes");
+    std::map<std::string, int> accessors;
+    for (const std::string& name : attributes.Keys()) {
+      const tinygltf::Value& value = attributes.Get(name);
+      if (!value.IsInt() || value.GetNumberAsInt() < 0) fail(what + ".attributes." + name + " is not an accessor index");
+      accessors[name] = value.GetNumberAsInt();
+    }
+    if (accessors.empty()) fail(what + ".attributes is empty");
+    std::string first;
+    size_t count = 0;
+    for (const auto& [name, accessorIndex] : accessors) {
+      const size_t n = accessor(accessorIndex, what + " " + name).count;
+      const std::string described = name + " (accessor " + std::to_string(accessorIndex) + ", count " + std::to_string(n) + ")";
+      if (first.empty()) {
+        first = described;
+        count = n;
+      } else if (n != count) {
+        fail(what + ": the attributes' accessors differ in count: " + first + ", " + described);
+      }
+    }
+    if (count > kMaxGpuInstances)
+      fail(what + ": " + std::to_string(count) + " instances, more than " + std::to_string(kMaxGpuInstances));
+    // The values of one attribute, `components` per instance; empty when the node does not have it.
+    auto read = [&](const char* name, int type, bool rotation) -> std::vector<float> {
+      const auto it = accessors.find(name);
+      if (it == accessors.end()) return {};
+      const std::string at = what + " " + name + " accessor " + std::to_string(it->second);
+      const tinygltf::Accessor& source = accessor(it->second, at);
+      if (source.type != type) fail(at + " is " + typeName(source.type) + ", expected " + typeName(type));
+      const int componentType = source.componentType;
+      const bool normalized = source.normalized;
+      const bool allowed =
+          componentType == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+          (rotation ? normalized && (componentType == TINYGLTF_COMPONENT_TYPE_BYTE || componentType == TINYGLTF_COMPONENT_TYPE_SHORT)
+                    : componentType == TINYGLTF_COMPONENT_TYPE_BYTE || componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                          componentType == TINYGLTF_COMPONENT_TYPE_SHORT || componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+      if (!allowed)
+        fail(at + " has componentType " + componentTypeName(componentType) + (normalized ? " (normalized)" : "") +
+             (rotation ? ", expected FLOAT or normalized BYTE or SHORT" : ", expected FLOAT (or BYTE/SHORT and unsigned)"));
+      std::vector<float> values = decodeAccessor<float>(
+          it->second, at, [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
+      for (size_t i = 0; i < values.size(); ++i)
+        if (!std::isfinite(values[i])) fail(at + ": instance " + std::to_string(i / (rotation ? 4 : 3)) + " is not finite");
+      return values;
+    };
+    const std::vector<float> translation = read("TRANSLATION", TINYGLTF_TYPE_VEC3, false);
+    const std::vector<float> rotation = read("ROTATION", TINYGLTF_TYPE_VEC4, true);
+    const std::vector<float> scale = read("SCALE", TINYGLTF_TYPE_VEC3, false);
+    std::vector<glm::dmat4> transforms(count, glm::dmat4(1.0));
+    for (size_t k = 0; k < count; ++k) {
+      glm::dmat4& m = transforms[k];
+      if (!translation.empty())
+        m = glm::translate(m, glm::dvec3(translation[3 * k], translation[3 * k + 1], translation[3 * k + 2]));
+      if (!rotation.empty()) {
+        const glm::dquat q(rotation[4 * k + 3], rotation[4 * k], rotation[4 * k + 1], rotation[4 * k + 2]);  // x, y, z, w
+        const double length = glm::length(q);
+        if (!(length > 0.0)) fail(what + ": instance " + std::to_string(k) + ": ROTATION is not a valid quaternion");
+        m = m * glm::mat4_cast(q / length);
+      }
+      if (!scale.empty()) m = glm::scale(m, glm::dvec3(scale[3 * k], scale[3 * k + 1], scale[3 * k + 2]));
+    }
+    return transforms;
   }
 
   // A perspective camera on a node (orthographic ones are skipped with a warning). Name: the camera's, else
@@ -806,6 +956,9 @@ private:
     const std::string name = mesh.name.empty() ? "mesh" + std::to_string(meshIndex) : mesh.name;
     std::vector<uint32_t> ids;
     for (size_t p = 0; p < mesh.primitives.size(); ++p) {
+      // A Draco-compressed primitive's accessors are first pointed at its decoded values.
+      gltf::decodeDracoPrimitive(path_, "mesh '" + name + "' primitive " + std::to_string(p), mesh.primitives[p],
+                                 model_, dracoAccessors_);
       std::optional<Mesh> primitive = importPrimitive(mesh.primitives[p], name, p, mesh.primitives.size() > 1);
       if (!primitive) continue;
       ids.push_back(uint32_t(scene_.meshes.size()));
@@ -994,6 +1147,9 @@ private:
   Scene scene_;
   std::vector<Light> lightDefinitions_;
   std::vector<std::optional<std::vector<uint32_t>>> meshCache_;
+  gltf::MeshoptPlan meshopt_;     // meshopt-compressed views, decoded once tinygltf has loaded the buffers
+  std::set<int> dracoAccessors_;  // accessors already filled from a Draco stream
+  std::vector<int> dracoIndices_;  // Draco indices accessors given a placeholder bufferView for tinygltf
   std::set<std::string> warnedOnce_;
   struct {
     size_t triangles = 0, primitives = 0;

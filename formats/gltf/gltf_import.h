@@ -18,7 +18,12 @@ namespace cpvs {
 //   primitives, each cpvs Mesh is named "<name>#<primitive index>", e.g. "Circle#1". excludeMeshes()
 //   takes "Circle" to mean every primitive of that glTF mesh and "Circle#1" to mean just that one.
 // * Every node that uses a mesh adds one Instance per primitive (node name, else "node<i>"), with its
-//   world transform. A mesh shared by several nodes is decoded once.
+//   world transform. A mesh shared by several nodes is decoded once. A node with EXT_mesh_gpu_instancing
+//   places its mesh once per instance instead (world = node * TRANSLATION * ROTATION * SCALE of the
+//   instance; named "<node>[<k>]"); every attribute accessor must have the same count.
+// * Compressed geometry is decoded first (formats/gltf/compressed_geometry.h): EXT_meshopt_compression and
+//   KHR_meshopt_compression bufferViews (their fallback buffers are never read), KHR_draco_mesh_compression
+//   primitives (every attribute the extension names, and the indices).
 // * Positions: float VEC3, or the integer types of KHR_mesh_quantization (normalized or not). Sparse
 //   accessors are applied. Indices: unsigned byte, short or int.
 // * Each Mesh is classified by classifyMesh() (closed / open, from the geometry alone).
@@ -30,9 +35,13 @@ namespace cpvs {
 //   nodes of the scene, in world space (eye = node origin, looking along the node's -Z with +Y up);
 //   orthographic, malformed or degenerate ones are skipped with a warning (they never fail an import).
 // * Anything that cannot be imported correctly (unreadable file, index or accessor out of range, NaN/Inf
-//   positions, recursive node graph, geometry compression such as Draco or meshopt, a scene without any
-//   triangle) throws Error(ErrorCategory::InvalidInput) naming the file and the element. Things that are
-//   ignored without harm (images, skins, morph targets, non-triangle primitives) go to scene.warnings.
+//   positions, recursive node graph, a corrupt meshopt or Draco stream, a meshopt stream of a version this
+//   build's libmeshoptimizer cannot decode, a scene without any triangle) throws
+//   Error(ErrorCategory::InvalidInput) naming the file and the element. A file that uses a geometry
+//   extension cpvs does not import (KHR_node_visibility, KHR_mesh_primitive_restart; in extensionsUsed or
+//   extensionsRequired) throws Error(ErrorCategory::NotSupported) naming it, before any buffer is read.
+//   Things that are ignored without harm (images, skins, morph targets, non-triangle primitives) go to
+//   scene.warnings.
 // Safe on untrusted input: every offset and size is checked before it is read, and the rules of
 // formats/gltf/untrusted_input.h (JSON depth and size, GLB and asset versions, which files buffers may come
 // from) hold before tinygltf parses the file.
