@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (fuzz/, clang) and runs each for SECONDS (default 60) from a seed corpus made of
 # the repo's own files: the golden .cpvs files and small bakes, the bundled self-contained glTF scenes (and a
-# GLB made from one), and point files in CSV, PLY and EXR. Corpora grow in out/fuzz/corpus/TARGET, crashes
-# land in out/fuzz/artifacts/TARGET; a summary line per target (executions, corpus, crashes) is printed and
-# written to out/fuzz/summary.txt. Exit 1 when any target crashed.
+# GLB made from one), the compressed GLBs of tests/data/compressed, and point files in CSV, PLY and EXR.
+# Corpora grow in out/fuzz/corpus/TARGET, crashes land in out/fuzz/artifacts/TARGET; a summary line per target
+# (executions, corpus, crashes) is printed and written to out/fuzz/summary.txt. Exit 1 when any target crashed.
 #   scripts/fuzz.sh [SECONDS] [TARGET ...]     targets: fuzz_cpvs fuzz_cpvs_semantic fuzz_gltf fuzz_points
 # CPVS_FUZZ_BUILD and CPVS_FUZZ_OUT move the build folder and out/fuzz (the test suite's short run uses its own).
 set -euo pipefail
@@ -31,6 +31,10 @@ seed() {  # seed TARGET: fills out/fuzz/corpus/TARGET once
     fuzz_gltf)
       for f in Tiny/tiny.gltf TorusKnot/torusknot.gltf; do cp "$root/data/scenes/$f" "$dir/"; done
       cp "$root"/tests/fuzz-regressions/gltf-*.gltf "$dir/"  # inputs that once failed: replayed every run
+      # Compressed geometry and GPU instancing (meshopt, Draco, EXT_mesh_gpu_instancing), self-contained GLBs.
+      for f in tiny_meshopt_khr tiny_draco tiny_instanced torusknot_meshopt torusknot_draco; do
+        cp "$root/tests/data/compressed/$f.glb" "$dir/"
+      done
       python3 - "$root/data/scenes/Tiny/tiny.gltf" "$dir/tiny.glb" <<'PY'
 import base64, json, struct, sys
 g = json.load(open(sys.argv[1]))
