@@ -1,11 +1,13 @@
 // cpvs-scenegen: runs the generator, loads its .glb files with tinygltf and checks what the benchmark
 // relies on: closedness (a weld + directed-edge test written here, independent of the generator and of
 // the importer), outward orientation, the triangle budget, determinism, lights and their directions, and
-// the command line's exit codes.
+// the command line's exit codes; the alpha-test scene against its specification (docs/scenegen.md), the
+// foliage level's instancing and leaf texture, --gpu-instancing against plain nodes, and the bytes of the
+// older scenes against recorded hashes.
 
 // tinygltf is compiled into this test under its own namespace name, so that it cannot clash with the
 // copy the cpvs library may compile (a second TINYGLTF_IMPLEMENTATION would be a duplicate definition).
-// No image decoding is needed.
+// Its own image decoding is off; images are decoded by the stb_image compiled here (static, file-local).
 #define tinygltf cpvs_scenegen_test_tinygltf
 #define TINYGLTF_IMPLEMENTATION
 #define TINYGLTF_NO_STB_IMAGE
@@ -14,6 +16,11 @@
 #include <tiny_gltf.h>
 #undef tinygltf
 namespace gltf = cpvs_scenegen_test_tinygltf;
+
+#define STB_IMAGE_IMPLEMENTATION
+#define STB_IMAGE_STATIC
+#define STBI_ONLY_PNG
+#include <stb/stb_image.h>
 
 #include <algorithm>
 #include <array>
@@ -28,11 +35,13 @@ namespace gltf = cpvs_scenegen_test_tinygltf;
 #include <numeric>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "support/test_support.h"
 
@@ -57,8 +66,28 @@ bool generate(const std::string& args, std::string* output = nullptr) {
   return r.exitCode == 0;
 }
 
+// Decodes an embedded image as RGBA8 with stb_image (independent of the generator's PNG encoder).
+bool decodeImage(gltf::Image* image, const int, std::string* err, std::string*, int, int, const unsigned char* bytes,
+                 int size, void*) {
+  int w = 0, h = 0, channels = 0;
+  unsigned char* pixels = stbi_load_from_memory(bytes, size, &w, &h, &channels, 4);
+  if (!pixels) {
+    if (err) *err += std::string("stb_image: ") + stbi_failure_reason() + "\n";
+    return false;
+  }
+  image->width = w;
+  image->height = h;
+  image->component = 4;
+  image->bits = 8;
+  image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+  image->image.assign(pixels, pixels + static_cast<std::size_t>(w) * h * 4);
+  stbi_image_free(pixels);
+  return true;
+}
+
 gltf::Model load(const std::string& path) {
   gltf::TinyGLTF loader;
+  loader.SetImageLoader(decodeImage, nullptr);
   gltf::Model model;
   std::string err, warn;
   const bool ok = loader.LoadBinaryFromFile(&model, &err, &warn, path);
@@ -168,15 +197,104 @@ Topology topology(const Triangles& t) {
   return r;
 }
 
+// The node's EXT_mesh_gpu_instancing attribute `semantic` (TRANSLATION, ROTATION, SCALE), or -1.
+int instanceAttribute(const gltf::Node& node, const char* semantic) {
+  const auto it = node.extensions.find("EXT_mesh_gpu_instancing");
+  if (it == node.extensions.end() || !it->second.Has("attributes")) return -1;
+  const gltf::Value& attributes = it->second.Get("attributes");
+  return attributes.Has(semantic) ? attributes.Get(semantic).GetNumberAsInt() : -1;
+}
+
+bool instanced(const gltf::Node& node) { return node.extensions.count("EXT_mesh_gpu_instancing") > 0; }
+
+// A float accessor's values, `components` per element, checked to be tightly packed inside its buffer.
+std::vector<float> floats(const gltf::Model& model, int index, int type, int components) {
+  const gltf::Accessor& a = model.accessors.at(static_cast<std::size_t>(index));
+  EXPECT_EQ(a.componentType, TINYGLTF_COMPONENT_TYPE_FLOAT);
+  EXPECT_EQ(a.type, type);
+  EXPECT_FALSE(a.normalized);
+  const gltf::BufferView& v = model.bufferViews.at(static_cast<std::size_t>(a.bufferView));
+  const std::vector<unsigned char>& b = model.buffers.at(static_cast<std::size_t>(v.buffer)).data;
+  const std::size_t start = v.byteOffset + a.byteOffset, bytes = a.count * components * sizeof(float);
+  std::vector<float> out(a.count * static_cast<std::size_t>(components));
+  const std::size_t stride = static_cast<std::size_t>(components) * sizeof(float);
+  if (start + bytes > b.size() || a.byteOffset + bytes > v.byteLength || (v.byteStride != 0 && v.byteStride != stride)) {
+    ADD_FAILURE() << "accessor " << index << " out of its buffer view";
+    return out;
+  }
+  std::memcpy(out.data(), b.data() + start, bytes);
+  return out;
+}
+
+// How many copies of its mesh a node draws: its GPU instances (all attributes of one count), else one.
+std::size_t copies(const gltf::Model& model, const gltf::Node& node) {
+  if (!instanced(node)) return 1;
+  std::size_t count = 0;
+  bool first = true;
+  for (const char* semantic : {"TRANSLATION", "ROTATION", "SCALE"}) {
+    const int a = instanceAttribute(node, semantic);
+    if (a < 0) continue;
+    const std::size_t n = model.accessors.at(static_cast<std::size_t>(a)).count;
+    if (!first) {
+      EXPECT_EQ(n, count) << node.name << ": " << semantic << " has another count";
+    }
+    count = n;
+    first = false;
+  }
+  EXPECT_FALSE(first) << node.name << ": EXT_mesh_gpu_instancing without attributes";
+  return count;
+}
+
 std::uint64_t instancedTriangles(const gltf::Model& model) {
   std::uint64_t total = 0;
   for (const gltf::Node& node : model.nodes) {
     EXPECT_TRUE(node.children.empty());  // the generator writes a flat list of roots
     if (node.mesh < 0) continue;
     for (const gltf::Primitive& p : model.meshes.at(static_cast<std::size_t>(node.mesh)).primitives)
-      total += model.accessors.at(static_cast<std::size_t>(p.indices)).count / 3;
+      total += model.accessors.at(static_cast<std::size_t>(p.indices)).count / 3 * copies(model, node);
   }
   return total;
+}
+
+// One placement of a mesh: float translation and rotation (x, y, z, w), as a float reader takes them.
+using Placement = std::tuple<int, std::array<float, 3>, std::array<float, 4>>;
+
+// Every placement of every mesh in the file: plain mesh nodes and GPU instances (whose scale must be 1 and
+// whose node must be at identity).
+std::vector<Placement> placements(const gltf::Model& model) {
+  std::vector<Placement> out;
+  for (const gltf::Node& node : model.nodes) {
+    if (node.mesh < 0) continue;
+    if (!instanced(node)) {
+      std::array<float, 3> t{0.0f, 0.0f, 0.0f};
+      std::array<float, 4> r{0.0f, 0.0f, 0.0f, 1.0f};
+      for (std::size_t k = 0; k < node.translation.size(); ++k) t[k] = static_cast<float>(node.translation[k]);
+      for (std::size_t k = 0; k < node.rotation.size(); ++k) r[k] = static_cast<float>(node.rotation[k]);
+      EXPECT_TRUE(node.scale.empty()) << node.name;
+      out.emplace_back(node.mesh, t, r);
+      continue;
+    }
+    EXPECT_TRUE(node.translation.empty() && node.rotation.empty() && node.scale.empty()) << node.name;
+    const std::size_t n = copies(model, node);
+    const std::vector<float> t = floats(model, instanceAttribute(node, "TRANSLATION"), TINYGLTF_TYPE_VEC3, 3);
+    const std::vector<float> r = floats(model, instanceAttribute(node, "ROTATION"), TINYGLTF_TYPE_VEC4, 4);
+    const std::vector<float> s = floats(model, instanceAttribute(node, "SCALE"), TINYGLTF_TYPE_VEC3, 3);
+    for (std::size_t i = 0; i < n && 4 * i + 3 < r.size() && 3 * i + 2 < t.size(); ++i) {
+      EXPECT_TRUE(s[3 * i] == 1.0f && s[3 * i + 1] == 1.0f && s[3 * i + 2] == 1.0f) << node.name << " " << i;
+      out.emplace_back(node.mesh, std::array<float, 3>{t[3 * i], t[3 * i + 1], t[3 * i + 2]},
+                       std::array<float, 4>{r[4 * i], r[4 * i + 1], r[4 * i + 2], r[4 * i + 3]});
+    }
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The file's JSON chunk, parsed.
+nlohmann::json glbJson(const std::string& bytes) {
+  if (bytes.size() < 20) return nlohmann::json();
+  std::uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  return nlohmann::json::parse(bytes.substr(20, length));
 }
 
 glm::dquat nodeRotation(const gltf::Node& node) {
@@ -365,6 +483,451 @@ TEST(Scenegen, LightQuaternionTurnsMinusZIntoTheDirection) {
   EXPECT_LT(maxY, -0.9);
 }
 
+// ---- the older scenes' bytes ---------------------------------------------------------------------------
+
+// FNV-1a over the JSON chunk (with asset.generator's version taken out, and no padding) and the BIN chunk.
+std::uint64_t stableHash(const std::string& bytes) {
+  if (bytes.size() < 28) return 0;
+  std::uint32_t length = 0;
+  std::memcpy(&length, bytes.data() + 12, 4);
+  std::string text = bytes.substr(20, length);
+  while (!text.empty() && text.back() == ' ') text.pop_back();
+  const std::string key = "\"generator\":\"cpvs-scenegen ";
+  const std::size_t at = text.find(key);
+  if (at != std::string::npos) {
+    const std::size_t end = text.find('"', at + key.size());
+    text.replace(at, end + 1 - at, "\"generator\":\"cpvs-scenegen\"");
+  }
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  const auto mix = [&h](const std::string& s, std::size_t from) {
+    for (std::size_t i = from; i < s.size(); ++i) {
+      h ^= static_cast<unsigned char>(s[i]);
+      h *= 0x100000001b3ull;
+    }
+  };
+  mix(text, 0);
+  mix(bytes, 20 + std::size_t{length} + 8);
+  return h;
+}
+
+TEST(Scenegen, OlderScenesKeepTheirBytes) {
+  // Recorded before materials, textures and GPU instancing were added to the writer: a scene that uses none
+  // of them must not change. (A deliberate change of these generators updates the hashes here.)
+  const std::string dir = tempDir();
+  const std::pair<const char*, std::uint64_t> expected[] = {{"city", 0xd967adaf2b0e05c8ull},
+                                                            {"open-city", 0x9eccaa87e020c098ull},
+                                                            {"landscape", 0x2080408ad7edddf3ull},
+                                                            {"city-spots", 0x207235faf88cd713ull}};
+  for (const auto& [kind, hash] : expected) {
+    const std::string path = dir + "/" + kind + ".glb";
+    ASSERT_TRUE(generate(std::string(kind) + " --triangles 20000 --seed 3 -o " + path));
+    EXPECT_EQ(stableHash(readBytes(path)), hash) << kind << ": 0x" << std::hex << stableHash(readBytes(path));
+  }
+}
+
+// ---- alpha-test ----------------------------------------------------------------------------------------
+
+const gltf::Material& materialOf(const gltf::Model& model, const gltf::Mesh& mesh) {
+  static const gltf::Material none;
+  if (mesh.primitives.size() != 1 || mesh.primitives[0].material < 0) {
+    ADD_FAILURE() << mesh.name << ": not one primitive with a material";
+    return none;
+  }
+  return model.materials.at(static_cast<std::size_t>(mesh.primitives[0].material));
+}
+
+// Checks what stb_image does not: every chunk's CRC-32 and the zlib stream's Adler-32 (strict decoders
+// such as libpng reject a file where either is wrong). Returns an empty string or what is wrong.
+std::string pngChecksumsWrong(const std::vector<unsigned char>& png) {
+  std::uint32_t table[256];
+  for (std::uint32_t n = 0; n < 256; ++n) {
+    std::uint32_t c = n;
+    for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    table[n] = c;
+  }
+  const auto be32 = [&](std::size_t at) {
+    return (std::uint32_t{png[at]} << 24) | (std::uint32_t{png[at + 1]} << 16) | (std::uint32_t{png[at + 2]} << 8) |
+           std::uint32_t{png[at + 3]};
+  };
+  static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (png.size() < 8 || std::memcmp(png.data(), signature, 8) != 0) return "no PNG signature";
+  std::string idat;
+  std::size_t at = 8;
+  bool ended = false;
+  while (at + 12 <= png.size() && !ended) {
+    const std::uint32_t length = be32(at);
+    if (at + 12 + length > png.size()) return "a chunk runs past the end";
+    std::uint32_t crc = 0xFFFFFFFFu;
+    for (std::size_t i = at + 4; i < at + 8 + length; ++i) crc = table[(crc ^ png[i]) & 0xFFu] ^ (crc >> 8);
+    const std::string type(reinterpret_cast<const char*>(&png[at + 4]), 4);
+    if ((crc ^ 0xFFFFFFFFu) != be32(at + 8 + length)) return "bad CRC in chunk " + type;
+    if (type == "IDAT") idat.append(reinterpret_cast<const char*>(&png[at + 8]), length);
+    ended = type == "IEND";
+    at += 12 + length;
+  }
+  if (!ended) return "no IEND";
+  if (idat.size() < 6) return "no image data";
+  int size = 0;
+  char* raw = stbi_zlib_decode_malloc(idat.data(), static_cast<int>(idat.size()), &size);
+  if (!raw) return "the zlib stream does not decode";
+  std::uint32_t a = 1, b = 0;
+  for (int i = 0; i < size; ++i) {
+    a = (a + static_cast<unsigned char>(raw[i])) % 65521u;
+    b = (b + a) % 65521u;
+  }
+  STBI_FREE(raw);
+  const std::size_t end = idat.size();
+  const std::uint32_t stored = (std::uint32_t{static_cast<unsigned char>(idat[end - 4])} << 24) |
+                               (std::uint32_t{static_cast<unsigned char>(idat[end - 3])} << 16) |
+                               (std::uint32_t{static_cast<unsigned char>(idat[end - 2])} << 8) |
+                               std::uint32_t{static_cast<unsigned char>(idat[end - 1])};
+  return stored == ((b << 16) | a) ? "" : "bad Adler-32";
+}
+
+// A texture's decoded RGBA texels and its sampler.
+struct Texture {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgba;
+  gltf::Sampler sampler;
+  std::string name, mimeType;
+};
+
+Texture textureOf(const gltf::Model& model, int index) {
+  Texture t;
+  if (index < 0 || static_cast<std::size_t>(index) >= model.textures.size()) {
+    ADD_FAILURE() << "no texture " << index;
+    return t;
+  }
+  const gltf::Texture& tex = model.textures[static_cast<std::size_t>(index)];
+  const gltf::Image& image = model.images.at(static_cast<std::size_t>(tex.source));
+  EXPECT_GE(image.bufferView, 0) << "the image is embedded in the BIN chunk";
+  EXPECT_EQ(image.component, 4);
+  if (image.bufferView >= 0) {
+    const gltf::BufferView& v = model.bufferViews.at(static_cast<std::size_t>(image.bufferView));
+    const std::vector<unsigned char>& buffer = model.buffers.at(static_cast<std::size_t>(v.buffer)).data;
+    EXPECT_EQ(v.target, 0) << "an image's buffer view has no target";
+    const std::vector<unsigned char> png(buffer.begin() + static_cast<std::ptrdiff_t>(v.byteOffset),
+                                         buffer.begin() + static_cast<std::ptrdiff_t>(v.byteOffset + v.byteLength));
+    EXPECT_EQ(pngChecksumsWrong(png), "") << tex.name;
+  }
+  t.width = image.width;
+  t.height = image.height;
+  t.rgba = image.image;
+  t.name = tex.name;
+  t.mimeType = image.mimeType;
+  if (tex.sampler >= 0) t.sampler = model.samplers.at(static_cast<std::size_t>(tex.sampler));
+  return t;
+}
+
+TEST(Scenegen, AlphaTestSceneFollowsItsSpecification) {
+  const std::string dir = tempDir();
+  std::string out;
+  ASSERT_TRUE(generate("alpha-test -o " + dir + "/a.glb", &out));
+  ASSERT_TRUE(generate("alpha-test -o " + dir + "/b.glb"));
+  const std::string bytes = readBytes(dir + "/a.glb");
+  EXPECT_EQ(bytes, readBytes(dir + "/b.glb"));
+  EXPECT_NE(out.find("alpha-test: 8 triangles"), std::string::npos) << out;
+
+  // The JSON as written: materials, alpha modes, the texture.
+  const nlohmann::json j = glbJson(bytes);
+  ASSERT_TRUE(j.is_object());
+  std::map<std::string, nlohmann::json> materials;
+  for (const nlohmann::json& m : j.at("materials")) materials[m.at("name").get<std::string>()] = m;
+  ASSERT_EQ(materials.size(), 4u);
+  EXPECT_EQ(materials.at("Ground").at("alphaMode"), "OPAQUE");
+  EXPECT_EQ(materials.at("Ground").at("pbrMetallicRoughness").at("baseColorFactor"), nlohmann::json({1.0, 1.0, 1.0, 1.0}));
+  EXPECT_FALSE(materials.at("Ground").at("pbrMetallicRoughness").contains("baseColorTexture"));
+  EXPECT_EQ(materials.at("LeafMask").at("alphaMode"), "MASK");
+  EXPECT_EQ(materials.at("LeafMask").at("alphaCutoff"), 0.5);
+  EXPECT_EQ(materials.at("LeafMask").at("doubleSided"), true);
+  EXPECT_EQ(materials.at("LeafMask").at("pbrMetallicRoughness").at("baseColorFactor"), nlohmann::json({1.0, 1.0, 1.0, 1.0}));
+  EXPECT_EQ(materials.at("ClearGlass").at("alphaMode"), "BLEND");
+  EXPECT_EQ(materials.at("ClearGlass").at("doubleSided"), true);
+  EXPECT_EQ(materials.at("ClearGlass").at("pbrMetallicRoughness").at("baseColorFactor"), nlohmann::json({0.8, 0.9, 1.0, 0.1}));
+  EXPECT_FALSE(materials.at("ClearGlass").at("pbrMetallicRoughness").contains("baseColorTexture"));
+  EXPECT_FALSE(materials.at("ClearGlass").contains("alphaCutoff"));
+  EXPECT_EQ(materials.at("CheckerOpaque").at("alphaMode"), "OPAQUE");
+  for (const char* name : {"LeafMask", "CheckerOpaque"}) {
+    const nlohmann::json& info = materials.at(name).at("pbrMetallicRoughness").at("baseColorTexture");
+    EXPECT_EQ(info.at("index"), 0) << name;
+    EXPECT_EQ(info.at("texCoord"), 0) << name;
+  }
+  ASSERT_EQ(j.at("textures").size(), 1u);
+  ASSERT_EQ(j.at("images").size(), 1u);
+  EXPECT_EQ(j.at("images")[0].at("mimeType"), "image/png");
+  EXPECT_EQ(j.at("images")[0].at("name"), "Checker");
+  EXPECT_EQ(j.at("samplers")[0], nlohmann::json({{"magFilter", 9728}, {"minFilter", 9728}, {"wrapS", 33071}, {"wrapT", 33071}}));
+  EXPECT_FALSE(j.contains("extensionsRequired"));
+
+  // The geometry, loaded.
+  const gltf::Model model = load(dir + "/a.glb");
+  ASSERT_EQ(model.meshes.size(), 4u);
+  ASSERT_EQ(model.nodes.size(), 5u);
+  struct Quad {
+    const char* mesh;
+    const char* material;
+    float x0, x1, z0, z1, y;
+    bool uv;
+    float u0;  // u = (x - u0) / 2, v = (z + 1) / 2
+  };
+  const Quad quads[] = {{"Ground", "Ground", -4.0f, 4.0f, -4.0f, 4.0f, 0.0f, false, 0.0f},
+                        {"MaskCard", "LeafMask", -3.5f, -1.5f, -1.0f, 1.0f, 1.0f, true, -3.5f},
+                        {"GlassPane", "ClearGlass", -1.0f, 1.0f, -1.0f, 1.0f, 1.0f, false, 0.0f},
+                        {"OpaqueCard", "CheckerOpaque", 1.5f, 3.5f, -1.0f, 1.0f, 1.0f, true, 1.5f}};
+  for (const Quad& q : quads) {
+    const auto mesh = std::find_if(model.meshes.begin(), model.meshes.end(),
+                                   [&](const gltf::Mesh& m) { return m.name == q.mesh; });
+    ASSERT_NE(mesh, model.meshes.end()) << q.mesh;
+    EXPECT_EQ(materialOf(model, *mesh).name, q.material);
+    const int index = static_cast<int>(mesh - model.meshes.begin());
+    int nodes = 0;
+    for (const gltf::Node& node : model.nodes) {
+      if (node.mesh != index) continue;
+      ++nodes;
+      EXPECT_TRUE(node.translation.empty() && node.rotation.empty() && node.scale.empty() && node.matrix.empty())
+          << q.mesh << ": not at identity";
+      EXPECT_FALSE(instanced(node));
+    }
+    EXPECT_EQ(nodes, 1) << q.mesh;
+    const Triangles t = meshTriangles(model, *mesh);
+    ASSERT_EQ(t.positions.size(), 4u) << q.mesh;
+    ASSERT_EQ(t.indices.size(), 6u) << q.mesh;
+    std::set<std::pair<float, float>> corners;
+    for (const glm::vec3& p : t.positions) {
+      EXPECT_EQ(p.y, q.y) << q.mesh;
+      EXPECT_TRUE(p.x == q.x0 || p.x == q.x1) << q.mesh << " x " << p.x;
+      EXPECT_TRUE(p.z == q.z0 || p.z == q.z1) << q.mesh << " z " << p.z;
+      corners.insert({p.x, p.z});
+    }
+    EXPECT_EQ(corners.size(), 4u) << q.mesh;
+    double area = 0.0;
+    for (int f = 0; f < 2; ++f) {
+      const glm::dvec3 a(t.positions[t.indices[3 * f]]), b(t.positions[t.indices[3 * f + 1]]),
+          c(t.positions[t.indices[3 * f + 2]]);
+      const glm::dvec3 n = glm::cross(b - a, c - a);
+      EXPECT_GT(n.y, 0.0) << q.mesh << ": triangle " << f << " is not counter-clockwise seen from +y";
+      area += 0.5 * glm::length(n);
+    }
+    EXPECT_DOUBLE_EQ(area, (q.x1 - q.x0) * (q.z1 - q.z0)) << q.mesh;
+    const gltf::Primitive& prim = mesh->primitives[0];
+    const auto uv = prim.attributes.find("TEXCOORD_0");
+    ASSERT_EQ(uv != prim.attributes.end(), q.uv) << q.mesh;
+    if (!q.uv) continue;
+    const std::vector<float> uvs = floats(model, uv->second, TINYGLTF_TYPE_VEC2, 2);
+    ASSERT_EQ(uvs.size(), 8u);
+    for (std::size_t i = 0; i < 4; ++i) {
+      EXPECT_EQ(uvs[2 * i], (t.positions[i].x - q.u0) / 2.0f) << q.mesh << " vertex " << i;
+      EXPECT_EQ(uvs[2 * i + 1], (t.positions[i].z + 1.0f) / 2.0f) << q.mesh << " vertex " << i;
+    }
+  }
+
+  // The checker: texel (i, j), row 0 the image's top, green with alpha 255 where i + j is even, 0 where odd.
+  const gltf::Material& mask = materialOf(model, model.meshes[1]);
+  const Texture checker = textureOf(model, mask.pbrMetallicRoughness.baseColorTexture.index);
+  EXPECT_EQ(checker.name, "Checker");
+  EXPECT_EQ(checker.mimeType, "image/png");
+  EXPECT_EQ(checker.sampler.magFilter, TINYGLTF_TEXTURE_FILTER_NEAREST);
+  EXPECT_EQ(checker.sampler.minFilter, TINYGLTF_TEXTURE_FILTER_NEAREST);
+  EXPECT_EQ(checker.sampler.wrapS, TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE);
+  EXPECT_EQ(checker.sampler.wrapT, TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE);
+  ASSERT_EQ(checker.width, 8);
+  ASSERT_EQ(checker.height, 8);
+  ASSERT_EQ(checker.rgba.size(), 256u);
+  for (int row = 0; row < 8; ++row) {
+    for (int col = 0; col < 8; ++col) {
+      const unsigned char* texel = &checker.rgba[static_cast<std::size_t>(4 * (8 * row + col))];
+      EXPECT_EQ(texel[0], 51);
+      EXPECT_EQ(texel[1], 153);
+      EXPECT_EQ(texel[2], 51);
+      EXPECT_EQ(texel[3], (col + row) % 2 == 0 ? 255 : 0) << "texel " << col << ", " << row;
+    }
+  }
+
+  // The sun: the only light, directional, intensity 1, shining straight down from a node at the origin.
+  ASSERT_EQ(model.lights.size(), 1u);
+  EXPECT_EQ(model.lights[0].type, "directional");
+  EXPECT_EQ(model.lights[0].name, "Sun");
+  EXPECT_EQ(model.lights[0].intensity, 1.0);
+  for (const gltf::Node& node : model.nodes) {
+    if (lightOf(node) != 0) continue;
+    EXPECT_EQ(node.name, "Sun");
+    EXPECT_TRUE(node.translation.empty());
+    const glm::dvec3 d = lightDirection(node);
+    EXPECT_NEAR(d.x, 0.0, 1e-12);
+    EXPECT_NEAR(d.y, -1.0, 1e-12);
+    EXPECT_NEAR(d.z, 0.0, 1e-12);
+  }
+}
+
+// ---- foliage ---------------------------------------------------------------------------------------------
+
+TEST(Scenegen, FoliageInstancesLeafCardsWithAMaskedTexture) {
+  const std::string dir = tempDir();
+  std::string out;
+  ASSERT_TRUE(generate("foliage -o " + dir + "/a.glb", &out));
+  ASSERT_TRUE(generate("foliage -o " + dir + "/b.glb"));
+  ASSERT_TRUE(generate("foliage --seed 2 -o " + dir + "/c.glb"));
+  const std::string bytes = readBytes(dir + "/a.glb");
+  EXPECT_EQ(bytes, readBytes(dir + "/b.glb"));
+  EXPECT_NE(bytes, readBytes(dir + "/c.glb"));
+
+  const gltf::Model model = load(dir + "/a.glb");
+  for (const char* ext : {"EXT_mesh_gpu_instancing", "KHR_lights_punctual"})
+    EXPECT_NE(std::find(model.extensionsUsed.begin(), model.extensionsUsed.end(), ext), model.extensionsUsed.end()) << ext;
+  EXPECT_EQ(model.extensionsRequired, std::vector<std::string>{"EXT_mesh_gpu_instancing"});
+
+  // Budget: the default is 200,000 triangles after instancing, and the summary says how many.
+  const std::uint64_t triangles = instancedTriangles(model);
+  expectWithinBudget(triangles, 200000);
+  EXPECT_NE(out.find("foliage: " + std::to_string(triangles) + " triangles"), std::string::npos) << out;
+
+  std::size_t crowns = 0, trees = 0, leafTexture = 0;
+  bool leafTextureSeen = false, glassSeen = false;
+  for (const gltf::Node& node : model.nodes) {
+    if (node.mesh < 0) continue;
+    const gltf::Mesh& mesh = model.meshes.at(static_cast<std::size_t>(node.mesh));
+    const gltf::Material& material = materialOf(model, mesh);
+    if (material.alphaMode == "BLEND") {  // glass: clear, untextured, casts no shadow when clipped at 0.5
+      glassSeen = true;
+      EXPECT_LT(material.pbrMetallicRoughness.baseColorFactor.at(3), 0.5) << material.name;
+      EXPECT_LT(material.pbrMetallicRoughness.baseColorTexture.index, 0) << material.name;
+    }
+    if (!instanced(node)) {
+      EXPECT_NE(material.alphaMode, "MASK") << mesh.name;
+      continue;
+    }
+    // Every instanced node: three float attributes of one count, unit rotations about y, uniform scale
+    // 0.8 .. 1.3, trees on the ground inside the level.
+    const std::size_t n = copies(model, node);
+    EXPECT_GT(n, 0u) << node.name;
+    const std::vector<float> t = floats(model, instanceAttribute(node, "TRANSLATION"), TINYGLTF_TYPE_VEC3, 3);
+    const std::vector<float> r = floats(model, instanceAttribute(node, "ROTATION"), TINYGLTF_TYPE_VEC4, 4);
+    const std::vector<float> s = floats(model, instanceAttribute(node, "SCALE"), TINYGLTF_TYPE_VEC3, 3);
+    ASSERT_EQ(t.size(), 3 * n);
+    ASSERT_EQ(r.size(), 4 * n);
+    ASSERT_EQ(s.size(), 3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      EXPECT_EQ(t[3 * i + 1], 0.0f);
+      EXPECT_LE(std::abs(t[3 * i]), 200.0f);
+      EXPECT_LE(std::abs(t[3 * i + 2]), 200.0f);
+      EXPECT_EQ(r[4 * i], 0.0f);
+      EXPECT_EQ(r[4 * i + 2], 0.0f);
+      EXPECT_NEAR(std::hypot(r[4 * i + 1], r[4 * i + 3]), 1.0, 1e-6);
+      EXPECT_TRUE(s[3 * i] == s[3 * i + 1] && s[3 * i] == s[3 * i + 2]);
+      EXPECT_GE(s[3 * i], 0.8f - 1e-6f);
+      EXPECT_LE(s[3 * i], 1.3f + 1e-6f);
+    }
+    if (material.alphaMode == "OPAQUE") {  // a trunk: a closed, outward solid
+      const Topology topo = topology(meshTriangles(model, mesh));
+      EXPECT_TRUE(topo.closed) << mesh.name;
+      EXPECT_GT(topo.minComponentVolume, 0.0) << mesh.name;
+      trees += n;
+      continue;
+    }
+    // A crown: 20 .. 60 leaf cards of two triangles, masked, double-sided, textured over [0, 1]^2.
+    ++crowns;
+    EXPECT_EQ(material.alphaMode, "MASK") << mesh.name;
+    EXPECT_EQ(material.alphaCutoff, 0.5);
+    EXPECT_TRUE(material.doubleSided);
+    const std::uint64_t faces = meshTriangles(model, mesh).indices.size() / 3;
+    EXPECT_GE(faces, 40u) << mesh.name;
+    EXPECT_LE(faces, 120u) << mesh.name;
+    const gltf::Primitive& prim = mesh.primitives.at(0);
+    ASSERT_TRUE(prim.attributes.count("TEXCOORD_0")) << mesh.name;
+    for (const float c : floats(model, prim.attributes.at("TEXCOORD_0"), TINYGLTF_TYPE_VEC2, 2)) {
+      EXPECT_GE(c, 0.0f);
+      EXPECT_LE(c, 1.0f);
+    }
+    const int texture = material.pbrMetallicRoughness.baseColorTexture.index;
+    ASSERT_GE(texture, 0) << mesh.name;
+    if (leafTextureSeen) {
+      EXPECT_EQ(static_cast<std::size_t>(texture), leafTexture);
+    }
+    leafTexture = static_cast<std::size_t>(texture);
+    leafTextureSeen = true;
+  }
+  EXPECT_TRUE(glassSeen);
+  EXPECT_GE(crowns, 2u);
+  EXPECT_LE(crowns, 4u);
+  EXPECT_GE(trees, 1000u) << "trunk instances";
+
+  // The leaf texture: RGBA, alpha 0 or 255 only, about half the texels covered.
+  ASSERT_TRUE(leafTextureSeen);
+  const Texture leaves = textureOf(model, static_cast<int>(leafTexture));
+  EXPECT_EQ(leaves.mimeType, "image/png");
+  EXPECT_GE(leaves.width, 64);
+  EXPECT_GE(leaves.height, 64);
+  ASSERT_EQ(leaves.rgba.size(), static_cast<std::size_t>(leaves.width) * leaves.height * 4);
+  std::size_t covered = 0, other = 0;
+  for (std::size_t i = 3; i < leaves.rgba.size(); i += 4) {
+    covered += leaves.rgba[i] == 255;
+    other += leaves.rgba[i] != 255 && leaves.rgba[i] != 0;
+  }
+  const double coverage = static_cast<double>(covered) / (static_cast<double>(leaves.width) * leaves.height);
+  EXPECT_GE(coverage, 0.3);
+  EXPECT_LE(coverage, 0.7);
+  EXPECT_EQ(other, 0u);
+
+  // Lights: a sun and 16 spots pointing down.
+  ASSERT_EQ(model.lights.size(), 17u);
+  std::size_t spots = 0;
+  for (const gltf::Node& node : model.nodes) {
+    const int light = lightOf(node);
+    if (light < 0 || model.lights.at(static_cast<std::size_t>(light)).type != "spot") continue;
+    ++spots;
+    EXPECT_LT(lightDirection(node).y, -0.9) << node.name;
+    EXPECT_GT(model.lights[static_cast<std::size_t>(light)].range, 20.0);
+  }
+  EXPECT_EQ(spots, 16u);
+}
+
+// ---- --gpu-instancing -------------------------------------------------------------------------------------
+
+TEST(Scenegen, GpuInstancingPlacesTheSameMeshesAtTheSameTransforms) {
+  const std::string dir = tempDir();
+  for (const std::string args : {"city --triangles 30000 --seed 7", "open-city --triangles 20000 --seed 5",
+                                 "city-spots --triangles 20000 --lights 12 --seed 4"}) {
+    std::string plainOut, instancedOut;
+    ASSERT_TRUE(generate(args + " -o " + dir + "/plain.glb", &plainOut));
+    ASSERT_TRUE(generate(args + " --gpu-instancing -o " + dir + "/inst.glb", &instancedOut));
+    const gltf::Model plain = load(dir + "/plain.glb");
+    const gltf::Model inst = load(dir + "/inst.glb");
+    EXPECT_TRUE(plain.extensionsRequired.empty()) << args;
+    EXPECT_EQ(inst.extensionsRequired, std::vector<std::string>{"EXT_mesh_gpu_instancing"}) << args;
+
+    // The same triangles after instancing, as counted here and as printed.
+    const std::uint64_t triangles = instancedTriangles(plain);
+    EXPECT_EQ(instancedTriangles(inst), triangles) << args;
+    const std::string count = std::to_string(triangles) + " triangles";
+    EXPECT_NE(plainOut.find(count), std::string::npos) << plainOut;
+    EXPECT_NE(instancedOut.find(count), std::string::npos) << instancedOut;
+
+    // The same meshes, each placed by one instanced node, at bit-identical float transforms.
+    const nlohmann::json a = glbJson(readBytes(dir + "/plain.glb")), b = glbJson(readBytes(dir + "/inst.glb"));
+    EXPECT_EQ(a.at("meshes"), b.at("meshes")) << args;
+    std::set<int> meshNodes;
+    for (const gltf::Node& node : inst.nodes) {
+      if (node.mesh < 0) continue;
+      EXPECT_TRUE(instanced(node)) << node.name;
+      EXPECT_TRUE(meshNodes.insert(node.mesh).second) << "mesh " << node.mesh << " has two nodes";
+    }
+    EXPECT_EQ(meshNodes.size(), inst.meshes.size()) << args;
+    const std::vector<Placement> p = placements(plain), q = placements(inst);
+    EXPECT_EQ(p.size(), q.size()) << args;
+    EXPECT_TRUE(p == q) << args << ": the instances differ from the nodes";
+
+    // The lights are unchanged, on their own nodes.
+    std::vector<nlohmann::json> lightsA, lightsB;
+    for (const nlohmann::json& n : a.at("nodes"))
+      if (!n.contains("mesh")) lightsA.push_back(n);
+    for (const nlohmann::json& n : b.at("nodes"))
+      if (!n.contains("mesh")) lightsB.push_back(n);
+    EXPECT_FALSE(lightsA.empty());
+    EXPECT_EQ(lightsA, lightsB) << args;
+    EXPECT_EQ(a.at("extensions"), b.at("extensions")) << args;
+  }
+}
+
 TEST(Scenegen, CommandLineExitCodes) {
   const std::string dir = tempDir();
   EXPECT_EQ(runTool(generator() + " --help").exitCode, 0);
@@ -378,6 +941,13 @@ TEST(Scenegen, CommandLineExitCodes) {
   EXPECT_EQ(runTool(generator() + " city --triangles -5 -o " + dir + "/x.glb").exitCode, 1);
   EXPECT_EQ(runTool(generator() + " city --lights 3 -o " + dir + "/x.glb").exitCode, 1);
   EXPECT_EQ(runTool(generator() + " city-spots --lights 0 -o " + dir + "/x.glb").exitCode, 1);
+  EXPECT_EQ(runTool(generator() + " foliage --lights 0 -o " + dir + "/x.glb").exitCode, 1);
+  EXPECT_EQ(runTool(generator() + " landscape --lights 3 -o " + dir + "/x.glb").exitCode, 1);
+  EXPECT_EQ(runTool(generator() + " alpha-test --lights 3 -o " + dir + "/x.glb").exitCode, 1);
+  EXPECT_EQ(runTool(generator() + " alpha-test --triangles 10000 -o " + dir + "/x.glb").exitCode, 1);
+  EXPECT_EQ(runTool(generator() + " alpha-test --seed 2 -o " + dir + "/x.glb").exitCode, 1);
+  for (const char* kind : {"landscape", "foliage", "alpha-test"})
+    EXPECT_EQ(runTool(generator() + " " + kind + " --gpu-instancing -o " + dir + "/x.glb").exitCode, 1) << kind;
   EXPECT_FALSE(std::filesystem::exists(dir + "/x.glb"));
   const cpvs::test::ToolResult missing =
       runTool(generator() + " city --triangles 5000 -o " + dir + "/no/such/dir/x.glb");
