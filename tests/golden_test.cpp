@@ -4,13 +4,14 @@
 // tests/golden/tiny_scene_bake64_v2.cpvs (OpenGL on OSMesa) and tests/golden/tiny_scene_bake64_v2_cpu.cpvs
 // (the CPU rasteriser) byte for byte — with one thread and with two. This pins the whole pipeline (import,
 // views, depth rendering, masks, DAG, container) where format_test pins the container alone with synthetic
-// content.
+// content. tests/golden/alpha_test_bake128_v2{,_cpu}.cpvs pin the alpha-tested casters the same way (the
+// `cpvs-scenegen alpha-test` scene at N = 128; docs/alpha.md), per rasteriser.
 //
 // The bytes change when the pipeline's output legitimately changes (a DAG construction change, a new format
 // version) and also when the tool version changes (it is recorded in the BAKE block). After checking that the
 // change is intended (cpvs-info on old and new file shows what moved), regenerate with:
 //   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
-// and commit the new tests/golden/tiny_scene_bake64_v2*.cpvs. A change in the container layout must also bump
+// and commit the new tests/golden/tiny_scene_bake64_v2*.cpvs and alpha_test_bake128_v2*.cpvs. A change in the container layout must also bump
 // the format version (formats/cpvs/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v2.cpvs.
 // tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0, and
 // tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs the same DAGs by cpvs 0.2 in format 2.0 (before
@@ -53,11 +54,30 @@ Bytes readFile(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+// The alpha-tested casters' pin: `cpvs-scenegen alpha-test` (a checkerboard MASK card, a clear BLEND pane, an
+// OPAQUE card) at N = 128 with its own sun, one golden file per rasteriser.
+constexpr const char* kAlphaBakeArguments =
+    " --resolution 128 --undefined kampe --max-peels 16 --ground auto --alpha-test on --transparent clip --quiet";
+const std::string& alphaGoldenPath(const std::string& backend) {
+  static const std::string gl = sourcePath("tests/golden/alpha_test_bake128_v2.cpvs");
+  static const std::string cpu = sourcePath("tests/golden/alpha_test_bake128_v2_cpu.cpvs");
+  return backend == "cpu" ? cpu : gl;
+}
+const std::string& alphaScene() {
+  static const std::string path = [] {
+    const std::string p = tempDir() + "/alpha-test.glb";
+    const auto r = runTool(toolPath("cpvs-scenegen") + " alpha-test -o " + p);
+    if (r.exitCode != 0) throw std::runtime_error("cpvs-scenegen alpha-test: " + r.output);
+    return p;
+  }();
+  return path;
+}
+
 // Bakes the golden scene into `dir` and returns the file's bytes.
-Bytes bake(const std::string& dir, const std::string& extra) {
-  const std::string out = dir + "/tiny64" + std::to_string(std::hash<std::string>()(extra) % 1000) + ".cpvs";
-  const auto r = runTool(toolPath("cpvs-bake") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " -o " + out +
-                         kBakeArguments + extra);
+Bytes bake(const std::string& dir, const std::string& extra, bool alpha = false) {
+  const std::string out = dir + (alpha ? "/alpha128" : "/tiny64") + std::to_string(std::hash<std::string>()(extra) % 1000) + ".cpvs";
+  const auto r = runTool(toolPath("cpvs-bake") + " " + (alpha ? alphaScene() : sourcePath("data/scenes/Tiny/tiny.gltf")) +
+                         " -o " + out + (alpha ? kAlphaBakeArguments : kBakeArguments) + extra);
   EXPECT_EQ(r.exitCode, 0) << r.output;
   return readFile(out);
 }
@@ -82,10 +102,10 @@ std::string firstDifference(const Bytes& golden, const Bytes& baked) {
   }
 }
 
-void expectPinnedBytes(const std::string& backend) {
+void expectPinnedBytes(const std::string& backend, bool alpha = false) {
   const std::string dir = tempDir();
-  const std::string path = goldenPath(backend);
-  const Bytes baked = bake(dir, " --threads 2 --backend " + backend);
+  const std::string path = alpha ? alphaGoldenPath(backend) : goldenPath(backend);
+  const Bytes baked = bake(dir, " --threads 2 --backend " + backend, alpha);
   ASSERT_FALSE(baked.empty());
   if (const char* update = std::getenv("CPVS_UPDATE_GOLDEN"); update && std::string(update) == "1") {
     std::filesystem::create_directories(std::filesystem::path(path).parent_path());
@@ -98,12 +118,29 @@ void expectPinnedBytes(const std::string& backend) {
   EXPECT_TRUE(baked == golden) << "cpvs-bake no longer reproduces " << path << ": " << firstDifference(golden, baked)
                                << ". If the change is intended, regenerate it (see the top of golden_test.cpp).";
   // One thread gives the same bytes.
-  EXPECT_TRUE(bake(dir, " --threads 1 --backend " + backend) == golden) << "--threads 1 differs from " << path;
+  EXPECT_TRUE(bake(dir, " --threads 1 --backend " + backend, alpha) == golden) << "--threads 1 differs from " << path;
 }
 
 TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytes) { expectPinnedBytes("osmesa"); }
 
 TEST(GoldenBake, TinySceneAt64ReproducesThePinnedBytesOnTheCpuRasteriser) { expectPinnedBytes("cpu"); }
+
+TEST(GoldenBake, AlphaTestSceneAt128ReproducesThePinnedBytes) { expectPinnedBytes("osmesa", true); }
+
+TEST(GoldenBake, AlphaTestSceneAt128ReproducesThePinnedBytesOnTheCpuRasteriser) { expectPinnedBytes("cpu", true); }
+
+// The two rasterisers cut the alpha-tested card alike: the pinned files differ in their settings block only.
+TEST(GoldenBake, BothRasterisersPinTheSameAlphaTestedDags) {
+  const auto gl = orThrow(CpvsFile::open(alphaGoldenPath("osmesa")));
+  const auto cpu = orThrow(CpvsFile::open(alphaGoldenPath("cpu")));
+  ASSERT_EQ(gl->lights().size(), 1u);
+  ASSERT_EQ(cpu->lights().size(), 1u);
+  const CpvsFile::View& a = gl->lights()[0].views[0];
+  const CpvsFile::View& b = cpu->lights()[0].views[0];
+  EXPECT_TRUE(std::ranges::equal(a.dag.nodes, b.dag.nodes));
+  EXPECT_TRUE(std::ranges::equal(a.dag.leaves, b.dag.leaves));
+  EXPECT_GT(a.dag.leaves.size(), 1u);  // the checkerboard is there, not a uniform shadow
+}
 
 TEST(GoldenBake, TheFormat1BakeOfCpvs01DecodesToTheSameVoxels) {
   const auto current = orThrow(CpvsFile::open(sourcePath("tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs")));

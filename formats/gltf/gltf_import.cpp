@@ -9,10 +9,13 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <set>
 #include <sstream>
+
+#include <fnmatch.h>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -31,6 +34,8 @@ namespace {
 static_assert(std::endian::native == std::endian::little, "glTF buffers are read in place as little-endian");
 
 constexpr const char* kLightsExtension = "KHR_lights_punctual";
+// A node's or material's `extras` member that, set to false, keeps it from casting shadows (docs/alpha.md).
+constexpr const char* kCastsShadowsExtra = "cpvs_casts_shadows";
 // An accessor without a bufferView is all zeros (plus sparse values); its count costs memory but no file
 // bytes, so it is capped to keep hostile files from exhausting memory.
 constexpr size_t kMaxZeroInitialisedElements = size_t(1) << 24;
@@ -70,7 +75,7 @@ std::vector<unsigned char> withJson(const std::vector<unsigned char>& bytes, boo
   out.insert(out.end(), bytes.begin() + std::ptrdiff_t(json.begin + json.length), bytes.end());
   return out;
 }
-const std::set<std::string> kSupportedExtensions = {kLightsExtension, "KHR_mesh_quantization"};
+const std::set<std::string> kSupportedExtensions = {kLightsExtension, "KHR_mesh_quantization", "KHR_texture_transform"};
 
 std::string lowercase(std::string s) {
   for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
@@ -85,9 +90,12 @@ bool hasImageExtension(const std::string& path) {
 
 // tinygltf looks for external files beside the glTF and also in the working directory; only the former is
 // meant (the loader is given an absolute path, so candidates from "." are the relative ones). Images are
-// never read: shadows do not need them, and they can be large.
-bool fileExistsBesideSceneExceptImages(const std::string& path, void* userData) {
-  if (hasImageExtension(path)) return false;
+// read only when FileAccess allows them: a bake needs just the alpha-tested materials' images.
+bool fileExistsBesideScene(const std::string& path, void* userData) {
+  const auto& access = *static_cast<const gltf::FileAccess*>(userData);
+  if (hasImageExtension(path) && !access.allImages &&
+      !access.imageNames.count(std::filesystem::path(path).filename().string()))
+    return false;
   return gltf::fileExists(path, userData);
 }
 
@@ -101,11 +109,39 @@ bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, 
 // uses as its base-colour texture: normal, metallic-roughness and occlusion images are never decoded.
 using EncodedImages = std::map<int, std::vector<unsigned char>>;
 
+// The images to keep: every one (cpvs-view), or those alpha-tested materials read.
+struct ImageKeeping {
+  EncodedImages images;
+  bool all = false;
+  std::set<int> needed;
+};
+
 bool keepImageBytes(tinygltf::Image*, const int index, std::string*, std::string*, int, int, const unsigned char* bytes,
                     int size, void* userData) {
-  auto& kept = *static_cast<EncodedImages*>(userData);
-  if (bytes && size > 0) kept[index].assign(bytes, bytes + size);
+  auto& keeping = *static_cast<ImageKeeping*>(userData);
+  if (bytes && size > 0 && (keeping.all || keeping.needed.count(index))) keeping.images[index].assign(bytes, bytes + size);
   return true;  // never fails the import
+}
+
+// "%20" and the like in a URI, as the file name on disk has them.
+std::string percentDecoded(const std::string& uri) {
+  std::string out;
+  for (size_t i = 0; i < uri.size(); ++i) {
+    if (uri[i] == '%' && i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(uri[i + 2]))) {
+      out += char(std::stoi(uri.substr(i + 1, 2), nullptr, 16));
+      i += 2;
+    } else {
+      out += uri[i];
+    }
+  }
+  return out;
+}
+
+AlphaMode alphaModeOf(const std::string& mode) {
+  if (mode == "MASK") return AlphaMode::Mask;
+  if (mode == "BLEND") return AlphaMode::Blend;
+  return AlphaMode::Opaque;
 }
 
 std::string trimmed(const std::string& text) {
@@ -277,6 +313,7 @@ public:
     parseLights();
     traverse(rootNodes());
     for (Mesh& mesh : scene_.meshes) classifyMesh(mesh);
+    applyMaterialExclusions();
     size_t triangles = 0;
     for (const Instance& instance : scene_.instances) triangles += scene_.meshes[instance.mesh].triangleCount();
     if (triangles == 0) fail("no triangles: the scene has no triangle mesh that a node places");
@@ -329,14 +366,23 @@ private:
     }
 
     tinygltf::TinyGLTF loader;
-    if (options_.loadBaseColorTextures) loader.SetImageLoader(&keepImageBytes, &encodedImages_);
+    imageKeeping_.all = options_.loadBaseColorTextures;
+    imageKeeping_.needed = alphaTestedImages(root);
+    if (imageKeeping_.all || !imageKeeping_.needed.empty()) loader.SetImageLoader(&keepImageBytes, &imageKeeping_);
     else loader.SetImageLoader(&skipImageDecoding, nullptr);
     // An absolute base directory, so that tinygltf's extra search in "." can be told apart and refused.
     const std::string baseDir = std::filesystem::absolute(path_, ec).parent_path().string();
     gltf::FileAccess access;
     access.folder = std::filesystem::weakly_canonical(baseDir, ec).string();
     access.allowExternal = options_.allowExternalUris;
-    loader.SetFsCallbacks({options_.loadBaseColorTextures ? &gltf::fileExists : &fileExistsBesideSceneExceptImages,
+    access.allImages = options_.loadBaseColorTextures;
+    for (int image : imageKeeping_.needed)
+      if (root.contains("images") && root["images"][size_t(image)].contains("uri") &&
+          root["images"][size_t(image)]["uri"].is_string())
+        access.imageNames.insert(std::filesystem::path(percentDecoded(root["images"][size_t(image)]["uri"].get<std::string>()))
+                                     .filename()
+                                     .string());
+    loader.SetFsCallbacks({&fileExistsBesideScene,
                            &tinygltf::ExpandFilePath, &gltf::readWholeFile,
                            &tinygltf::WriteWholeFile, &access});
     std::string errors, warnings;
@@ -345,7 +391,7 @@ private:
                : loader.LoadASCIIFromString(&model_, &errors, &warnings, reinterpret_cast<const char*>(bytes.data()),
                                             unsigned(bytes.size()), baseDir);
     for (const std::string& line : lines(warnings)) {
-      // Images are skipped on purpose (see fileExistsBesideSceneExceptImages); say nothing about them.
+      // Images are skipped on purpose (see fileExistsBesideScene); say nothing about them.
       if (line.find("image[") != std::string::npos) continue;
       if (line.rfind("File not found", 0) == 0 && hasImageExtension(line)) continue;
       warn(gltf::shortenDataUris(line));
@@ -703,6 +749,35 @@ private:
     }
   }
 
+  // ImportOptions::excludeMaterials: every pattern must match a material of the file.
+  void applyMaterialExclusions() {
+    for (const std::string& pattern : options_.excludeMaterials) {
+      bool matched = false;
+      for (size_t m = 0; m < model_.materials.size(); ++m) {
+        const std::string name = model_.materials[m].name.empty() ? "material" + std::to_string(m) : model_.materials[m].name;
+        matched = matched || fnmatch(pattern.c_str(), name.c_str(), 0) == 0;
+      }
+      if (!matched) {
+        std::string known;
+        for (size_t m = 0; m < model_.materials.size() && m < 20; ++m)
+          known += (m ? ", " : "") + (model_.materials[m].name.empty() ? "material" + std::to_string(m) : model_.materials[m].name);
+        if (model_.materials.size() > 20) known += ", ...";
+        throw Error(ErrorCategory::InvalidArgument, path_ + ": no material matches '" + pattern + "' (materials: " +
+                                                        (known.empty() ? "none" : known) + ")");
+      }
+      for (Mesh& mesh : scene_.meshes)
+        if (!mesh.material.empty() && fnmatch(pattern.c_str(), mesh.material.c_str(), 0) == 0) mesh.castsShadows = false;
+    }
+  }
+
+  // A node's extras flag (kCastsShadowsExtra): false keeps the node's own meshes from casting shadows.
+  bool castsShadows(const tinygltf::Node& node, const std::string& what) const {
+    if (!node.extras.IsObject() || !node.extras.Has(kCastsShadowsExtra)) return true;
+    const tinygltf::Value& flag = node.extras.Get(kCastsShadowsExtra);
+    if (!flag.IsBool()) fail(what + ": extras." + kCastsShadowsExtra + " is not a boolean");
+    return flag.Get<bool>();
+  }
+
   // What a node puts into the world: instances of its mesh's primitives, and its light.
   void place(int index, const glm::dmat4& worldFromLocal) {
     const tinygltf::Node& node = model_.nodes[size_t(index)];
@@ -711,7 +786,8 @@ private:
       if (size_t(node.mesh) >= model_.meshes.size())
         fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
       if (node.skin >= 0) warnOnce("skinned meshes are imported in their bind pose (skins are ignored)");
-      for (uint32_t mesh : meshIds(node.mesh)) scene_.instances.push_back({mesh, worldFromLocal, nodeName});
+      const bool casts = castsShadows(node, describeNode(index));
+      for (uint32_t mesh : meshIds(node.mesh)) scene_.instances.push_back({mesh, worldFromLocal, nodeName, casts});
       placeGpuInstances(index);
     } else if (node.mesh < -1) {
       fail(describeNode(index) + ": mesh " + std::to_string(node.mesh) + " does not exist");
@@ -923,6 +999,178 @@ private:
     mesh.baseColorTexture = texture;
   }
 
+  // The images whose alpha an alpha-tested material reads (MASK, or BLEND when clipped), from the JSON before
+  // tinygltf loads anything, so a bake reads no other image. Malformed entries are left to the later checks.
+  std::set<int> alphaTestedImages(const nlohmann::json& root) const {
+    std::set<int> images;
+    if (!options_.alphaTest || !root.is_object() || !root.contains("materials") || !root["materials"].is_array())
+      return images;
+    const auto index = [](const nlohmann::json& object, const char* key) -> int {
+      if (!object.is_object() || !object.contains(key) || !object[key].is_number_unsigned()) return -1;
+      const uint64_t value = object[key].get<uint64_t>();
+      return value <= uint64_t(INT32_MAX) ? int(value) : -1;
+    };
+    for (const nlohmann::json& material : root["materials"]) {
+      if (!material.is_object() || !material.contains("alphaMode") || !material["alphaMode"].is_string()) continue;
+      const AlphaMode mode = alphaModeOf(material["alphaMode"].get<std::string>());
+      if (!casterAlpha(mode, 0.5f, options_.transparent, true).tested) continue;
+      if (!material.contains("pbrMetallicRoughness")) continue;
+      const nlohmann::json& pbr = material["pbrMetallicRoughness"];
+      if (!pbr.is_object() || !pbr.contains("baseColorTexture")) continue;
+      const int texture = index(pbr["baseColorTexture"], "index");
+      if (texture < 0 || !root.contains("textures") || !root["textures"].is_array() ||
+          size_t(texture) >= root["textures"].size())
+        continue;
+      const int source = index(root["textures"][size_t(texture)], "source");
+      if (source >= 0 && root.contains("images") && root["images"].is_array() && size_t(source) < root["images"].size())
+        images.insert(source);
+    }
+    return images;
+  }
+
+  // A material's shadow-casting rule (libcpvs/scene/coverage_mask.h, docs/alpha.md): whether the mesh casts,
+  // and the coverage mask its triangles are cut by. A texture that is missing or cannot be decoded gives a
+  // warning and counts as alpha 1.
+  void attachCasterAlpha(const tinygltf::Primitive& primitive, const std::string& where, Mesh& mesh) {
+    if (primitive.material < 0) return;
+    const tinygltf::Material& material = model_.materials[size_t(primitive.material)];
+    mesh.material = material.name.empty() ? "material" + std::to_string(primitive.material) : material.name;
+    if (material.extras.IsObject() && material.extras.Has(kCastsShadowsExtra)) {
+      const tinygltf::Value& flag = material.extras.Get(kCastsShadowsExtra);
+      if (!flag.IsBool()) fail(where + ": material '" + mesh.material + "' extras." + kCastsShadowsExtra + " is not a boolean");
+      if (!flag.Get<bool>()) mesh.castsShadows = false;
+    }
+    const AlphaMode mode = alphaModeOf(material.alphaMode);
+    if (mode == AlphaMode::Mask && !(material.alphaCutoff >= 0.0 && std::isfinite(material.alphaCutoff)))
+      fail(where + ": material '" + mesh.material + "' alphaCutoff " + std::to_string(material.alphaCutoff) +
+           " is not a non-negative number");
+    const CasterAlpha rule = casterAlpha(mode, float(material.alphaCutoff), options_.transparent, options_.alphaTest);
+    if (!rule.casts) mesh.castsShadows = false;
+    if (!rule.tested || !mesh.castsShadows) return;
+    const float factor = mesh.baseColor.a;
+    const auto castsWhole = [&](bool blocks) {
+      if (!blocks) mesh.castsShadows = false, mesh.cutAway = true;  // every texel cut away
+    };
+    const tinygltf::TextureInfo& info = material.pbrMetallicRoughness.baseColorTexture;
+    if (info.index < 0) return castsWhole(factor >= rule.cutoff);
+    const std::string what = where + ": material '" + mesh.material + "' base-colour texture " + std::to_string(info.index);
+    if (size_t(info.index) >= model_.textures.size()) fail(what + " does not exist");
+    const tinygltf::Texture& texture = model_.textures[size_t(info.index)];
+    // KHR_texture_transform: offset, rotation, scale, and possibly another texture coordinate set.
+    int texCoord = info.texCoord;
+    glm::dmat3 transform(1.0);
+    if (const auto t = info.extensions.find("KHR_texture_transform"); t != info.extensions.end())
+      transform = textureTransform(t->second, what + ": KHR_texture_transform", texCoord);
+    std::string why;
+    const std::shared_ptr<const std::vector<uint8_t>> alpha = alphaOfImage(texture.source, why);
+    if (!alpha) {
+      const bool named = texture.source >= 0 && size_t(texture.source) < model_.images.size() &&
+                         !model_.images[size_t(texture.source)].uri.empty();
+      warnOnce(what + ": image " + std::to_string(texture.source) +
+               (named ? " '" + gltf::shortenDataUris(model_.images[size_t(texture.source)].uri) + "'" : std::string()) +
+               " " + why + "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
+      return castsWhole(factor >= rule.cutoff);
+    }
+    TextureWrap wrapS = TextureWrap::Repeat, wrapT = TextureWrap::Repeat;
+    if (texture.sampler >= 0) {
+      if (size_t(texture.sampler) >= model_.samplers.size()) fail(what + ": sampler " + std::to_string(texture.sampler) + " does not exist");
+      wrapS = wrapOf(model_.samplers[size_t(texture.sampler)].wrapS, what + ": sampler wrapS");
+      wrapT = wrapOf(model_.samplers[size_t(texture.sampler)].wrapT, what + ": sampler wrapT");
+    }
+    const Texture& image = alphaImageSizes_[texture.source];
+    const std::string key = std::to_string(texture.source) + "/" + std::to_string(int(wrapS)) + "/" +
+                            std::to_string(int(wrapT)) + "/" + std::to_string(factor) + "/" + std::to_string(rule.cutoff);
+    int32_t maskIndex;
+    if (const auto known = coverageMaskOf_.find(key); known != coverageMaskOf_.end()) {
+      maskIndex = known->second;
+    } else {
+      CoverageMask mask = makeCoverageMask(mesh.material, image.width, image.height, *alpha, factor, rule.cutoff, wrapS, wrapT);
+      const size_t blocking = size_t(std::count(mask.blocks.begin(), mask.blocks.end(), uint8_t(1)));
+      // A mask that blocks everywhere is no mask (the mesh may still be a closed solid); one that blocks
+      // nowhere casts nothing.
+      maskIndex = blocking == mask.blocks.size() ? -1 : (blocking == 0 ? -2 : int32_t(scene_.coverageMasks.size()));
+      if (maskIndex >= 0) scene_.coverageMasks.push_back(std::move(mask));
+      coverageMaskOf_[key] = maskIndex;
+    }
+    if (maskIndex == -1) return;
+    if (maskIndex == -2) return castsWhole(false);
+    const std::string set = "TEXCOORD_" + std::to_string(texCoord);
+    const auto uv = primitive.attributes.find(set);
+    if (uv == primitive.attributes.end())
+      fail(what + " reads " + set + ", which the primitive does not have");
+    const tinygltf::Accessor& uvAccessor = accessor(uv->second, where + ": " + set);
+    if (uvAccessor.type != TINYGLTF_TYPE_VEC2) fail(where + ": " + set + " is " + typeName(uvAccessor.type) + ", expected VEC2");
+    const int componentType = uvAccessor.componentType;
+    const bool normalized = uvAccessor.normalized;
+    const std::vector<float> values = decodeAccessor<float>(
+        uv->second, where + ": " + set, [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
+    if (values.size() != mesh.positions.size() * 2)
+      fail(where + ": " + set + " has " + std::to_string(values.size() / 2) + " elements, POSITION " +
+           std::to_string(mesh.positions.size()));
+    mesh.maskUvs.resize(mesh.positions.size());
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      const glm::dvec3 t = transform * glm::dvec3(values[2 * i], values[2 * i + 1], 1.0);
+      mesh.maskUvs[i] = glm::vec2(float(t.x), float(t.y));  // a non-finite one blocks light (coverage_mask.h)
+    }
+    mesh.coverageMask = maskIndex;
+  }
+
+  TextureWrap wrapOf(int wrap, const std::string& what) const {
+    switch (wrap) {
+      case int(TextureWrap::Repeat): return TextureWrap::Repeat;
+      case int(TextureWrap::ClampToEdge): return TextureWrap::ClampToEdge;
+      case int(TextureWrap::MirroredRepeat): return TextureWrap::MirroredRepeat;
+      default: fail(what + " " + std::to_string(wrap) + " is not a glTF wrap mode");
+    }
+  }
+
+  // KHR_texture_transform as a matrix on (u, v, 1): translation * rotation * scale.
+  glm::dmat3 textureTransform(const tinygltf::Value& value, const std::string& what, int& texCoord) const {
+    if (!value.IsObject()) fail(what + " is not an object");
+    double offset[2] = {0, 0}, scale[2] = {1, 1}, rotation = 0;
+    const auto pair = [&](const char* key, double (&out)[2]) {
+      if (!value.Has(key)) return;
+      const tinygltf::Value& v = value.Get(key);
+      if (!v.IsArray() || v.ArrayLen() != 2) fail(what + "." + key + " is not an array of 2 numbers");
+      for (int c = 0; c < 2; ++c) out[c] = finiteNumber(v.Get(c), what + "." + key);
+    };
+    pair("offset", offset);
+    pair("scale", scale);
+    if (value.Has("rotation")) rotation = finiteNumber(value.Get("rotation"), what + ".rotation");
+    if (value.Has("texCoord")) {
+      const double set = finiteNumber(value.Get("texCoord"), what + ".texCoord");
+      if (set < 0 || set > 64 || set != std::floor(set)) fail(what + ".texCoord is not a texture coordinate set");
+      texCoord = int(set);
+    }
+    const double c = std::cos(rotation), s = std::sin(rotation);
+    // Columns (glm is column-major): u' = ox + c sx u + s sy v, v' = oy - s sx u + c sy v.
+    return glm::dmat3(glm::dvec3(c * scale[0], -s * scale[0], 0.0), glm::dvec3(s * scale[1], c * scale[1], 0.0),
+                      glm::dvec3(offset[0], offset[1], 1.0));
+  }
+
+  // The alpha channel of glTF image `source` (width * height bytes, size in alphaImageSizes_), decoded on its
+  // first use with the viewer's limits; null with `why` when it is missing or cannot be decoded.
+  std::shared_ptr<const std::vector<uint8_t>> alphaOfImage(int source, std::string& why) {
+    if (const auto known = alphaOfImage_.find(source); known != alphaOfImage_.end()) {
+      if (!known->second) why = imageFailures_[source];
+      return known->second;
+    }
+    std::shared_ptr<const std::vector<uint8_t>> result;
+    Texture texture;
+    const auto bytes = imageKeeping_.images.find(source);
+    if (bytes == imageKeeping_.images.end()) {
+      why = "was not found, or is not a PNG or JPEG";
+    } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
+      auto alpha = std::make_shared<std::vector<uint8_t>>(size_t(texture.width) * texture.height);
+      for (size_t i = 0; i < alpha->size(); ++i) (*alpha)[i] = texture.rgba[4 * i + 3];
+      alphaImageSizes_[source] = Texture{"", texture.width, texture.height, {}};
+      result = std::move(alpha);
+    }
+    if (!result) imageFailures_[source] = why;
+    alphaOfImage_[source] = result;
+    return result;
+  }
+
   // The Scene::textures index of glTF image `source`, decoded on its first use; -1 with `why` when it is
   // missing or cannot be decoded.
   int32_t textureOfImage(int source, std::string& why) {
@@ -932,8 +1180,8 @@ private:
     }
     int32_t index = -1;
     Texture texture;
-    const auto bytes = encodedImages_.find(source);
-    if (bytes == encodedImages_.end()) {
+    const auto bytes = imageKeeping_.images.find(source);
+    if (bytes == imageKeeping_.images.end()) {
       why = "not found, or not a PNG or JPEG";
     } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
       const std::string& name = model_.images[size_t(source)].name;
@@ -941,7 +1189,8 @@ private:
       index = int32_t(scene_.textures.size());
       scene_.textures.push_back(std::move(texture));
     }
-    if (bytes != encodedImages_.end()) encodedImages_.erase(bytes);  // decoded or not, the bytes are done with
+    // Decoded or not, the bytes are done with (unless an alpha-tested material may still read them).
+    if (bytes != imageKeeping_.images.end() && !imageKeeping_.needed.count(source)) imageKeeping_.images.erase(bytes);
     if (index < 0) imageFailures_[source] = why;
     textureOfImage_[source] = index;
     return index;
@@ -1012,6 +1261,7 @@ private:
     }
     mesh.indices = std::move(triangles.indices);
     mesh.baseColor = baseColorOf(primitive, where);
+    attachCasterAlpha(primitive, where, mesh);
     if (options_.loadBaseColorTextures) attachBaseColorTexture(primitive, where, mesh);
     return mesh;
   }
@@ -1140,7 +1390,10 @@ private:
 
   std::string path_;
   ImportOptions options_;
-  EncodedImages encodedImages_;               // loadBaseColorTextures: by image index, until decoded
+  ImageKeeping imageKeeping_;                 // encoded images by index, until decoded
+  std::map<int, std::shared_ptr<const std::vector<uint8_t>>> alphaOfImage_;  // decoded alpha channels
+  std::map<std::string, int32_t> coverageMaskOf_;  // (image, sampler, factor, cutoff) -> Scene::coverageMasks
+  std::map<int, Texture> alphaImageSizes_;         // width and height of the decoded alpha channels
   std::map<int, int32_t> textureOfImage_;     // image index -> Scene::textures index (-1: failed)
   std::map<int, std::string> imageFailures_;  // image index -> why it failed
   tinygltf::Model model_;

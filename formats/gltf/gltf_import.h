@@ -1,6 +1,7 @@
 #pragma once
 // glTF 2.0 import (docs/architecture.md): triangle geometry, node transforms, instancing and KHR_lights_punctual.
 #include <string>
+#include <vector>
 
 #include "libcpvs/scene/scene.h"
 
@@ -53,6 +54,13 @@ struct ImportOptions {
   // Scene::textures and Mesh::uvs, for cpvs-view. Off by default: shadows never need images. An image that
   // cannot be read gives a warning and no texture, never a failed import.
   bool loadBaseColorTextures = false;
+  // Alpha-tested shadow casters (docs/alpha.md): MASK materials cut at their alphaCutoff, BLEND ones by
+  // `transparent`. Off: every material casts as OPAQUE.
+  bool alphaTest = true;
+  TransparentPolicy transparent = TransparentPolicy::Clip;
+  // Meshes whose material name matches one of these shell patterns (fnmatch) cast no shadow. A pattern that
+  // matches no material of the file is an error (Error(InvalidArgument)), so a typo does not go unnoticed.
+  std::vector<std::string> excludeMaterials;
 };
 
 Scene importGltf(const std::string& path, const ImportOptions& options = {});

@@ -11,6 +11,7 @@
 //  * data: URIs shortened wherever they appear in a message.
 #include <cstddef>
 #include <cstdint>
+#include <set>
 #include <span>
 #include <string>
 
@@ -43,6 +44,10 @@ std::string shortenDataUris(const std::string& text);
 struct FileAccess {
   std::string folder;
   bool allowExternal = false;
+  // Image files (by file name) that may be read: every one, or only those named (what alpha-tested
+  // materials need when a bake reads no other image).
+  bool allImages = false;
+  std::set<std::string> imageNames;
   std::string refusal;
 };
 // tinygltf::FsCallbacks members; user data is a FileAccess*.

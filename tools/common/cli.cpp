@@ -153,6 +153,24 @@ int runMain(const char* toolName, const std::function<int()>& body) {
 void addImportOptions(CLI::App& app, ImportOptions& options) {
   app.add_flag("--allow-external-uris", options.allowExternalUris,
                "Let glTF buffers come from files outside the scene's folder (refused by default: docs/robustness.md)");
+  // Alpha-tested casters (docs/alpha.md): they change what casts, so bake, query, sample, sweep and view
+  // must be given the same values.
+  app.add_option_function<std::string>(
+         "--alpha-test", [&options](const std::string& value) { options.alphaTest = value == "on"; },
+         "on: MASK materials cut shadows at alphaCutoff and BLEND ones follow --transparent (default); off: every "
+         "material casts as OPAQUE")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->type_name("on|off");
+  app.add_option_function<std::string>(
+         "--transparent", [&options](const std::string& value) { options.transparent = parseTransparentPolicy(value); },
+         "How BLEND materials cast: clip (cut at alpha 0.5, the default: leaf cards dappled, clear glass casts "
+         "nothing), opaque, or none")
+      ->check(CLI::IsMember({"clip", "opaque", "none"}))
+      ->type_name("clip|opaque|none");
+  app.add_option("--exclude-material", options.excludeMaterials,
+                 "No shadow from meshes whose material name matches GLOB (shell pattern: *, ?, [..]; repeatable); "
+                 "they are still drawn by cpvs-view")
+      ->type_name("GLOB");
 }
 
 std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
