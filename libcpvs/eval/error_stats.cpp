@@ -5,11 +5,13 @@
 
 namespace cpvs {
 
-void ErrorStats::record(float value, uint8_t reference, bool isUniform, uint64_t row) {
+void ErrorStats::record(float value, uint8_t reference, bool isUniform, uint64_t row, bool facesLight) {
   const bool lit = value >= 0.5f;
   const bool wrong = lit != (reference != 0);
   const double diff = std::abs(double(value) - double(reference));
   ++samples;
+  facing += facesLight;
+  misclassifiedFacing += facesLight && wrong;
   misclassified += wrong;
   if (wrong && firstMisclassified.size() < kExamples) firstMisclassified.push_back(row);
   absDiffSum += diff;
@@ -27,6 +29,8 @@ void ErrorStats::add(const ErrorStats& o) {
   misclassified += o.misclassified;
   uniform += o.uniform;
   misclassifiedUniform += o.misclassifiedUniform;
+  facing += o.facing;
+  misclassifiedFacing += o.misclassifiedFacing;
   absDiffSum += o.absDiffSum;
   absDiffSumUniform += o.absDiffSumUniform;
   referenceLit += o.referenceLit;

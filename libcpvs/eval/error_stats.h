@@ -12,6 +12,10 @@ struct ErrorStats {
   uint64_t misclassified = 0;         // binary answer (value >= 0.5 is lit) != reference
   uint64_t uniform = 0;               // points whose reference is the same at every offset within two voxels
   uint64_t misclassifiedUniform = 0;
+  // Pairs where the point faces the light and lies in its influence: the others are 0 for both sides by rule
+  // (a back face, outside the cone or range), so errors can only happen here.
+  uint64_t facing = 0;
+  uint64_t misclassifiedFacing = 0;
   double absDiffSum = 0;              // sum |value - reference| (PCF values are fractions)
   double absDiffSumUniform = 0;       // the same over the uniform points
   uint64_t referenceLit = 0;
@@ -24,7 +28,7 @@ struct ErrorStats {
 
   // One point: the method's value, the reference (0 or 1), whether the point is uniform, and its input row
   // (kept among the first examples when misclassified).
-  void record(float value, uint8_t reference, bool isUniform, uint64_t row);
+  void record(float value, uint8_t reference, bool isUniform, uint64_t row, bool facesLight = true);
   void add(const ErrorStats& o);
   double meanAbsDiff() const { return samples ? absDiffSum / double(samples) : 0.0; }
   double rate(uint64_t count, uint64_t of) const { return of ? double(count) / double(of) : 0.0; }

@@ -194,7 +194,8 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
   const size_t count = points.size(), nl = lights.size();
   values.assign(count * nl, 0.0f);
   std::vector<uint8_t> valid(count);
-  std::vector<uint8_t> refValues(reference ? count * nl : 0), uniform(reference ? count * nl : 0);
+  std::vector<uint8_t> refValues(reference ? count * nl : 0), uniform(reference ? count * nl : 0),
+      facing(reference ? count * nl : 0);
   const unsigned parts = unsigned(std::min<size_t>(threads, std::max<size_t>(1, count / 1024)));
   parallelParts(count, parts, [&](unsigned, size_t begin, size_t end) {
     std::vector<float> scratch;
@@ -210,6 +211,11 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
         bool isUniform = false;
         refValues[i * nl + l] = reference->visibility(lights[l].shadow(), points[i], isUniform);
         uniform[i * nl + l] = isUniform;
+        const Light& light = lights[l].shadow().light();
+        const glm::dvec3 toLight =
+            light.type == LightType::Directional ? -light.direction : light.position - points[i].position;
+        facing[i * nl + l] = withinInfluence(light, points[i].position) &&
+                             (lookup.orientation == NormalOrientation::TowardLight || points[i].normal == glm::dvec3(0.0) || glm::dot(points[i].normal, toLight) > 0.0);
       }
     }
   });
@@ -224,7 +230,8 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
       const float v = values[i * nl + l];
       totals.visibilitySum[l] += v;
       if (!reference || valid[i] == 2) continue;
-      totals.errors[l].record(v, refValues[i * nl + l], uniform[i * nl + l] != 0, totals.points + i);
+      totals.errors[l].record(v, refValues[i * nl + l], uniform[i * nl + l] != 0, totals.points + i,
+                              facing[i * nl + l] != 0);
     }
   }
   totals.points += count;
@@ -243,6 +250,8 @@ nlohmann::json errorJson(const ErrorStats& e) {
   return {{"samples", e.samples},
           {"misclassified", e.rate(e.misclassified, e.samples)},
           {"misclassified_count", e.misclassified},
+          {"facing_points", e.facing},
+          {"misclassified_facing", e.rate(e.misclassifiedFacing, e.facing)},
           {"uniform_points", e.uniform},
           {"uniform_fraction", e.rate(e.uniform, e.samples)},
           {"misclassified_uniform", e.rate(e.misclassifiedUniform, e.uniform)},
@@ -385,10 +394,13 @@ int run(const Options& options) {
   for (const ErrorStats& e : totals.errors) pooled.add(e);
   if (reference && !options.quiet) {
     std::fprintf(stderr,
-                 "cpvs-query: reference (every point with every light): %.4f%% misclassified, %.4f%% of the %llu uniform"
+                 "cpvs-query: reference (every point with every light): %.4f%% misclassified (%.4f%% of the %llu pairs"
+                 " facing the light within its reach), %.4f%% of the %llu uniform"
                  " point-light pairs, mean |difference| %.5f"
                  " (%llu points inside closed solids not scored)\n",
                  100.0 * pooled.rate(pooled.misclassified, pooled.samples),
+                 100.0 * pooled.rate(pooled.misclassifiedFacing, pooled.facing),
+                 static_cast<unsigned long long>(pooled.facing),
                  100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
                  static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
                  static_cast<unsigned long long>(totals.insideClosed));
