@@ -10,6 +10,9 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#define STB_IMAGE_WRITE_STATIC
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#include <stb/stb_image_write.h>
 
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/png_image.h"
@@ -946,6 +949,131 @@ TEST(ImportInfoTool, ExitCodesAndOutput) {
   const test::ToolResult version = test::runTool(tool + " --version");
   EXPECT_EQ(version.exitCode, 0);
   EXPECT_NE(version.output.find("cpvs-info"), std::string::npos) << version.output;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Alpha-tested materials (docs/alpha.md)
+
+// A grey + alpha PNG of `alpha` (row-major, width x height), as a file's bytes.
+std::string alphaPng(uint32_t width, uint32_t height, const std::vector<uint8_t>& alpha) {
+  std::vector<uint8_t> pixels;
+  for (uint8_t a : alpha) pixels.insert(pixels.end(), {128, a});
+  std::string bytes;
+  stbi_write_png_to_func([](void* out, void* data, int size) { static_cast<std::string*>(out)->append(static_cast<char*>(data), size_t(size)); },
+                         &bytes, int(width), int(height), 2, pixels.data(), int(width) * 2);
+  return bytes;
+}
+
+// A PNG that is only a signature and an IHDR chunk claiming width x height.
+std::string pngHeaderOnly(uint32_t width, uint32_t height) {
+  std::string chunk = "IHDR";
+  for (uint32_t v : {width, height})
+    for (int b = 3; b >= 0; --b) chunk += char((v >> (8 * b)) & 0xff);
+  chunk += std::string("\x08\x06\x00\x00\x00", 5);
+  uint32_t crc = 0xffffffffu;  // CRC-32 of the chunk type and data, as PNG wants
+  for (unsigned char c : chunk) {
+    crc ^= c;
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  crc ^= 0xffffffffu;
+  std::string out = std::string("\x89PNG\r\n\x1a\n", 8) + std::string("\x00\x00\x00\x0d", 4) + chunk;
+  for (int b = 3; b >= 0; --b) out += char((crc >> (8 * b)) & 0xff);
+  return out;
+}
+
+// The unit quad with TEXCOORD_0 = (x, y) and TEXCOORD_1 = (2x, y), a MASK material reading image `leaf.png`
+// (written with `imageBytes`) through `textureInfo`, and node and material extras.
+std::string alphaQuad(const std::string& dir, const std::string& imageBytes, json textureInfo,
+                      json materialExtras = nullptr, json nodeExtras = nullptr) {
+  GltfBuilder gltf;
+  const int positions = gltf.addPositions(kQuad);
+  const int indices = gltf.addIndices({0, 1, 2, 0, 2, 3});
+  std::vector<glm::vec2> uv0, uv1;
+  for (const glm::vec3& p : kQuad) {
+    uv0.push_back({p.x, p.y});
+    uv1.push_back({2 * p.x, p.y});
+  }
+  const auto addUvs = [&](const std::vector<glm::vec2>& uvs) {
+    const int view = gltf.addView(uvs.data(), uvs.size() * sizeof(glm::vec2));
+    return gltf.addAccessor({{"bufferView", view}, {"componentType", kFloat}, {"count", uvs.size()}, {"type", "VEC2"}});
+  };
+  const int t0 = addUvs(uv0), t1 = addUvs(uv1);
+  gltf.addMesh("Leaf", json::array({{{"attributes", {{"POSITION", positions}, {"TEXCOORD_0", t0}, {"TEXCOORD_1", t1}}},
+                                     {"indices", indices}, {"material", 0}}}));
+  json node = {{"name", "LeafNode"}, {"mesh", 0}};
+  if (!nodeExtras.is_null()) node["extras"] = nodeExtras;
+  gltf.addNode(node);
+  json material = {{"name", "LeafMat"}, {"alphaMode", "MASK"}, {"pbrMetallicRoughness", {{"baseColorTexture", textureInfo}}}};
+  if (!materialExtras.is_null()) material["extras"] = materialExtras;
+  gltf.root()["materials"] = json::array({material});
+  gltf.root()["textures"] = json::array({{{"source", 0}, {"sampler", 0}}});
+  gltf.root()["samplers"] = json::array({{{"wrapS", 33071}, {"wrapT", 33071}}});
+  gltf.root()["images"] = json::array({{{"uri", "leaf.png"}}});
+  gltf.root()["extensionsUsed"] = json::array({"KHR_texture_transform"});
+  std::ofstream(dir + "/leaf.png", std::ios::binary) << imageBytes;
+  return gltf.write(dir, "leaf");
+}
+
+TEST(ImportAlpha, TextureTransformAndItsTexCoordSetGiveTheMaskCoordinates) {
+  const std::string dir = test::tempDir();
+  const std::string png = alphaPng(2, 1, {255, 0});
+  // u' = 0.25 + 0.5 u of TEXCOORD_1 (2x): the quad's x in [0, 1] maps to u' in [0.25, 1.25].
+  const Scene shifted = importGltf(alphaQuad(dir, png, {{"index", 0}, {"extensions", {{"KHR_texture_transform",
+      {{"offset", {0.25, 0.0}}, {"scale", {0.5, 1.0}}, {"texCoord", 1}}}}}}));
+  ASSERT_EQ(shifted.coverageMasks.size(), 1u);
+  EXPECT_EQ(shifted.coverageMasks[0].blocks, (std::vector<uint8_t>{1, 0}));
+  EXPECT_EQ(shifted.coverageMasks[0].wrapS, TextureWrap::ClampToEdge);
+  const Mesh& mesh = shifted.meshes.at(0);
+  ASSERT_EQ(mesh.coverageMask, 0);
+  ASSERT_EQ(mesh.maskUvs.size(), 4u);
+  EXPECT_FLOAT_EQ(mesh.maskUvs[1].x, 1.25f);  // corner (1, 0): TEXCOORD_1 (2, 0)
+  EXPECT_FLOAT_EQ(mesh.maskUvs[1].y, 0.0f);
+  // A quarter turn: u' = v, v' = -u (glTF's rotation is counter-clockwise in UV space).
+  const Scene turned = importGltf(alphaQuad(test::tempDir(), png, {{"index", 0}, {"extensions", {{"KHR_texture_transform",
+      {{"rotation", std::acos(-1.0) / 2}}}}}}));
+  EXPECT_NEAR(turned.meshes.at(0).maskUvs[2].x, 1.0f, 1e-6);   // corner (1, 1): (u, v) = (1, 1) -> (1, -1)
+  EXPECT_NEAR(turned.meshes.at(0).maskUvs[2].y, -1.0f, 1e-6);
+  EXPECT_NEAR(turned.meshes.at(0).maskUvs[1].x, 0.0f, 1e-6);   // corner (1, 0) -> (0, -1)
+  EXPECT_NEAR(turned.meshes.at(0).maskUvs[1].y, -1.0f, 1e-6);
+}
+
+TEST(ImportAlpha, AnImageThatIsNotAnImageWarnsAndCastsByTheFactor) {
+  const std::string dir = test::tempDir();
+  const std::string path = alphaQuad(dir, "this is not a PNG", {{"index", 0}});
+  const Scene scene = importGltf(path);
+  EXPECT_EQ(scene.meshes.at(0).coverageMask, -1);
+  EXPECT_TRUE(scene.meshes.at(0).castsShadows);
+  ASSERT_EQ(scene.warnings.size(), 1u);
+  EXPECT_NE(scene.warnings[0].find("'leaf.png'"), std::string::npos) << scene.warnings[0];
+  EXPECT_NE(scene.warnings[0].find("alpha is taken as 1"), std::string::npos) << scene.warnings[0];
+  // The bake goes on, with the warning on stderr.
+  const test::ToolResult bake = test::runTool(test::toolPath("cpvs-bake") + " " + path + " -o " + dir +
+                                              "/leaf.cpvs -r 64 --sun 0,0,-1");
+  EXPECT_EQ(bake.exitCode, 0) << bake.output;
+  EXPECT_NE(bake.output.find("alpha is taken as 1"), std::string::npos) << bake.output;
+}
+
+TEST(ImportAlpha, AHugePngHeaderWarnsWithoutAllocatingTheImage) {
+  const std::string dir = test::tempDir();
+  const Scene scene = importGltf(alphaQuad(dir, pngHeaderOnly(60000, 60000), {{"index", 0}}));
+  ASSERT_EQ(scene.warnings.size(), 1u);
+  EXPECT_NE(scene.warnings[0].find("60000x60000"), std::string::npos) << scene.warnings[0];
+  EXPECT_EQ(scene.meshes.at(0).coverageMask, -1);
+}
+
+TEST(ImportAlpha, ExtrasFlagTurnsCastingOffForAMaterialOrANode) {
+  const std::string png = alphaPng(2, 1, {255, 0});
+  const json info = {{"index", 0}};
+  const Scene byMaterial = importGltf(alphaQuad(test::tempDir(), png, info, {{"cpvs_casts_shadows", false}}));
+  EXPECT_FALSE(byMaterial.meshes.at(0).castsShadows);
+  EXPECT_EQ(flatten(byMaterial).triangleCount(), 0u);
+  const Scene byNode = importGltf(alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", false}}));
+  EXPECT_TRUE(byNode.meshes.at(0).castsShadows);
+  EXPECT_FALSE(byNode.instances.at(0).castsShadows);
+  EXPECT_EQ(flatten(byNode).triangleCount(), 0u);
+  const Scene casting = importGltf(alphaQuad(test::tempDir(), png, info, {{"cpvs_casts_shadows", true}}));
+  EXPECT_EQ(flatten(casting).triangleCount(), 2u);
+  expectInvalid(alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", "no"}}), "cpvs_casts_shadows");
 }
 
 }  // namespace

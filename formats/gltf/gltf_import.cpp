@@ -1068,7 +1068,7 @@ private:
                          !model_.images[size_t(texture.source)].uri.empty();
       warnOnce(what + ": image " + std::to_string(texture.source) +
                (named ? " '" + gltf::shortenDataUris(model_.images[size_t(texture.source)].uri) + "'" : std::string()) +
-               " " + why + "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
+               ": " + why + "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
       return castsWhole(factor >= rule.cutoff);
     }
     TextureWrap wrapS = TextureWrap::Repeat, wrapT = TextureWrap::Repeat;
@@ -1159,7 +1159,7 @@ private:
     Texture texture;
     const auto bytes = imageKeeping_.images.find(source);
     if (bytes == imageKeeping_.images.end()) {
-      why = "was not found, or is not a PNG or JPEG";
+      why = "not found, or not a PNG or JPEG";
     } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
       auto alpha = std::make_shared<std::vector<uint8_t>>(size_t(texture.width) * texture.height);
       for (size_t i = 0; i < alpha->size(); ++i) (*alpha)[i] = texture.rgba[4 * i + 3];

@@ -1,5 +1,6 @@
 #include "formats/gltf/texture_decode.h"
 
+#include <algorithm>
 #include <climits>
 #include <memory>
 
@@ -17,6 +18,19 @@ bool decodeTexture(const unsigned char* bytes, size_t size, Texture& out, std::s
     return false;
   }
   int w = 0, h = 0, channels = 0;
+  // stb_image refuses a PNG whose size it will not decode before it reports the size: say which size.
+  constexpr unsigned char kPngStart[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R'};
+  if (size >= 24 && std::equal(kPngStart, kPngStart + 16, bytes)) {
+    const auto bigEndian = [&](size_t at) {
+      return (uint32_t(bytes[at]) << 24) | (uint32_t(bytes[at + 1]) << 16) | (uint32_t(bytes[at + 2]) << 8) | bytes[at + 3];
+    };
+    const uint32_t width = bigEndian(16), height = bigEndian(20);
+    if (width > kMaxTextureEdge || height > kMaxTextureEdge) {
+      why = std::to_string(width) + "x" + std::to_string(height) + " is larger than " + std::to_string(kMaxTextureEdge) +
+            " on a side";
+      return false;
+    }
+  }
   if (!stbi_info_from_memory(bytes, int(size), &w, &h, &channels)) {
     why = std::string("not a readable PNG or JPEG (") + stbi_failure_reason() + ")";
     return false;
