@@ -30,13 +30,23 @@ using cpvs::info::kTool;
 using cpvs::info::number;
 using cpvs::info::vec;
 
+std::string caster(const Mesh& mesh);
+
 std::string topology(const Mesh& mesh) {
   std::string text = mesh.closed ? "closed" : "open";
   if (mesh.closed && mesh.insideOut) text += ", inside-out (flipped when baked)";
   if (!mesh.closed)
     text += " (" + std::to_string(mesh.boundaryEdges) + " boundary, " + std::to_string(mesh.nonManifoldEdges) +
             " non-manifold, " + std::to_string(mesh.inconsistentEdges) + " inconsistent edges)";
-  return text;
+  return text + caster(mesh);
+}
+
+// What the mesh does as a shadow caster, when that is not simply "casts" (docs/alpha.md).
+std::string caster(const Mesh& mesh) {
+  if (mesh.cutAway) return "; alpha cuts it away entirely: casts nothing (clear glass)";
+  if (!mesh.castsShadows) return "; casts no shadow";
+  if (mesh.coverageMask >= 0) return "; alpha-tested (cut by its material's alpha, never a closed solid)";
+  return "";
 }
 
 struct Totals {
@@ -60,7 +70,8 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
   std::cout << "totals: " << scene.meshes.size() << " meshes (" << totals.closedMeshes << " closed), "
             << scene.instances.size() << " instances, " << totals.worldTriangles << " triangles in the world ("
             << totals.closedWorldTriangles << " closed, " << totals.worldTriangles - totals.closedWorldTriangles
-            << " open), " << scene.lights.size() << " lights\n";
+            << " open, " << world.masked.count() << " of them alpha-tested; only what casts), " << scene.lights.size()
+            << " lights\n";
   for (const cpvs::GroundSheet& g : world.groundSheets)
     std::cout << "ground: " << g.mesh << " (node " << g.node << ") "
               << (g.used ? "is the top of solid ground: the voxels under it are free when baked"
@@ -85,7 +96,11 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
                       {"insideOut", mesh.insideOut},
                       {"boundaryEdges", mesh.boundaryEdges},
                       {"nonManifoldEdges", mesh.nonManifoldEdges},
-                      {"inconsistentEdges", mesh.inconsistentEdges}});
+                      {"inconsistentEdges", mesh.inconsistentEdges},
+                      {"material", mesh.material},
+                      {"castsShadows", mesh.castsShadows},
+                      {"alphaTested", mesh.coverageMask >= 0},
+                      {"cutAway", mesh.cutAway}});
   nlohmann::ordered_json instances = nlohmann::ordered_json::array();
   for (const cpvs::Instance& instance : scene.instances)
     instances.push_back({{"node", instance.node}, {"mesh", scene.meshes[instance.mesh].name}, {"meshIndex", instance.mesh}});
@@ -107,6 +122,7 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
         {"triangles", totals.worldTriangles},
         {"closedTriangles", totals.closedWorldTriangles},
         {"openTriangles", totals.worldTriangles - totals.closedWorldTriangles},
+        {"alphaTestedTriangles", world.masked.count()},
         {"lights", scene.lights.size()}}},
       {"groundSheets", groundJson(world)},
       {"warnings", scene.warnings},
