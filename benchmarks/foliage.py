@@ -6,9 +6,12 @@ alpha-aware Embree reference; bake time, bytes, peak memory and lookup speed of 
 
     python3 benchmarks/foliage.py [--bin build/bin] [--out out/foliage] [--doc docs/alpha]
                                   [--resolution 8k] [--points 200000] [--rounds 2] [--threads N]
+                                  [--sun-sweep 2k,4k,8k,16k]
 
 Writes DOC/foliage.json (every figure, the machine, the load average, the commit) and prints the markdown table
-that docs/alpha.md quotes. Python 3 standard library only."""
+that docs/alpha.md quotes. With --sun-sweep it instead bakes the sun alone at each resolution and scores the
+points on the ground and on everything else (leaf cards, trunks, buildings) apart: DOC/foliage-sun-sweep.json.
+Python 3 standard library only."""
 
 import argparse
 import json
@@ -49,6 +52,7 @@ def main():
     parser.add_argument("--points", type=int, default=200000)
     parser.add_argument("--rounds", type=int, default=2, help="alternating on/off bakes per mode")
     parser.add_argument("--threads", type=int, default=os.cpu_count())
+    parser.add_argument("--sun-sweep", default="", help="comma-separated resolutions: the sun's error against N")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     os.makedirs(args.doc, exist_ok=True)
@@ -59,6 +63,8 @@ def main():
               "threads": args.threads, "load_before": load_average(), "modes": {}}
     run([tool("cpvs-scenegen"), "foliage", "-o", scene])
     run([tool("cpvs-sample"), scene, "-o", points, "-n", str(args.points)])
+    if args.sun_sweep:
+        return sun_sweep(args, tool, scene, points, result)
 
     modes = {"on": [], "off": ["--alpha-test", "off"]}
     bakes = {m: [] for m in modes}
@@ -123,6 +129,46 @@ def main():
                 m["bakes"][-1]["peak_rss_bytes"] / 1e6, m[ref_name]["lookups_per_s"] or 0,
                 pooled(lights, sun), pooled(lights, spots),
                 "alpha-aware rays" if ref_name == "alpha_aware" or mode == "on" else "rays with alpha off"))
+
+
+def sun_sweep(args, tool, scene, points, result):
+    """The sun's error against resolution, for ground points (dappled shadows) and the rest apart."""
+    with open(points) as f:
+        header, rows = f.readline(), [line for line in f if line.strip()]
+    subsets = {"ground": [r for r in rows if abs(float(r.split(",")[1])) < 1e-6],
+               "other": [r for r in rows if abs(float(r.split(",")[1])) >= 1e-6]}
+    for name, subset in subsets.items():
+        with open(os.path.join(args.out, "points-%s.csv" % name), "w") as f:
+            f.write(header + "".join(subset))
+    result["sweep"] = {}
+    for res in args.sun_sweep.split(","):
+        out = os.path.join(args.out, "sun-%s.cpvs" % res)
+        wall = run([tool("cpvs-bake"), scene, "-o", out, "-r", res, "--lights", "sun", "--threads", str(args.threads),
+                    "--quiet"])
+        entry = {"wall_s": wall, "bytes": os.path.getsize(out)}
+        for name in subsets:
+            report = os.path.join(args.out, "sweep-%s-%s.json" % (res, name))
+            run([tool("cpvs-query"), out, "--points", os.path.join(args.out, "points-%s.csv" % name), "-o",
+                 os.path.join(args.out, "sweep-vis.csv"), "--reference", scene, "--report", report,
+                 "--timing-rounds", "0", "--quiet"])
+            with open(report) as f:
+                e = json.load(f)["lights"][0]["reference"]
+            entry[name] = {k: e[k] for k in ("facing_points", "misclassified_count", "misclassified_facing",
+                                             "misclassified_uniform", "uniform_points")}
+        result["sweep"][res] = entry
+    result["load_after"] = load_average()
+    with open(os.path.join(args.doc, "foliage-sun-sweep.json"), "w") as f:
+        json.dump(result, f, indent=1)
+    print("\nMachine: %s, %s CPUs; commit %s; load %.2f before, %.2f after\n" % (
+        result["machine"]["model"], result["machine"]["cpus"], result["commit"], result["load_before"][0],
+        result["load_after"][0]))
+    print("| sun at | bake wall (s) | bytes | ground: misclassified facing | uniform | leaf cards, trunks, buildings: misclassified facing | uniform |")
+    print("|---|---|---|---|---|---|---|")
+    for res, e in result["sweep"].items():
+        g, o = e["ground"], e["other"]
+        print("| %s | %.1f | %d | %.2f %% | %.3f %% | %.2f %% | %.3f %% |" % (
+            res, e["wall_s"], e["bytes"], 100 * g["misclassified_facing"], 100 * g["misclassified_uniform"],
+            100 * o["misclassified_facing"], 100 * o["misclassified_uniform"]))
 
 
 if __name__ == "__main__":
