@@ -145,9 +145,14 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
       node["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", instanceAttributes(n.instances)}};
       instancing = true;
     }
-    if (n.translation != glm::dvec3(0.0)) node["translation"] = vec3(n.translation);
+    // The transforms of nodes that place meshes are written as 32-bit float values (printed as the doubles they
+    // are): a rewrite into EXT_mesh_gpu_instancing (gltf-transform instance, gltfpack -mi), whose accessors are
+    // floats, then places every instance exactly where its node was. Lights keep their double directions.
+    const auto asFloat = [&n](double v) { return n.mesh >= 0 ? double(float(v)) : v; };
+    if (n.translation != glm::dvec3(0.0))
+      node["translation"] = json::array({asFloat(n.translation.x), asFloat(n.translation.y), asFloat(n.translation.z)});
     if (!n.rotation.isIdentity())
-      node["rotation"] = json::array({n.rotation.x, n.rotation.y, n.rotation.z, n.rotation.w});
+      node["rotation"] = json::array({asFloat(n.rotation.x), asFloat(n.rotation.y), asFloat(n.rotation.z), asFloat(n.rotation.w)});
     nodes.push_back(std::move(node));
     roots.push_back(i);
   }
