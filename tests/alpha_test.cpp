@@ -193,6 +193,29 @@ TEST(AlphaTest, InputHashCoversTheMaskAndThePolicy) {
   EXPECT_NE(sceneInputHash(repainted, settings), clip);
 }
 
+// A repainted leaf texture re-bakes exactly the lights whose views hold the alpha-tested triangles.
+TEST(AlphaTest, RepaintedMaskRebakesOnlyTheLightsItReaches) {
+  Scene scene = importGltf(alphaScene());
+  // A narrow spot over the far ground corner: its view holds the ground, not the cards.
+  scene.lights.push_back(test::spotLight("corner", {3.2, 2.0, 3.2}, {0, -1, 0}, 0.3, 3.0));
+  BakeSettings settings;
+  settings.resolution = 256;
+  settings.cacheFolder = tempDir() + "/cache";
+  const auto cacheStates = [&](const Scene& s) {
+    BakeReport report;
+    bakeScene(s, settings, &report);
+    std::vector<LightReport::Cache> states;
+    for (const LightReport& l : report.lights) states.push_back(l.cache);
+    return states;
+  };
+  using C = LightReport::Cache;
+  EXPECT_EQ(cacheStates(scene), (std::vector<C>{C::Miss, C::Miss}));
+  EXPECT_EQ(cacheStates(scene), (std::vector<C>{C::Hit, C::Hit}));
+  ASSERT_EQ(scene.coverageMasks.size(), 1u);
+  scene.coverageMasks[0].blocks[9] ^= 1;  // one texel of the checker repainted
+  EXPECT_EQ(cacheStates(scene), (std::vector<C>{C::Miss, C::Hit}));
+}
+
 TEST(AlphaTest, MaterialExclusionAndTheExtrasFlag) {
   ImportOptions options;
   options.excludeMaterials = {"Leaf*"};

@@ -424,6 +424,49 @@ void expectTexturedQuadDecodedFromSrgb(const std::string& name, Texture texture)
   EXPECT_GT(right, 20u);
 }
 
+// Alpha-tested receivers are cut as the casters are: a card 1 m over the ground whose coverage mask blocks its
+// left half and cuts its right half away, sun straight down, seen from above. Through the cut half the camera
+// sees the ground, lit; under the kept half the ground is not seen, and the card is lit.
+TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
+  Scene scene;
+  test::addQuad(scene, "ground", {-10, 0, -10}, {-10, 0, 10}, {10, 0, 10}, {10, 0, -10});
+  test::addQuad(scene, "card", {-6, 1, -6}, {-6, 1, 6}, {6, 1, 6}, {6, 1, -6});
+  Mesh& card = scene.meshes[1];
+  card.maskUvs = {{0.0f, 0.0f}, {0.0f, 1.0f}, {1.0f, 1.0f}, {1.0f, 0.0f}};  // u along +x
+  card.coverageMask = 0;
+  CoverageMask mask;
+  mask.width = 2;
+  mask.blocks = {1, 0};  // x < 0 blocks light, x > 0 is cut away
+  scene.coverageMasks.push_back(mask);
+  test::classifyMeshes(scene);
+  scene.lights = {test::sunLight("sun", {0.0, -1, 0.0})};
+  Baked* b = bake("alpha-tested card", std::move(scene), 256);
+  REQUIRE_RENDERER(*b);
+  PreviewCamera camera;
+  camera.eye = {0, 30, 0.001};
+  camera.target = {0, 0, 0};
+  FrameSettings settings;
+  settings.width = settings.height = 64;
+  settings.pcfKernel = 1;
+  const Frame f = b->renderer->render(camera, settings);
+  size_t card1 = 0, ground = 0;
+  for (uint32_t y = 0; y < f.height; ++y)
+    for (uint32_t x = 0; x < f.width; ++x) {
+      const glm::vec4 p = f.positions[f.pixel(x, y)];
+      if (p.w == 0.0f || std::fabs(p.z) > 5.0f || std::fabs(p.x) > 5.0f || std::fabs(p.x) < 0.5f) continue;
+      if (p.x < 0) {  // the kept half: the card itself
+        EXPECT_NEAR(p.y, 1.0f, 1e-3f) << x << "," << y;
+        ++card1;
+      } else {  // the cut half: the ground below, lit through the gap (the sun listed, and not shadowing it)
+        EXPECT_NEAR(p.y, 0.0f, 1e-3f) << x << "," << y;
+        EXPECT_EQ(f.stats[f.pixel(x, y)], glm::uvec2(1, 0)) << x << "," << y;
+        ++ground;
+      }
+    }
+  EXPECT_GT(card1, 100u);
+  EXPECT_GT(ground, 100u);
+}
+
 TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {
   Texture texture;
   texture.width = 2;
