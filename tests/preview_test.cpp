@@ -445,9 +445,12 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
   PreviewCamera camera;
   camera.eye = {0, 30, 0.001};
   camera.target = {0, 0, 0};
+  for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::ShadowMap}) {  // CPVS, and the culling demo's maps
+  SCOPED_TRACE(mode == ShadowMode::Gpu ? "gpu" : "shadowmap");
   FrameSettings settings;
   settings.width = settings.height = 64;
   settings.pcfKernel = 1;
+  settings.shadows = mode;
   const Frame f = b->renderer->render(camera, settings);
   size_t card1 = 0, ground = 0;
   for (uint32_t y = 0; y < f.height; ++y)
@@ -465,6 +468,7 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
     }
   EXPECT_GT(card1, 100u);
   EXPECT_GT(ground, 100u);
+  }
 }
 
 TEST(PreviewImages, BaseColourTexturesAreDecodedFromSrgb) {

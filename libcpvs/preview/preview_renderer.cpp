@@ -282,7 +282,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   const gl::Context& c = *s.context;
   const std::string version = "#version 450\n";
   s.gbufferProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::gbuffer_vert},
-                                         {GL_FRAGMENT_SHADER, version + glsl::gbuffer_frag}}, "G-buffer");
+                                         {GL_FRAGMENT_SHADER, version + glsl::coverage_mask_glsl + glsl::gbuffer_frag}}, "G-buffer");
   s.boundsProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::tile_bounds_comp})}}, "tile bounds");
   s.countProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({"#define COUNT_PASS\n", glsl::lookup_records_glsl, glsl::light_cull_glsl,
@@ -299,7 +299,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
                                                glsl::cpvs_shadows_comp})}},
         record ? "CPVS shadow (recording)" : "CPVS shadow");
   s.mapDepthProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_depth_vert},
-                                           {GL_FRAGMENT_SHADER, version + glsl::shadow_map_depth_frag}}, "shadow-map depth");
+                                           {GL_FRAGMENT_SHADER, version + glsl::coverage_mask_glsl + glsl::shadow_map_depth_frag}}, "shadow-map depth");
   s.mapLookupProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
                                              glsl::lookup_cell_glsl, glsl::shadow_map_lookups_comp})}}, "shadow-map lookup");
@@ -315,6 +315,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
     if (mesh.cutAway) continue;  // the alpha test leaves nothing of it (clear glass): neither casts nor is seen
     const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
     const bool masked = mesh.coverageMask >= 0 && mesh.maskUvs.size() == mesh.positions.size();
+    const bool casts = mesh.castsShadows && instance.castsShadows;  // the shadow maps leave the others out
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       glm::dvec3 p[3];
       for (int k = 0; k < 3; ++k)
@@ -331,7 +332,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
                                          mesh.baseColor.b, mesh.baseColor.a, uv.x, uv.y,
                                          textured ? float(mesh.baseColorTexture) : -1.0f, maskUv.x, maskUv.y,
-                                         masked ? float(mesh.coverageMask) : -1.0f});
+                                         !casts ? -2.0f : masked ? float(mesh.coverageMask) : -1.0f});
       }
       ++s.triangles;
     }
@@ -511,6 +512,8 @@ void PreviewRenderer::renderShadowMaps(Frame& f, const FrameSettings& settings, 
     g.DepthMask(GL_TRUE);
     g.Disable(GL_CULL_FACE);
     g.UseProgram(s.mapDepthProgram);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 14, s.maskHeaders);
+    g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, 15, s.maskBytes);
     const GLint viewFromWorld = g.GetUniformLocation(s.mapDepthProgram, "viewFromWorld");
     const GLint lateral = g.GetUniformLocation(s.mapDepthProgram, "lateral");
     const GLint orthographic = g.GetUniformLocation(s.mapDepthProgram, "orthographic");
