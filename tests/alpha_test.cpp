@@ -4,12 +4,15 @@
 // Embree reference and the sampler must give it.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "formats/gltf/gltf_import.h"
+#include "formats/cpvs/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/reference/shadow_reference.h"
@@ -229,6 +232,42 @@ TEST(AlphaTest, MaterialExclusionAndTheExtrasFlag) {
     EXPECT_EQ(e.category(), ErrorCategory::InvalidArgument);
     EXPECT_NE(std::string(e.what()).find("LeafMask"), std::string::npos) << e.what();
   }
+}
+
+// The GL rasteriser wraps as the CPU one does, on both axes and outside [0, 1]: two cards over a ground, their
+// mask coordinates running from -0.75 to 1.75 across them, one clamped and one mirrored along v (and repeated
+// along u), baked by both rasterisers to the same DAGs.
+TEST(AlphaTest, GlAndCpuRasterisersWrapTheSameOnBothAxes) {
+  Scene scene;
+  test::addQuad(scene, "ground", {-6, 0, -6}, {-6, 0, 6}, {6, 0, 6}, {6, 0, -6});
+  CoverageMask mask;
+  mask.width = mask.height = 4;
+  mask.blocks = {1, 0, 0, 1, 0, 1, 1, 0, 1, 1, 0, 0, 0, 0, 1, 0};  // no symmetry that would hide a wrong wrap
+  for (const auto& [name, x0, wrapT] : {std::tuple{"clamped", -5.0, TextureWrap::ClampToEdge},
+                                        std::tuple{"mirrored", 1.0, TextureWrap::MirroredRepeat}}) {
+    test::addQuad(scene, name, {x0, 1, -2}, {x0, 1, 2}, {x0 + 4, 1, 2}, {x0 + 4, 1, -2});
+    Mesh& card = scene.meshes.back();
+    card.maskUvs = {{-0.75f, -0.75f}, {-0.75f, 1.75f}, {1.75f, 1.75f}, {1.75f, -0.75f}};  // u along x, v along z
+    card.coverageMask = int32_t(scene.coverageMasks.size());
+    mask.wrapS = TextureWrap::Repeat;
+    mask.wrapT = wrapT;
+    scene.coverageMasks.push_back(mask);
+  }
+  test::classifyMeshes(scene);
+  scene.lights = {test::sunLight("sun", {0.0, -1, 0.0})};
+  std::vector<std::unique_ptr<CpvsFile>> files;
+  for (RasterBackend backend : {RasterBackend::Cpu, RasterBackend::OSMesa}) {
+    BakeSettings settings;
+    settings.resolution = 256;
+    settings.backend = backend;
+    std::string bytes;
+    SKIP_WITHOUT_OSMESA(bytes = writeCpvs(bakeScene(scene, settings)));
+    files.push_back(orThrow(CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "bake")));
+  }
+  const CpvsFile::View &cpu = files[0]->lights()[0].views[0], &gl = files[1]->lights()[0].views[0];
+  EXPECT_GT(cpu.dag.leaves.size(), 4u);
+  EXPECT_TRUE(std::ranges::equal(cpu.dag.nodes, gl.dag.nodes));
+  EXPECT_TRUE(std::ranges::equal(cpu.dag.leaves, gl.dag.leaves));
 }
 
 TEST(CoverageMask, WrapModesPickTheTexelAGpuSamplerWould) {

@@ -1066,6 +1066,7 @@ TEST(ImportAlpha, ExtrasFlagTurnsCastingOffForAMaterialOrANode) {
   const json info = {{"index", 0}};
   const Scene byMaterial = importGltf(alphaQuad(test::tempDir(), png, info, {{"cpvs_casts_shadows", false}}));
   EXPECT_FALSE(byMaterial.meshes.at(0).castsShadows);
+  EXPECT_EQ(byMaterial.meshes.at(0).coverageMask, 0);  // kept: cpvs-view still cuts it as a receiver
   EXPECT_EQ(flatten(byMaterial).triangleCount(), 0u);
   const Scene byNode = importGltf(alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", false}}));
   EXPECT_TRUE(byNode.meshes.at(0).castsShadows);

@@ -440,6 +440,11 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
   scene.coverageMasks.push_back(mask);
   test::classifyMeshes(scene);
   scene.lights = {test::sunLight("sun", {0.0, -1, 0.0})};
+  // A second card that casts no shadow (an extras flag) is still cut as a receiver, and left out of the maps.
+  test::addQuad(scene, "shadowless card", {-6, 2, 7}, {-6, 2, 9}, {6, 2, 9}, {6, 2, 7});
+  scene.meshes.back().maskUvs = card.maskUvs;
+  scene.meshes.back().coverageMask = 0;
+  scene.meshes.back().castsShadows = false;
   Baked* b = bake("alpha-tested card", std::move(scene), 256);
   REQUIRE_RENDERER(*b);
   PreviewCamera camera;
@@ -452,10 +457,15 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
   settings.pcfKernel = 1;
   settings.shadows = mode;
   const Frame f = b->renderer->render(camera, settings);
-  size_t card1 = 0, ground = 0;
+  size_t card1 = 0, ground = 0, shadowlessKept = 0;
   for (uint32_t y = 0; y < f.height; ++y)
     for (uint32_t x = 0; x < f.width; ++x) {
       const glm::vec4 p = f.positions[f.pixel(x, y)];
+      if (p.w != 0.0f && std::fabs(p.y - 2.0f) < 1e-3f) {  // the shadowless card: only its kept half is drawn
+        EXPECT_LT(p.x, 0.05f) << "shadowless card drawn on a cut texel at " << x << "," << y;
+        ++shadowlessKept;
+        continue;
+      }
       if (p.w == 0.0f || std::fabs(p.z) > 5.0f || std::fabs(p.x) > 5.0f || std::fabs(p.x) < 0.5f) continue;
       if (p.x < 0) {  // the kept half: the card itself
         EXPECT_NEAR(p.y, 1.0f, 1e-3f) << x << "," << y;
@@ -468,6 +478,7 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
     }
   EXPECT_GT(card1, 100u);
   EXPECT_GT(ground, 100u);
+  EXPECT_GT(shadowlessKept, 10u);
   }
 }
 

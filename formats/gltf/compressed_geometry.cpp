@@ -267,6 +267,8 @@ MeshoptPlan prepareMeshopt(const std::string& path, nlohmann::json& root, bool b
 }
 
 void decodeMeshopt(const std::string& path, const MeshoptPlan& plan, tinygltf::Model& model) {
+  // Views may share one compressed range: what they decode to is bounded in all, not only one by one.
+  size_t decodedInAll = 0;
   for (const MeshoptView& compressed : plan.views) {
     const std::string at = viewName(compressed.view) + " (" + compressed.extension + ", " + compressed.mode + ")";
     if (size_t(compressed.view) >= model.bufferViews.size() || size_t(compressed.buffer) >= model.buffers.size())
@@ -298,6 +300,9 @@ void decodeMeshopt(const std::string& path, const MeshoptPlan& plan, tinygltf::M
                        "(e.g. `npx @gltf-transform/cli copy IN OUT`) or re-encode it as EXT_meshopt_compression");
     }
 
+    decodedInAll += count * stride;
+    if (decodedInAll > kMaxDecodedBytes)
+      fail(path, at + ": the meshopt views decode to more than " + std::to_string(kMaxDecodedBytes) + " bytes in all");
     std::vector<unsigned char> decoded(count * stride);
     int status = 0;
     if (attributes) {

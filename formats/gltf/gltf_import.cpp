@@ -827,9 +827,13 @@ private:
     if (transforms.size() * primitives > kMaxGpuInstances)
       fail(describeNode(index) + ": " + kInstancingExtension + " places " + std::to_string(transforms.size()) +
            " instances of " + std::to_string(primitives) + " primitives, more than " + std::to_string(kMaxGpuInstances));
+    // One cap for the whole scene too: nodes may share one accessor (even one without bytes in the file).
+    gpuInstancesPlaced_ += transforms.size() * primitives;
+    if (gpuInstancesPlaced_ > kMaxGpuInstances)
+      fail(describeNode(index) + ": " + kInstancingExtension + ": the scene's nodes place more than " +
+           std::to_string(kMaxGpuInstances) + " instances in all");
     const std::vector<Instance> placed(scene_.instances.end() - std::ptrdiff_t(primitives), scene_.instances.end());
     scene_.instances.resize(scene_.instances.size() - primitives);
-    scene_.instances.reserve(scene_.instances.size() + transforms.size() * primitives);
     for (size_t k = 0; k < transforms.size(); ++k)
       for (const Instance& one : placed) {
         Instance instance = one;
@@ -1044,9 +1048,11 @@ private:
     if (mode == AlphaMode::Mask && !(material.alphaCutoff >= 0.0 && std::isfinite(material.alphaCutoff)))
       fail(where + ": material '" + mesh.material + "' alphaCutoff " + std::to_string(material.alphaCutoff) +
            " is not a non-negative number");
-    const CasterAlpha rule = casterAlpha(mode, float(material.alphaCutoff), options_.transparent, options_.alphaTest);
+    const CasterAlpha rule = casterAlpha(mode, float(std::min(material.alphaCutoff, 2.0)), options_.transparent,
+                                         options_.alphaTest);  // a cutoff above 1 cuts everything alike
     if (!rule.casts) mesh.castsShadows = false;
-    if (!rule.tested || !mesh.castsShadows) return;
+    // A mesh the extras flag keeps from casting still gets its mask: cpvs-view cuts it as a receiver.
+    if (!rule.tested) return;
     const float factor = mesh.baseColor.a;
     const auto castsWhole = [&](bool blocks) {
       if (!blocks) mesh.castsShadows = false, mesh.cutAway = true;  // every texel cut away
@@ -1079,7 +1085,8 @@ private:
     }
     const Texture& image = alphaImageSizes_[texture.source];
     const std::string key = std::to_string(texture.source) + "/" + std::to_string(int(wrapS)) + "/" +
-                            std::to_string(int(wrapT)) + "/" + std::to_string(factor) + "/" + std::to_string(rule.cutoff);
+                            std::to_string(int(wrapT)) + "/" + std::to_string(std::bit_cast<uint32_t>(factor)) + "/" +
+                            std::to_string(std::bit_cast<uint32_t>(rule.cutoff));
     int32_t maskIndex;
     if (const auto known = coverageMaskOf_.find(key); known != coverageMaskOf_.end()) {
       maskIndex = known->second;
@@ -1110,7 +1117,10 @@ private:
     mesh.maskUvs.resize(mesh.positions.size());
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
       const glm::dvec3 t = transform * glm::dvec3(values[2 * i], values[2 * i + 1], 1.0);
-      mesh.maskUvs[i] = glm::vec2(float(t.x), float(t.y));  // a non-finite one blocks light (coverage_mask.h)
+      // Beyond +-1e30 every wrap has long repeated or clamped; the clamp keeps the float conversion defined. A
+      // coordinate that is not finite stays so, and blocks light (coverage_mask.h).
+      const auto toFloat = [](double v) { return std::isfinite(v) ? float(std::clamp(v, -1e30, 1e30)) : float(v); };
+      mesh.maskUvs[i] = glm::vec2(toFloat(t.x), toFloat(t.y));
     }
     mesh.coverageMask = maskIndex;
   }
@@ -1394,6 +1404,7 @@ private:
   std::map<int, std::shared_ptr<const std::vector<uint8_t>>> alphaOfImage_;  // decoded alpha channels
   std::map<std::string, int32_t> coverageMaskOf_;  // (image, sampler, factor, cutoff) -> Scene::coverageMasks
   std::map<int, Texture> alphaImageSizes_;         // width and height of the decoded alpha channels
+  size_t gpuInstancesPlaced_ = 0;                  // by EXT_mesh_gpu_instancing nodes, scene-wide
   std::map<int, int32_t> textureOfImage_;     // image index -> Scene::textures index (-1: failed)
   std::map<int, std::string> imageFailures_;  // image index -> why it failed
   tinygltf::Model model_;

@@ -14,6 +14,7 @@
 #include "libcpvs/views/view_fitting.h"
 #include "libcpvs/raster/gl_context.h"
 #include "libcpvs/raster/gl_program.h"
+#include "libcpvs/raster/mask_texel_glsl.h"
 #include "libcpvs/eval/shadow_map.h"
 #include "libcpvs/reference/shadow_reference.h"
 
@@ -80,7 +81,7 @@ double Frame::milliseconds(const std::string& pass) const {
 namespace {
 
 constexpr uint32_t kMaxImageEdge = 16384;
-constexpr GLsizei kVertexFloats = 16;
+constexpr GLsizei kVertexFloats = 17;
 constexpr GLuint kBaseColorUnit = 4;  // gbuffer.frag's sampler binding
 // Base-colour textures share one sRGB array: each resampled to this edge at most (the largest texture's own
 // size when smaller), mipmapped.
@@ -282,7 +283,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   const gl::Context& c = *s.context;
   const std::string version = "#version 450\n";
   s.gbufferProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::gbuffer_vert},
-                                         {GL_FRAGMENT_SHADER, version + glsl::coverage_mask_glsl + glsl::gbuffer_frag}}, "G-buffer");
+                                         {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl + glsl::gbuffer_frag}}, "G-buffer");
   s.boundsProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::tile_bounds_comp})}}, "tile bounds");
   s.countProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({"#define COUNT_PASS\n", glsl::lookup_records_glsl, glsl::light_cull_glsl,
@@ -299,7 +300,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
                                                glsl::cpvs_shadows_comp})}},
         record ? "CPVS shadow (recording)" : "CPVS shadow");
   s.mapDepthProgram = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_depth_vert},
-                                           {GL_FRAGMENT_SHADER, version + glsl::coverage_mask_glsl + glsl::shadow_map_depth_frag}}, "shadow-map depth");
+                                           {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl + glsl::shadow_map_depth_frag}}, "shadow-map depth");
   s.mapLookupProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({tileGroup, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
                                              glsl::lookup_cell_glsl, glsl::shadow_map_lookups_comp})}}, "shadow-map lookup");
@@ -332,7 +333,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
                                          mesh.baseColor.b, mesh.baseColor.a, uv.x, uv.y,
                                          textured ? float(mesh.baseColorTexture) : -1.0f, maskUv.x, maskUv.y,
-                                         !casts ? -2.0f : masked ? float(mesh.coverageMask) : -1.0f});
+                                         masked ? float(mesh.coverageMask) : -1.0f, casts ? 1.0f : 0.0f});
       }
       ++s.triangles;
     }
@@ -348,7 +349,7 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
   g.VertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));
   g.VertexAttribPointer(3, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(10 * sizeof(float)));
-  g.VertexAttribPointer(4, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(13 * sizeof(float)));
+  g.VertexAttribPointer(4, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(13 * sizeof(float)));
   for (GLuint a = 0; a < 5; ++a) g.EnableVertexAttribArray(a);
   g.BindVertexArray(0);
   s.vertexCount = GLsizei(vertices.size() / kVertexFloats);

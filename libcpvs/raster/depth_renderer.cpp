@@ -13,6 +13,7 @@
 #include "libcpvs/raster/depth_renderer.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cstddef>
 #include <limits>
 #include <cmath>
@@ -28,6 +29,7 @@
 #include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/raster/gl_context.h"
 #include "libcpvs/raster/gl_program.h"
+#include "libcpvs/raster/mask_texel_glsl.h"
 #include "libcpvs/raster/triangle_setup.h"
 
 namespace cpvs {
@@ -115,15 +117,6 @@ uniform isamplerBuffer maskHeaders;
 flat in int vMask;
 flat in vec3 vMaskU, vMaskV, vMaskW;
 layout(location = 0) out uint kind;
-int wrapTexel(float coordinate, int size, int wrap) {
-  int i = int(floor(clamp(coordinate * float(size), -1073741824.0, 1073741824.0)));
-  if (wrap == 33071) return clamp(i, 0, size - 1);
-  if (wrap == 33648) {
-    int m = ((i % (2 * size)) + 2 * size) % (2 * size);
-    return m < size ? m : 2 * size - 1 - m;
-  }
-  return ((i % size) + size) % size;
-}
 bool blocksLight() {
   vec2 du = vec2(ivec2(gl_FragCoord.xy) + regionOrigin - vOrigin) + 0.5;
   float w = vMaskW.x + vMaskW.y * du.x + vMaskW.z * du.y;
@@ -132,7 +125,7 @@ bool blocksLight() {
   float v = (vMaskV.x + vMaskV.y * du.x + vMaskV.z * du.y) / w;
   if (isnan(u) || isnan(v) || isinf(u) || isinf(v)) return true;
   ivec4 h = texelFetch(maskHeaders, vMask);
-  int x = wrapTexel(u, h.y, h.w & 0xFFFF), y = wrapTexel(v, h.z, h.w >> 16);
+  int x = wrapTexel(u, h.y, h.w & 0xFFFF), y = wrapTexel(v, h.z, (h.w >> 16) & 0xFFFF);
   return texelFetch(maskBytes, h.x + y * h.y + x).r != 0u;
 }
 void main() {
@@ -313,10 +306,15 @@ void buildMaskVertices(const ViewGeometry& geometry, const LightView& view, GpuM
       const TriangleSetup s = setUpTriangle(view, p[0], p[1], p[2]);
       const MaskInterpolation mi = setUpMaskInterpolation(view, p, uv);
       // Around the reference texel (u0, v0), as the depth plane: c0 + c1 x + c2 y = c0' + c1 (x - u0) + c2 (y - v0).
+      // Clamped into float's range first (a converted double beyond it is undefined): such a triangle then
+      // blocks light or not by a rounded coordinate, never by a crash.
+      const auto toFloat = [](double v) {
+        return std::isfinite(v) ? float(std::clamp(v, -double(FLT_MAX), double(FLT_MAX))) : float(v);
+      };
       const auto around = [&](const double (&c)[3], float (&o)[3]) {
-        o[0] = float(c[0] + c[1] * s.u0 + c[2] * s.v0);
-        o[1] = float(c[1]);
-        o[2] = float(c[2]);
+        o[0] = toFloat(c[0] + c[1] * s.u0 + c[2] * s.v0);
+        o[1] = toFloat(c[1]);
+        o[2] = toFloat(c[2]);
       };
       m.mask = geometry.maskOf[t];
       around(mi.U, m.u);
@@ -400,7 +398,13 @@ public:
     }
 
     const std::string geomFS = std::string("#version 330 core\n") + kDepthFunction;
-    enterProgram_ = link(kGeometryVS, geomFS + kEnterFS, "enter");
+    enterProgram_ = link(kGeometryVS, geomFS + kMaskTexelGlsl + kEnterFS, "enter");
+    // The enter pass's two integer samplers on units of their own from the start: left both on unit 0, a
+    // strict driver refuses every draw, masked or not.
+    context_->gl().UseProgram(enterProgram_);
+    context_->gl().Uniform1i(uniform(enterProgram_, "maskBytes"), 0);
+    context_->gl().Uniform1i(uniform(enterProgram_, "maskHeaders"), 1);
+    context_->gl().UseProgram(0);
     peelProgram_ = link(kGeometryVS, geomFS + kPeelFS, "peel");
     initProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kInitFS, "init");
     updateProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kUpdateFS, "update");

@@ -215,7 +215,7 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
         const glm::dvec3 toLight =
             light.type == LightType::Directional ? -light.direction : light.position - points[i].position;
         facing[i * nl + l] = withinInfluence(light, points[i].position) &&
-                             (lookup.orientation == NormalOrientation::TowardLight || points[i].normal == glm::dvec3(0.0) || glm::dot(points[i].normal, toLight) > 0.0);
+                             (lookup.orientation == NormalOrientation::TowardLight || points[i].normal == glm::dvec3(0.0) || glm::dot(points[i].normal, toLight) >= 0.0);
       }
     }
   });

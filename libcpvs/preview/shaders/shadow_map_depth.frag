@@ -5,12 +5,13 @@
 in float vDepth;
 in vec2 vMaskUv;
 flat in int vMask;
+flat in int vCasts;   // 0: the mesh casts no shadow (extras flag, --exclude-material)
 uniform int linearDepth;    // the view's depth mapping (light_view.h)
 uniform float nearDepth;
 uniform float sliceScale;   // linear: M / (far - near); logarithmic: M / log(far / near)
 uniform float mapSize;      // M
 void main() {
-  if (vMask == kNoShadow || (vMask >= 0 && !maskBlocks(vMask, vMaskUv))) discard;
+  if (vCasts == 0 || (vMask >= 0 && !maskBlocks(vMask, vMaskUv))) discard;
   float s = linearDepth != 0 ? (vDepth - nearDepth) * sliceScale : log(max(vDepth / nearDepth, 1e-30)) * sliceScale;
   float q = clamp(floor(s * 65536.0 / mapSize), 0.0, 65535.0);
   gl_FragDepth = q / 65536.0;
