@@ -441,8 +441,9 @@ TEST(PreviewImages, AlphaTestedTexelsAreCutInTheGBufferAsInTheBake) {
   test::classifyMeshes(scene);
   scene.lights = {test::sunLight("sun", {0.0, -1, 0.0})};
   // A second card that casts no shadow (an extras flag) is still cut as a receiver, and left out of the maps.
+  const std::vector<glm::vec2> cardUvs = card.maskUvs;  // addQuad may move the meshes
   test::addQuad(scene, "shadowless card", {-6, 2, 7}, {-6, 2, 9}, {6, 2, 9}, {6, 2, 7});
-  scene.meshes.back().maskUvs = card.maskUvs;
+  scene.meshes.back().maskUvs = cardUvs;
   scene.meshes.back().coverageMask = 0;
   scene.meshes.back().castsShadows = false;
   Baked* b = bake("alpha-tested card", std::move(scene), 256);
