@@ -5,7 +5,8 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/install-deps.sh"
-bash "$root/scripts/build.sh" Release
+# Only the tools the demo runs (the test suite builds the rest: scripts/test.sh).
+bash "$root/scripts/build.sh" Release cpvs-info cpvs-bake cpvs-sample cpvs-query cpvs-view
 
 bin="$root/build/bin"
 out="$root/out/demo"
