@@ -1068,10 +1068,15 @@ TEST(ImportAlpha, ExtrasFlagTurnsCastingOffForAMaterialOrANode) {
   EXPECT_FALSE(byMaterial.meshes.at(0).castsShadows);
   EXPECT_EQ(byMaterial.meshes.at(0).coverageMask, 0);  // kept: cpvs-view still cuts it as a receiver
   EXPECT_EQ(flatten(byMaterial).triangleCount(), 0u);
-  const Scene byNode = importGltf(alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", false}}));
+  const std::string byNodePath = alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", false}});
+  const Scene byNode = importGltf(byNodePath);
   EXPECT_TRUE(byNode.meshes.at(0).castsShadows);
   EXPECT_FALSE(byNode.instances.at(0).castsShadows);
   EXPECT_EQ(flatten(byNode).triangleCount(), 0u);
+  // cpvs-info says so, per instance.
+  const test::ToolResult report = test::runTool(test::toolPath("cpvs-info") + " " + byNodePath + " --json 2>/dev/null");
+  ASSERT_EQ(report.exitCode, 0) << report.output;
+  EXPECT_EQ(json::parse(report.output)["instances"][0]["castsShadows"], false) << report.output;
   const Scene casting = importGltf(alphaQuad(test::tempDir(), png, info, {{"cpvs_casts_shadows", true}}));
   EXPECT_EQ(flatten(casting).triangleCount(), 2u);
   expectInvalid(alphaQuad(test::tempDir(), png, info, nullptr, {{"cpvs_casts_shadows", "no"}}), "cpvs_casts_shadows");

@@ -62,7 +62,8 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
     std::cout << "  " << mesh.name << ": " << mesh.triangleCount() << " triangles, " << topology(mesh) << "\n";
   std::cout << "instances (" << scene.instances.size() << "):\n";
   for (const cpvs::Instance& instance : scene.instances)
-    std::cout << "  " << instance.node << " -> " << scene.meshes[instance.mesh].name << "\n";
+    std::cout << "  " << instance.node << " -> " << scene.meshes[instance.mesh].name
+              << (instance.castsShadows ? "" : " (the node casts no shadow)") << "\n";
   std::cout << "lights (" << scene.lights.size() << "):\n";
   for (const Light& light : scene.lights) std::cout << "  " << cpvs::info::lightText(light) << "\n";
   std::cout << "bounds: min " << vec(world.bounds.min) << " max " << vec(world.bounds.max) << " extent "
@@ -103,7 +104,10 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
                       {"cutAway", mesh.cutAway}});
   nlohmann::ordered_json instances = nlohmann::ordered_json::array();
   for (const cpvs::Instance& instance : scene.instances)
-    instances.push_back({{"node", instance.node}, {"mesh", scene.meshes[instance.mesh].name}, {"meshIndex", instance.mesh}});
+    instances.push_back({{"node", instance.node},
+                         {"mesh", scene.meshes[instance.mesh].name},
+                         {"meshIndex", instance.mesh},
+                         {"castsShadows", instance.castsShadows}});
   nlohmann::ordered_json lights = nlohmann::ordered_json::array();
   for (const Light& light : scene.lights) lights.push_back(cpvs::info::lightJson(light));
   nlohmann::ordered_json bounds = world.bounds.empty() ? nlohmann::ordered_json(nullptr)
