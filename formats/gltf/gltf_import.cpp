@@ -109,6 +109,12 @@ bool skipImageDecoding(tinygltf::Image*, const int, std::string*, std::string*, 
 // uses as its base-colour texture: normal, metallic-roughness and occlusion images are never decoded.
 using EncodedImages = std::map<int, std::vector<unsigned char>>;
 
+// The alpha channel of a decoded image, what an alpha-tested material's coverage mask is made from.
+struct AlphaImage {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> alpha;  // width * height, row 0 first
+};
+
 // The images to keep: every one (cpvs-view), or those alpha-tested materials read.
 struct ImageKeeping {
   EncodedImages images;
@@ -979,22 +985,13 @@ private:
     if (info.texCoord != 0) return warnOnce("only TEXCOORD_0 base-colour textures are shown (" + what + " uses another)");
     if (size_t(info.index) >= model_.textures.size()) return warn(what + " does not exist; not shown");
     const int source = model_.textures[size_t(info.index)].source;
-    const auto uv = primitive.attributes.find("TEXCOORD_0");
-    if (uv == primitive.attributes.end()) return warn(what + ": the primitive has no TEXCOORD_0; not shown");
-    const tinygltf::Accessor& uvAccessor = accessor(uv->second, where + ": TEXCOORD_0");
-    if (uvAccessor.type != TINYGLTF_TYPE_VEC2) return warn(where + ": TEXCOORD_0 is not VEC2; texture not shown");
-    const int componentType = uvAccessor.componentType;
-    const bool normalized = uvAccessor.normalized;
-    const std::vector<float> values = decodeAccessor<float>(
-        uv->second, where + ": TEXCOORD_0", [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
-    if (values.size() != mesh.positions.size() * 2) return warn(where + ": TEXCOORD_0 count differs from POSITION's; texture not shown");
+    std::string problem;
+    const std::vector<float> values = texCoords(primitive, 0, mesh, where, problem);
+    if (values.empty()) return warn(problem + "; texture not shown");
     std::string why;
     const int32_t texture = textureOfImage(source, why);
     if (texture < 0) {
-      const std::string image = source >= 0 && size_t(source) < model_.images.size() && !model_.images[size_t(source)].uri.empty()
-                                    ? "'" + gltf::shortenDataUris(model_.images[size_t(source)].uri) + "'"
-                                    : "image " + std::to_string(source);
-      return warnOnce(what + " (" + image + ") not shown: " + why);
+      return warnOnce(what + " (" + describeImage(source) + ") not shown: " + why);
     }
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
       const glm::vec2 t(values[2 * i], values[2 * i + 1]);
@@ -1068,13 +1065,10 @@ private:
     if (const auto t = info.extensions.find("KHR_texture_transform"); t != info.extensions.end())
       transform = textureTransform(t->second, what + ": KHR_texture_transform", texCoord);
     std::string why;
-    const std::shared_ptr<const std::vector<uint8_t>> alpha = alphaOfImage(texture.source, why);
+    const std::shared_ptr<const AlphaImage> alpha = alphaOfImage(texture.source, why);
     if (!alpha) {
-      const bool named = texture.source >= 0 && size_t(texture.source) < model_.images.size() &&
-                         !model_.images[size_t(texture.source)].uri.empty();
-      warnOnce(what + ": image " + std::to_string(texture.source) +
-               (named ? " '" + gltf::shortenDataUris(model_.images[size_t(texture.source)].uri) + "'" : std::string()) +
-               ": " + why + "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
+      warnOnce(what + ": " + describeImage(texture.source) + ": " + why +
+               "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
       return castsWhole(factor >= rule.cutoff);
     }
     TextureWrap wrapS = TextureWrap::Repeat, wrapT = TextureWrap::Repeat;
@@ -1083,7 +1077,6 @@ private:
       wrapS = wrapOf(model_.samplers[size_t(texture.sampler)].wrapS, what + ": sampler wrapS");
       wrapT = wrapOf(model_.samplers[size_t(texture.sampler)].wrapT, what + ": sampler wrapT");
     }
-    const Texture& image = alphaImageSizes_[texture.source];
     const std::string key = std::to_string(texture.source) + "/" + std::to_string(int(wrapS)) + "/" +
                             std::to_string(int(wrapT)) + "/" + std::to_string(std::bit_cast<uint32_t>(factor)) + "/" +
                             std::to_string(std::bit_cast<uint32_t>(rule.cutoff));
@@ -1091,7 +1084,7 @@ private:
     if (const auto known = coverageMaskOf_.find(key); known != coverageMaskOf_.end()) {
       maskIndex = known->second;
     } else {
-      CoverageMask mask = makeCoverageMask(mesh.material, image.width, image.height, *alpha, factor, rule.cutoff, wrapS, wrapT);
+      CoverageMask mask = makeCoverageMask(alpha->width, alpha->height, alpha->alpha, factor, rule.cutoff, wrapS, wrapT);
       const size_t blocking = size_t(std::count(mask.blocks.begin(), mask.blocks.end(), uint8_t(1)));
       // A mask that blocks everywhere is no mask (the mesh may still be a closed solid); one that blocks
       // nowhere casts nothing.
@@ -1101,19 +1094,9 @@ private:
     }
     if (maskIndex == -1) return;
     if (maskIndex == -2) return castsWhole(false);
-    const std::string set = "TEXCOORD_" + std::to_string(texCoord);
-    const auto uv = primitive.attributes.find(set);
-    if (uv == primitive.attributes.end())
-      fail(what + " reads " + set + ", which the primitive does not have");
-    const tinygltf::Accessor& uvAccessor = accessor(uv->second, where + ": " + set);
-    if (uvAccessor.type != TINYGLTF_TYPE_VEC2) fail(where + ": " + set + " is " + typeName(uvAccessor.type) + ", expected VEC2");
-    const int componentType = uvAccessor.componentType;
-    const bool normalized = uvAccessor.normalized;
-    const std::vector<float> values = decodeAccessor<float>(
-        uv->second, where + ": " + set, [&](const unsigned char* bytes) { return componentAsFloat(bytes, componentType, normalized); });
-    if (values.size() != mesh.positions.size() * 2)
-      fail(where + ": " + set + " has " + std::to_string(values.size() / 2) + " elements, POSITION " +
-           std::to_string(mesh.positions.size()));
+    std::string problem;
+    const std::vector<float> values = texCoords(primitive, texCoord, mesh, where, problem);
+    if (values.empty()) fail(what + ": " + problem);
     mesh.maskUvs.resize(mesh.positions.size());
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
       const glm::dvec3 t = transform * glm::dvec3(values[2 * i], values[2 * i + 1], 1.0);
@@ -1158,27 +1141,68 @@ private:
                       glm::dvec3(offset[0], offset[1], 1.0));
   }
 
-  // The alpha channel of glTF image `source` (width * height bytes, size in alphaImageSizes_), decoded on its
-  // first use with the viewer's limits; null with `why` when it is missing or cannot be decoded.
-  std::shared_ptr<const std::vector<uint8_t>> alphaOfImage(int source, std::string& why) {
+  // The alpha channel of glTF image `source`, decoded on its first use with the viewer's limits (or taken from
+  // the base-colour texture cpvs-view already decoded); null with `why` when it is missing or cannot be decoded.
+  std::shared_ptr<const AlphaImage> alphaOfImage(int source, std::string& why) {
     if (const auto known = alphaOfImage_.find(source); known != alphaOfImage_.end()) {
       if (!known->second) why = imageFailures_[source];
       return known->second;
     }
-    std::shared_ptr<const std::vector<uint8_t>> result;
-    Texture texture;
-    const auto bytes = imageKeeping_.images.find(source);
-    if (bytes == imageKeeping_.images.end()) {
+    const auto alphaOf = [](const Texture& texture) {
+      auto image = std::make_shared<AlphaImage>();
+      image->width = texture.width;
+      image->height = texture.height;
+      image->alpha.resize(size_t(texture.width) * texture.height);
+      for (size_t i = 0; i < image->alpha.size(); ++i) image->alpha[i] = texture.rgba[4 * i + 3];
+      return image;
+    };
+    std::shared_ptr<const AlphaImage> result;
+    if (const auto decoded = textureOfImage_.find(source); decoded != textureOfImage_.end() && decoded->second >= 0) {
+      result = alphaOf(scene_.textures[size_t(decoded->second)]);
+    } else if (const auto bytes = imageKeeping_.images.find(source); bytes == imageKeeping_.images.end()) {
       why = "not found, or not a PNG or JPEG";
-    } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
-      auto alpha = std::make_shared<std::vector<uint8_t>>(size_t(texture.width) * texture.height);
-      for (size_t i = 0; i < alpha->size(); ++i) (*alpha)[i] = texture.rgba[4 * i + 3];
-      alphaImageSizes_[source] = Texture{"", texture.width, texture.height, {}};
-      result = std::move(alpha);
+    } else if (Texture texture; gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
+      result = alphaOf(texture);
     }
     if (!result) imageFailures_[source] = why;
     alphaOfImage_[source] = result;
     return result;
+  }
+
+  // "image 3 'leaf.png'" (data: URIs shortened), for messages.
+  std::string describeImage(int source) const {
+    std::string text = "image " + std::to_string(source);
+    if (source >= 0 && size_t(source) < model_.images.size() && !model_.images[size_t(source)].uri.empty())
+      text += " '" + gltf::shortenDataUris(model_.images[size_t(source)].uri) + "'";
+    return text;
+  }
+
+  // The values of the primitive's TEXCOORD_<set> (two per position); empty, with `problem` saying why, when it
+  // is missing, not VEC2, or not one per position.
+  std::vector<float> texCoords(const tinygltf::Primitive& primitive, int set, const Mesh& mesh,
+                               const std::string& where, std::string& problem) const {
+    const std::string name = "TEXCOORD_" + std::to_string(set);
+    const auto uv = primitive.attributes.find(name);
+    if (uv == primitive.attributes.end()) {
+      problem = where + ": the primitive has no " + name;
+      return {};
+    }
+    const tinygltf::Accessor& source = accessor(uv->second, where + ": " + name);
+    if (source.type != TINYGLTF_TYPE_VEC2) {
+      problem = where + ": " + name + " is " + typeName(source.type) + ", not VEC2";
+      return {};
+    }
+    const int componentType = source.componentType;
+    const bool normalized = source.normalized;
+    std::vector<float> values = decodeAccessor<float>(uv->second, where + ": " + name, [&](const unsigned char* bytes) {
+      return componentAsFloat(bytes, componentType, normalized);
+    });
+    if (values.size() != mesh.positions.size() * 2) {
+      problem = where + ": " + name + " has " + std::to_string(values.size() / 2) + " elements, POSITION " +
+                std::to_string(mesh.positions.size());
+      return {};
+    }
+    return values;
   }
 
   // The Scene::textures index of glTF image `source`, decoded on its first use; -1 with `why` when it is
@@ -1271,8 +1295,9 @@ private:
     }
     mesh.indices = std::move(triangles.indices);
     mesh.baseColor = baseColorOf(primitive, where);
-    attachCasterAlpha(primitive, where, mesh);
+    // The base-colour texture first: an alpha-tested material then takes its alpha from that decode.
     if (options_.loadBaseColorTextures) attachBaseColorTexture(primitive, where, mesh);
+    attachCasterAlpha(primitive, where, mesh);
     return mesh;
   }
 
@@ -1401,9 +1426,8 @@ private:
   std::string path_;
   ImportOptions options_;
   ImageKeeping imageKeeping_;                 // encoded images by index, until decoded
-  std::map<int, std::shared_ptr<const std::vector<uint8_t>>> alphaOfImage_;  // decoded alpha channels
+  std::map<int, std::shared_ptr<const AlphaImage>> alphaOfImage_;  // decoded alpha channels
   std::map<std::string, int32_t> coverageMaskOf_;  // (image, sampler, factor, cutoff) -> Scene::coverageMasks
-  std::map<int, Texture> alphaImageSizes_;         // width and height of the decoded alpha channels
   size_t gpuInstancesPlaced_ = 0;                  // by EXT_mesh_gpu_instancing nodes, scene-wide
   std::map<int, int32_t> textureOfImage_;     // image index -> Scene::textures index (-1: failed)
   std::map<int, std::string> imageFailures_;  // image index -> why it failed

@@ -60,7 +60,7 @@ struct ImportOptions {
   TransparentPolicy transparent = TransparentPolicy::Clip;
   // Meshes whose material name matches one of these shell patterns (fnmatch) cast no shadow. A pattern that
   // matches no material of the file is an error (Error(InvalidArgument)), so a typo does not go unnoticed.
-  std::vector<std::string> excludeMaterials;
+  std::vector<std::string> excludeMaterials = {};
 };
 
 Scene importGltf(const std::string& path, const ImportOptions& options = {});

@@ -14,7 +14,7 @@
 #include "libcpvs/views/view_fitting.h"
 #include "libcpvs/raster/gl_context.h"
 #include "libcpvs/raster/gl_program.h"
-#include "libcpvs/raster/mask_texel_glsl.h"
+#include "libcpvs/raster/gpu_masks.h"
 #include "libcpvs/eval/shadow_map.h"
 #include "libcpvs/reference/shadow_reference.h"
 
@@ -354,14 +354,10 @@ PreviewRenderer::PreviewRenderer(const Scene& scene, std::vector<LightShadow> li
   g.BindVertexArray(0);
   s.vertexCount = GLsizei(vertices.size() / kVertexFloats);
   s.uploadTextures(scene.textures);
-  {  // The coverage masks: headers (first byte, width, height, wrap S | wrap T << 16), then the bytes.
-    std::vector<int32_t> headers;
-    std::vector<uint8_t> bytes;
-    for (const CoverageMask& m : scene.coverageMasks) {
-      headers.insert(headers.end(), {int32_t(bytes.size()), int32_t(m.width), int32_t(m.height),
-                                     int32_t(uint32_t(m.wrapS) | (uint32_t(m.wrapT) << 16))});
-      bytes.insert(bytes.end(), m.blocks.begin(), m.blocks.end());
-    }
+  {  // The coverage masks (raster/gpu_masks.h), padded to whole words and never empty.
+    PackedMasks packed = packMasks(scene.coverageMasks);
+    std::vector<int32_t>& headers = packed.headers;
+    std::vector<uint8_t>& bytes = packed.bytes;
     headers.resize(std::max<size_t>(headers.size(), 4), 0);
     bytes.resize(std::max<size_t>((bytes.size() + 3) / 4 * 4, 4), 0);
     s.maskHeaders = gl::createStorageBuffer(c, headers.data(), headers.size() * sizeof(int32_t));

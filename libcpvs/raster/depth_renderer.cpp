@@ -29,7 +29,7 @@
 #include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/raster/gl_context.h"
 #include "libcpvs/raster/gl_program.h"
-#include "libcpvs/raster/mask_texel_glsl.h"
+#include "libcpvs/raster/gpu_masks.h"
 #include "libcpvs/raster/triangle_setup.h"
 
 namespace cpvs {
@@ -574,13 +574,9 @@ private:
     for (const CoverageMask& m : masks) hashes.push_back(m.hash());
     if (uploadedMasks_ == &masks && hashes == uploadedMaskHashes_) return;
     const gl::Functions& g = context_->gl();
-    std::vector<uint8_t> bytes;
-    std::vector<int32_t> headers;
-    for (const CoverageMask& m : masks) {
-      headers.insert(headers.end(), {int32_t(bytes.size()), int32_t(m.width), int32_t(m.height),
-                                     int32_t(uint32_t(m.wrapS) | (uint32_t(m.wrapT) << 16))});
-      bytes.insert(bytes.end(), m.blocks.begin(), m.blocks.end());
-    }
+    const PackedMasks packed = packMasks(masks);
+    const std::vector<uint8_t>& bytes = packed.bytes;
+    const std::vector<int32_t>& headers = packed.headers;
     GLint maxTexels = 0;
     g.GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxTexels);
     if (bytes.size() > size_t(maxTexels))

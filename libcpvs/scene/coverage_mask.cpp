@@ -45,15 +45,6 @@ TransparentPolicy parseTransparentPolicy(const std::string& name) {
               "unknown transparent policy '" + name + "' (expected clip, opaque or none)");
 }
 
-const char* transparentPolicyName(TransparentPolicy policy) {
-  switch (policy) {
-    case TransparentPolicy::Opaque: return "opaque";
-    case TransparentPolicy::None: return "none";
-    case TransparentPolicy::Clip:
-    default: return "clip";
-  }
-}
-
 CasterAlpha casterAlpha(AlphaMode mode, float cutoff, TransparentPolicy policy, bool alphaTest) {
   CasterAlpha result;
   if (!alphaTest || mode == AlphaMode::Opaque) return result;
@@ -73,10 +64,9 @@ CasterAlpha casterAlpha(AlphaMode mode, float cutoff, TransparentPolicy policy, 
   return result;
 }
 
-CoverageMask makeCoverageMask(std::string name, uint32_t width, uint32_t height, const std::vector<uint8_t>& alpha,
-                              float factorAlpha, float cutoff, TextureWrap wrapS, TextureWrap wrapT) {
+CoverageMask makeCoverageMask(uint32_t width, uint32_t height, const std::vector<uint8_t>& alpha, float factorAlpha,
+                              float cutoff, TextureWrap wrapS, TextureWrap wrapT) {
   CoverageMask mask;
-  mask.name = std::move(name);
   mask.width = width;
   mask.height = height;
   mask.wrapS = wrapS;

@@ -2,6 +2,7 @@
 // Alpha-tested shadow casters (docs/alpha.md): where a material's alpha lets light through, as one bit per
 // texel of its base-colour texture. Every consumer of the scene — the CPU and GL depth rasterisers, the Embree
 // reference, the surface sampler and cpvs-view — cuts a triangle with the same mask and the same lookup rule.
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -16,7 +17,6 @@ enum class TextureWrap : uint16_t { Repeat = 10497, ClampToEdge = 33071, Mirrore
 // Which texels of a material block light. Built once at import from the texture's alpha channel, the
 // material's baseColorFactor alpha and its cutoff: a texel blocks light when factor * alpha >= cutoff.
 struct CoverageMask {
-  std::string name;  // the material's, for reports
   uint32_t width = 1, height = 1;
   TextureWrap wrapS = TextureWrap::Repeat, wrapT = TextureWrap::Repeat;
   std::vector<uint8_t> blocks;  // width * height, row 0 = the image's first row (v = 0): 1 blocks light
@@ -24,7 +24,7 @@ struct CoverageMask {
   // The rule: the texel that contains (u, v) (nearest, no filtering), wrapped by the sampler's modes.
   // Coordinates that are not finite block light (the conservative answer).
   bool blocksAt(double u, double v) const {
-    if (!(u == u) || !(v == v) || u - u != 0.0 || v - v != 0.0) return true;  // NaN or infinite
+    if (!std::isfinite(u) || !std::isfinite(v)) return true;
     return blocks[size_t(texel(v, height, wrapT)) * width + texel(u, width, wrapS)];
   }
   // 64-bit hash of the size, wraps and bits: what a bake's input hash and cache keys take for the mask.
@@ -38,7 +38,6 @@ struct CoverageMask {
 enum class TransparentPolicy : uint8_t { Clip = 0, Opaque = 1, None = 2 };
 // "clip" / "opaque" / "none"; throws Error(InvalidArgument) for anything else.
 TransparentPolicy parseTransparentPolicy(const std::string& name);
-const char* transparentPolicyName(TransparentPolicy policy);
 
 // What a mesh's material does to its shadow.
 enum class AlphaMode : uint8_t { Opaque = 0, Mask = 1, Blend = 2 };
@@ -52,7 +51,7 @@ struct CasterAlpha {
 CasterAlpha casterAlpha(AlphaMode mode, float cutoff, TransparentPolicy policy, bool alphaTest);
 
 // The mask of a texture's alpha channel (`alpha`: width * height bytes) under a factor and cutoff.
-CoverageMask makeCoverageMask(std::string name, uint32_t width, uint32_t height, const std::vector<uint8_t>& alpha,
-                              float factorAlpha, float cutoff, TextureWrap wrapS, TextureWrap wrapT);
+CoverageMask makeCoverageMask(uint32_t width, uint32_t height, const std::vector<uint8_t>& alpha, float factorAlpha,
+                              float cutoff, TextureWrap wrapS, TextureWrap wrapT);
 
 }  // namespace cpvs

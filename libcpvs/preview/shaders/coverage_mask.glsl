@@ -1,6 +1,6 @@
 // The coverage-mask rule of libcpvs/scene/coverage_mask.h for cpvs-view's raster passes (the G-buffer and the
 // per-frame shadow maps): the texel that contains (u, v), wrapped by the sampler's modes (wrapTexel, from
-// libcpvs/raster/mask_texel_glsl.h), of the scene's masks (headers: first byte, width, height,
+// libcpvs/raster/gpu_masks.h), of the scene's masks (headers: first byte, width, height,
 // wrap S | wrap T << 16; bytes packed four to a word).
 layout(std430, binding = 14) readonly buffer MaskHeaders { ivec4 maskHeaders[]; };
 layout(std430, binding = 15) readonly buffer MaskBytes { uint maskWords[]; };
