@@ -69,10 +69,9 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
   std::cout << "bounds: min " << vec(world.bounds.min) << " max " << vec(world.bounds.max) << " extent "
             << vec(world.bounds.extent()) << "\n";
   std::cout << "totals: " << scene.meshes.size() << " meshes (" << totals.closedMeshes << " closed), "
-            << scene.instances.size() << " instances, " << totals.worldTriangles << " triangles in the world ("
+            << scene.instances.size() << " instances, " << totals.worldTriangles << " triangles cast shadows ("
             << totals.closedWorldTriangles << " closed, " << totals.worldTriangles - totals.closedWorldTriangles
-            << " open, " << world.masked.count() << " of them alpha-tested; only what casts), " << scene.lights.size()
-            << " lights\n";
+            << " open, " << world.masked.count() << " alpha-tested), " << scene.lights.size() << " lights\n";
   for (const cpvs::GroundSheet& g : world.groundSheets)
     std::cout << "ground: " << g.mesh << " (node " << g.node << ") "
               << (g.used ? "is the top of solid ground: the voxels under it are free when baked"
