@@ -16,6 +16,7 @@
 #include "libcpvs/raster/depth_maps.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/light_view.h"
+#include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/views/view_geometry.h"
@@ -56,7 +57,7 @@ DepthRenderer* renderer(RasterBackend backend, std::string* why = nullptr) {
   DepthRenderer* var = renderer(backend, &why_##var);                                         \
   if (!var) GTEST_SKIP() << rasterBackendName(backend) << " not available here: " << why_##var
 
-enum class SceneId { Boxes, Quads, TorusKnot, Terrain, Nested, Overlapping, OpenBoxOverBox, QuadOverBox };
+enum class SceneId { Boxes, Quads, TorusKnot, Terrain, Nested, Overlapping, OpenBoxOverBox, QuadOverBox, Coplanar };
 enum class LightId { Directional, Spot };
 
 const char* sceneName(SceneId s) {
@@ -69,6 +70,7 @@ const char* sceneName(SceneId s) {
     case SceneId::Overlapping: return "Overlapping";
     case SceneId::OpenBoxOverBox: return "OpenBoxOverBox";
     case SceneId::QuadOverBox: return "QuadOverBox";
+    case SceneId::Coplanar: return "Coplanar";
   }
   return "?";
 }
@@ -120,6 +122,13 @@ Scene buildScene(SceneId id) {
       test::addQuad(s, "side-z1", {x0, y0, z1}, {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1});
       break;
     }
+    case SceneId::Coplanar:  // solids sharing faces: two overlapping boxes with one top and one bottom plane, and a
+                             // third inside both standing on that bottom (coincident front and back layers)
+      test::addBox(s, "floor", {-10, -3, -10}, {10, -2, 10});
+      test::addBox(s, "a", {-5, 0, -4}, {2, 4, 4});
+      test::addBox(s, "b", {-1, 0, -2}, {5, 4, 2});
+      test::addBox(s, "inside", {-0.5, 0, -1}, {1.5, 2, 1});
+      break;
     case SceneId::QuadOverBox:  // a closed box, half of it behind an open quad
       test::addBox(s, "closed", {-3, 0, -3}, {3, 3, 3});
       addGroundQuad(s, "roof", -6, -6, 0.3, 6, 5);
@@ -705,6 +714,44 @@ TEST(Backends, CpuAndOSMesaAgree) {
         EXPECT_EQ(exitLater, 0u) << sceneName(scene);
       }
     }
+}
+
+// The CPU rasteriser's peel replayed per texel from the crossings one pass keeps gives the maps, iteration
+// counts and capped texels of the peel run pass by pass, on every test scene (nested and overlapping solids,
+// touching boxes, open over closed, coincident layers), both light kinds, each cap the replay handles, with and without the early
+// stop (including one that stops after the first iteration), for the whole view and for a region of it.
+TEST(CpuPeel, ReplayGivesTheMapsOfPeelPasses) {
+  const std::unique_ptr<DepthRenderer> replay = createCpuDepthRenderer(CpuPeel::Replay);
+  const std::unique_ptr<DepthRenderer> passes = createCpuDepthRenderer(CpuPeel::Passes);
+  size_t cases = 0, cappedCases = 0, earlyStops = 0;
+  for (SceneId scene : {SceneId::Boxes, SceneId::Quads, SceneId::TorusKnot, SceneId::Terrain, SceneId::Nested,
+                        SceneId::Overlapping, SceneId::OpenBoxOverBox, SceneId::QuadOverBox, SceneId::Coplanar})
+    for (LightId light : {LightId::Directional, LightId::Spot}) {
+      const ViewSetup& s = setup(scene, light, 256);
+      for (uint32_t cap : {1u, 2u, 3u})
+        for (uint32_t stop : {0u, 64u, 20000u, 1000000u})
+          for (const RegionRect rect : {RegionRect{0, 0, 256, 256}, RegionRect{64, 128, 128, 64}}) {
+            const PeelSettings peel{cap, stop};
+            RenderStats a, b;
+            const DepthRegion fromReplay = replay->render(s.geometry, s.view, rect, peel, &a);
+            const DepthRegion fromPasses = passes->render(s.geometry, s.view, rect, peel, &b);
+            const std::string what = std::string(sceneName(scene)) + (light == LightId::Spot ? " spot" : " sun") +
+                                     " cap " + std::to_string(cap) + " stop " + std::to_string(stop) + " region " +
+                                     std::to_string(rect.width);
+            ASSERT_EQ(fromReplay.enter, fromPasses.enter) << what;
+            ASSERT_EQ(fromReplay.exit, fromPasses.exit) << what;
+            EXPECT_EQ(a.peelIterations, b.peelIterations) << what;
+            EXPECT_EQ(a.texelsAtPeelCap, b.texelsAtPeelCap) << what;
+            ++cases;
+            cappedCases += b.texelsAtPeelCap > 0;
+            earlyStops += b.peelIterations < cap && b.texelsAtPeelCap > 0;
+          }
+    }
+  // The cases must exercise the cap and the early stop, or the comparison proves little.
+  std::printf("[ replay   ] %zu cases equal; %zu with texels at the cap, %zu stopped early\n", cases, cappedCases,
+              earlyStops);
+  EXPECT_GT(cappedCases, 20u);
+  EXPECT_GT(earlyStops, 5u);
 }
 
 TEST(Backends, NamesAndDescriptions) {

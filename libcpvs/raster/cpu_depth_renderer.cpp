@@ -1,11 +1,14 @@
 #include "libcpvs/raster/cpu_depth_renderer.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "libcpvs/base/error.h"
@@ -200,15 +203,91 @@ struct SliceTable {
   }
 };
 
+// The closed crossings a texel's lockstep peel consumes, kept from the one pass that finds its enter surface: the
+// P + 1 nearest distinct closed front keys (the first is the enter surface when it is a closed front; the peel
+// consumes F2 .. F(P+1)), the P nearest distinct closed back keys, and per back key whether several closed back
+// faces lie exactly there (a repeated back layer is an exit). P = the peel cap.
+template <int P>
+struct KeptCrossings {
+  float front[P + 1];
+  float back[P];
+  uint8_t backRepeated;  // bit k: back[k] was met more than once
+
+  void clear() {
+    for (float& f : front) f = kInfinity;
+    for (float& b : back) b = kInfinity;
+    backRepeated = 0;
+  }
+  void addFront(float key) {
+    if (!(key < front[P])) return;
+    for (int k = 0; k < P; ++k)
+      if (key == front[k]) return;  // coincident front faces count once, as the peel's strict "beyond" test
+    int at = P;
+    for (; at > 0 && key < front[at - 1]; --at) front[at] = front[at - 1];
+    front[at] = key;
+  }
+  void addBack(float key) {
+    if (!(key <= back[P - 1])) return;
+    for (int k = 0; k < P; ++k)
+      if (key == back[k]) {
+        backRepeated |= uint8_t(1u << k);
+        return;
+      }
+    int at = P - 1;
+    for (; at > 0 && key < back[at - 1]; --at) back[at] = back[at - 1];
+    back[at] = key;
+    // Flags follow their keys: those from `at` on move up one place, the last one drops out with its key.
+    const unsigned below = backRepeated & ((1u << at) - 1u), above = (backRepeated >> at) << (at + 1);
+    backRepeated = uint8_t((below | above) & ((1u << P) - 1u));
+  }
+};
+
+// One texel's lockstep peel over its kept crossings, `iterations` iterations of a peel capped at `cap`: the
+// passes' per-texel rule (below) applied to the layers each iteration would find.
+struct ReplayedTexel {
+  uint8_t state;
+  uint8_t finishedAt;  // the iteration (1-based) that found the exit or no back face; cap + 1 when none did
+  float frontCursor, backCursor;
+};
+
+template <int P>
+ReplayedTexel replayTexel(const KeptCrossings<P>& kept, float enterKey, uint32_t iterations, uint32_t cap) {
+  ReplayedTexel r{kActive, uint8_t(cap + 1), enterKey, floatBefore(enterKey)};
+  for (uint32_t it = 0; it < iterations; ++it) {
+    const float f = kept.front[it + 1], b = kept.back[it];
+    if (b == kInfinity) {
+      r.state = kStuck;
+      r.finishedAt = uint8_t(it + 1);
+      return r;
+    }
+    if (f == kInfinity || b <= f || ((kept.backRepeated >> it) & 1u)) {
+      r.backCursor = b;
+      r.state = kExitFound;
+      r.finishedAt = uint8_t(it + 1);
+      return r;
+    }
+    r.frontCursor = f;
+    r.backCursor = b;
+    if (it + 1 == cap) r.state = kCapped;
+  }
+  return r;
+}
+
+// The peel caps the replay handles; deeper caps (tests resolve nesting completely with 16) peel in passes.
+constexpr uint32_t kMaxReplayedPeels = 3;
+
 class CpuDepthRenderer final : public DepthRenderer {
 public:
+  explicit CpuDepthRenderer(CpuPeel peelMethod) : peelMethod_(peelMethod) {}
   uint32_t maxRegionSize() const override { return 1u << 14; }
   std::string description() const override { return "cpvs CPU rasteriser"; }
   DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
                      const PeelSettings& peel, RenderStats* stats) override;
 
 private:
+  CpuPeel peelMethod_;
   SliceTable slices_;
+  std::vector<uint8_t> crossings_;  // KeptCrossings<P> per texel (replay)
   // Per-texel state, kept between regions (allocating it anew cost a page fault per 4 KiB every region).
   std::vector<float> enterKey_, frontCursor_, backCursor_, nearestFront_, nearestBack_;
   std::vector<uint8_t> kind_, state_;
@@ -350,160 +429,284 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     }, 1);
   };
 
-  // 1. Enter: the nearest surface and its kind.
   std::vector<float>& enterKey = enterKey_;
   std::vector<uint8_t>& kind = kind_;
-  enterKey.assign(texels, kInfinity);
-  kind.assign(texels, kNone);
-  forBands([&](int32_t r0, int32_t r1) {
-    for (const RasterTriangle& t : triangles)
-      scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
-        float* keys = &enterKey[size_t(j) * width];
-        uint8_t* kinds = &kind[size_t(j) * width];
-        if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
-          const MaskedTriangle& m = masked[size_t(t.masked)];
+  std::vector<uint8_t>& state = state_;
+  std::vector<float>&frontCursor = frontCursor_, &backCursor = backCursor_;
+  state.assign(texels, kInactive);
+  // Integer slices of one texel: e from its enter key; x from its peel's outcome (state, and the key of the last
+  // layer consumed). Hints: the row's previous slices.
+  const auto sliceTexel = [&](size_t at, uint8_t texelState, float exitKey, uint32_t& enterHint, uint32_t& exitHint) {
+    if (kind[at] == kNone) return;
+    enterHint = slices_.slice(enterKey[at], enterHint);
+    const uint32_t e = std::min(n - 1, enterHint);
+    region.enter[at] = e;
+    uint32_t x = e + 1;
+    if (kind[at] == kClosedFront && texelState != kInactive) {
+      if (texelState == kStuck) {
+        x = n;
+      } else {
+        exitHint = slices_.slice(exitKey, exitHint);
+        x = std::min(n, std::max(e + 1, exitHint));
+      }
+    }
+    region.exit[at] = x;
+  };
+
+  // Replays each texel's lockstep peel from the crossings one pass keeps (same maps as the passes below).
+  const auto replayWith = [&](auto cap) {
+    constexpr int P = decltype(cap)::value;
+    using Kept = KeptCrossings<P>;
+    crossings_.resize(texels * sizeof(Kept));
+    enterKey.resize(texels);
+    kind.resize(texels);
+    Kept* const kept = reinterpret_cast<Kept*>(crossings_.data());
+    std::vector<std::array<uint64_t, P + 2>> finishedAt(bands);  // per band: texels by the iteration they leave
+    std::vector<std::pair<double, double>> bandMs(bands);  // CPU ms per band: scan, replay and slices
+    // 1. One pass: the nearest surface, its kind, and the closed crossings behind it.
+    forBands([&](int32_t r0, int32_t r1) {
+      const Stopwatch scanTime;
+      const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
+      std::fill(enterKey.begin() + b0, enterKey.begin() + b1, kInfinity);
+      std::fill(kind.begin() + b0, kind.begin() + b1, uint8_t(kNone));
+      for (size_t at = b0; at < b1; ++at) kept[at].clear();
+      for (const RasterTriangle& t : triangles)
+        scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+          float* keys = &enterKey[size_t(j) * width];
+          uint8_t* kinds = &kind[size_t(j) * width];
+          Kept* row = &kept[size_t(j) * width];
+          const auto enter = [&](int32_t i, float key) {
+            if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
+              keys[i] = key;
+              kinds[i] = t.kind;
+            }
+          };
+          if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
+            const MaskedTriangle& m = masked[size_t(t.masked)];
+            for (int32_t i = i0; i < i1; ++i) {
+              const float key = keyOf(depthAt(t, rowQ, i));
+              if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
+                keys[i] = key;
+                kinds[i] = t.kind;
+              }
+            }
+          } else if (t.kind == kOpen) {
+            for (int32_t i = i0; i < i1; ++i) enter(i, keyOf(depthAt(t, rowQ, i)));
+          } else if (t.kind == kClosedFront) {
+            for (int32_t i = i0; i < i1; ++i) {
+              const float key = keyOf(depthAt(t, rowQ, i));
+              enter(i, key);
+              row[i].addFront(key);
+            }
+          } else {
+            for (int32_t i = i0; i < i1; ++i) {
+              const float key = keyOf(depthAt(t, rowQ, i));
+              enter(i, key);
+              row[i].addBack(key);
+            }
+          }
+        });
+      Stopwatch replayTime;
+      // 2. While the band is in cache: each texel's peel replayed to the cap, and its integer slices.
+      auto& counts = finishedAt[size_t(r0) / kBandRows];
+      counts.fill(0);
+      for (int32_t j = r0; j < r1; ++j) {
+        uint32_t enterHint = 0, exitHint = 0;
+        for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+          uint8_t texelState = kInactive;
+          float exitKey = 0;
+          if (kind[at] == kClosedFront) {
+            const ReplayedTexel r = replayTexel(kept[at], enterKey[at], P, P);
+            texelState = r.state;
+            exitKey = std::max(r.frontCursor, r.backCursor);
+            ++counts[r.finishedAt];
+            state[at] = r.finishedAt;  // kept for the fix-up below
+          }
+          sliceTexel(at, texelState, exitKey, enterHint, exitHint);
+        }
+      }
+      bandMs[size_t(r0) / kBandRows] = {scanTime.ms() - replayTime.ms(), replayTime.ms()};
+    });
+    // 3. As many iterations as the passes would run: the cap, or fewer when no texel (or only a handful) is
+    // still inside after one. Fewer changes only the texels still inside then, which the early stop keeps few.
+    std::array<uint64_t, P + 2> total{};
+    for (const auto& counts : finishedAt)
+      for (int k = 0; k < P + 2; ++k) total[k] += counts[k];
+    uint64_t active = 0;
+    for (int k = 1; k < P + 2; ++k) active += total[k];
+    uint32_t iterations = 0;
+    while (iterations < uint32_t(P) && active > 0) {
+      ++iterations;
+      active -= total[iterations];
+      if (iterations == uint32_t(P)) active = 0;  // capped: no longer active
+      if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
+    }
+    local.peelIterations = iterations;
+    for (uint32_t k = iterations + 1; k < uint32_t(P) + 2; ++k) local.texelsAtPeelCap += total[k];
+    for (const auto& [scanMs, replayMs] : bandMs) {
+      local.enterMs += scanMs;
+      local.peelMs += replayMs;
+    }
+    if (iterations < uint32_t(P)) {
+      const Stopwatch fixUp;
+      forBands([&](int32_t r0, int32_t r1) {
+        for (int32_t j = r0; j < r1; ++j) {
+          uint32_t enterHint = 0, exitHint = 0;
+          for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+            if (kind[at] != kClosedFront || state[at] <= iterations) continue;
+            const ReplayedTexel r = replayTexel(kept[at], enterKey[at], iterations, P);
+            sliceTexel(at, r.state, std::max(r.frontCursor, r.backCursor), enterHint, exitHint);
+          }
+        }
+      });
+      local.peelMs += fixUp.ms();
+    }
+  };
+
+  if (peelMethod_ == CpuPeel::Replay && peel.maxPeels >= 1 && peel.maxPeels <= kMaxReplayedPeels) {
+    if (peel.maxPeels == 1) replayWith(std::integral_constant<int, 1>{});
+    else if (peel.maxPeels == 2) replayWith(std::integral_constant<int, 2>{});
+    else replayWith(std::integral_constant<int, 3>{});
+  } else {
+    frontCursor.resize(texels);
+    backCursor.resize(texels);
+    // 1. Enter: the nearest surface and its kind.
+    enterKey.assign(texels, kInfinity);
+    kind.assign(texels, kNone);
+    forBands([&](int32_t r0, int32_t r1) {
+      for (const RasterTriangle& t : triangles)
+        scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+          float* keys = &enterKey[size_t(j) * width];
+          uint8_t* kinds = &kind[size_t(j) * width];
+          if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
+            const MaskedTriangle& m = masked[size_t(t.masked)];
+            for (int32_t i = i0; i < i1; ++i) {
+              const float key = keyOf(depthAt(t, rowQ, i));
+              if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
+                keys[i] = key;
+                kinds[i] = t.kind;
+              }
+            }
+            return;
+          }
           for (int32_t i = i0; i < i1; ++i) {
             const float key = keyOf(depthAt(t, rowQ, i));
-            if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
+            if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
               keys[i] = key;
               kinds[i] = t.kind;
             }
           }
-          return;
-        }
-        for (int32_t i = i0; i < i1; ++i) {
-          const float key = keyOf(depthAt(t, rowQ, i));
-          if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
-            keys[i] = key;
-            kinds[i] = t.kind;
-          }
-        }
-      });
-  });
-  local.enterMs = phase.ms();
-  const Stopwatch peelTime;
+        });
+    });
+    local.enterMs = phase.ms();
+    const Stopwatch peelTime;
 
-  // 2. Lockstep peeling of the closed solids entered at a closed front face (docs/depth-maps.md).
-  std::vector<uint8_t>& state = state_;
-  std::vector<float>&frontCursor = frontCursor_, &backCursor = backCursor_, &nearestFront = nearestFront_,
-                     &nearestBack = nearestBack_;
-  std::vector<uint16_t>& backCount = backCount_;
-  state.assign(texels, kInactive);
-  size_t active = 0;
-  // Per row, the texels [activeBegin, activeEnd) hold every active one: later iterations, with few texels
-  // left inside, scan only those.
-  std::vector<int32_t> activeBegin(rect.height, 0), activeEnd(rect.height, 0);
-  const auto findActive = [&](int32_t j) {
-    const uint8_t* row = &state[size_t(j) * width];
-    int32_t lo = 0, hi = int32_t(width);
-    while (lo < hi && row[lo] != kActive) ++lo;
-    while (hi > lo && row[hi - 1] != kActive) --hi;
-    activeBegin[j] = lo;
-    activeEnd[j] = hi;
-  };
-  for (size_t i = 0; i < texels; ++i)
-    if (kind[i] == kClosedFront) {
-      state[i] = kActive;
-      ++active;
-    }
-  for (int32_t j = 0; j < int32_t(rect.height); ++j) findActive(j);
-  if (active > 0) {  // a texel entered at a closed front face: there are closed triangles to peel
-    frontCursor = enterKey;
-    backCursor.resize(texels);
-    // Back faces at the enter depth itself (silhouettes, zero thickness) still count: the back cursor starts
-    // just before it.
-    for (size_t i = 0; i < texels; ++i) backCursor[i] = floatBefore(enterKey[i]);
-    nearestFront.resize(texels);
-    nearestBack.resize(texels);
-    backCount.resize(texels);
-    for (uint32_t iteration = 0; iteration < peel.maxPeels && active > 0; ++iteration) {
-      ++local.peelIterations;
-      const bool lastIteration = iteration + 1 == peel.maxPeels;
-      forBands([&](int32_t r0, int32_t r1) {
-        const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
-        std::fill(nearestFront.begin() + b0, nearestFront.begin() + b1, kInfinity);
-        std::fill(nearestBack.begin() + b0, nearestBack.begin() + b1, kInfinity);
-        std::fill(backCount.begin() + b0, backCount.begin() + b1, 0);
-        bool bandActive = false;
-        for (int32_t j = r0; j < r1; ++j) bandActive |= activeBegin[j] < activeEnd[j];
-        if (!bandActive) return;
-        for (const RasterTriangle& t : triangles) {
-          if (t.kind == kOpen) continue;
-          const bool front = t.kind == kClosedFront;
-          scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
-            i0 = std::max(i0, activeBegin[j]);
-            i1 = std::min(i1, activeEnd[j]);
-            const size_t row = size_t(j) * width;
-            for (size_t at = row + size_t(i0); at < row + size_t(i1); ++at) {
-              if (state[at] != kActive) continue;
-              const float key = keyOf(depthAt(t, rowQ, int64_t(at - row)));
-              if (front) {
-                if (key > frontCursor[at] && key < nearestFront[at]) nearestFront[at] = key;
-              } else if (key > backCursor[at]) {
-                if (key < nearestBack[at]) {
-                  nearestBack[at] = key;
-                  backCount[at] = 1;
-                } else if (key == nearestBack[at] && backCount[at] < 0xFFFF) {
-                  ++backCount[at];
+    // 2. Lockstep peeling of the closed solids entered at a closed front face (docs/depth-maps.md).
+    std::vector<float>&nearestFront = nearestFront_, &nearestBack = nearestBack_;
+    std::vector<uint16_t>& backCount = backCount_;
+    size_t active = 0;
+    // Per row, the texels [activeBegin, activeEnd) hold every active one: later iterations, with few texels
+    // left inside, scan only those.
+    std::vector<int32_t> activeBegin(rect.height, 0), activeEnd(rect.height, 0);
+    const auto findActive = [&](int32_t j) {
+      const uint8_t* row = &state[size_t(j) * width];
+      int32_t lo = 0, hi = int32_t(width);
+      while (lo < hi && row[lo] != kActive) ++lo;
+      while (hi > lo && row[hi - 1] != kActive) --hi;
+      activeBegin[j] = lo;
+      activeEnd[j] = hi;
+    };
+    for (size_t i = 0; i < texels; ++i)
+      if (kind[i] == kClosedFront) {
+        state[i] = kActive;
+        ++active;
+      }
+    for (int32_t j = 0; j < int32_t(rect.height); ++j) findActive(j);
+    if (active > 0) {  // a texel entered at a closed front face: there are closed triangles to peel
+      frontCursor = enterKey;
+      backCursor.resize(texels);
+      // Back faces at the enter depth itself (silhouettes, zero thickness) still count: the back cursor starts
+      // just before it.
+      for (size_t i = 0; i < texels; ++i) backCursor[i] = floatBefore(enterKey[i]);
+      nearestFront.resize(texels);
+      nearestBack.resize(texels);
+      backCount.resize(texels);
+      for (uint32_t iteration = 0; iteration < peel.maxPeels && active > 0; ++iteration) {
+        ++local.peelIterations;
+        const bool lastIteration = iteration + 1 == peel.maxPeels;
+        forBands([&](int32_t r0, int32_t r1) {
+          const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
+          std::fill(nearestFront.begin() + b0, nearestFront.begin() + b1, kInfinity);
+          std::fill(nearestBack.begin() + b0, nearestBack.begin() + b1, kInfinity);
+          std::fill(backCount.begin() + b0, backCount.begin() + b1, 0);
+          bool bandActive = false;
+          for (int32_t j = r0; j < r1; ++j) bandActive |= activeBegin[j] < activeEnd[j];
+          if (!bandActive) return;
+          for (const RasterTriangle& t : triangles) {
+            if (t.kind == kOpen) continue;
+            const bool front = t.kind == kClosedFront;
+            scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+              i0 = std::max(i0, activeBegin[j]);
+              i1 = std::min(i1, activeEnd[j]);
+              const size_t row = size_t(j) * width;
+              for (size_t at = row + size_t(i0); at < row + size_t(i1); ++at) {
+                if (state[at] != kActive) continue;
+                const float key = keyOf(depthAt(t, rowQ, int64_t(at - row)));
+                if (front) {
+                  if (key > frontCursor[at] && key < nearestFront[at]) nearestFront[at] = key;
+                } else if (key > backCursor[at]) {
+                  if (key < nearestBack[at]) {
+                    nearestBack[at] = key;
+                    backCount[at] = 1;
+                  } else if (key == nearestBack[at] && backCount[at] < 0xFFFF) {
+                    ++backCount[at];
+                  }
                 }
               }
+            });
+          }
+          // Consume the nearest front and back layer (ties: back first, an earlier exit is the safe side).
+          for (size_t at = b0; at < b1; ++at) {
+            if (state[at] != kActive) continue;
+            const float f = nearestFront[at], b = nearestBack[at];
+            if (b == kInfinity) {
+              state[at] = kStuck;  // inside, and no closed back face before the far plane
+            } else if (f == kInfinity || b <= f || backCount[at] > 1) {
+              backCursor[at] = b;
+              state[at] = kExitFound;
+            } else {
+              frontCursor[at] = f;
+              backCursor[at] = b;
+              if (lastIteration) state[at] = kCapped;
             }
-          });
-        }
-        // Consume the nearest front and back layer (ties: back first, an earlier exit is the safe side).
-        for (size_t at = b0; at < b1; ++at) {
-          if (state[at] != kActive) continue;
-          const float f = nearestFront[at], b = nearestBack[at];
-          if (b == kInfinity) {
-            state[at] = kStuck;  // inside, and no closed back face before the far plane
-          } else if (f == kInfinity || b <= f || backCount[at] > 1) {
-            backCursor[at] = b;
-            state[at] = kExitFound;
-          } else {
-            frontCursor[at] = f;
-            backCursor[at] = b;
-            if (lastIteration) state[at] = kCapped;
           }
-        }
-        for (int32_t j = r0; j < r1; ++j) findActive(j);
-      });
-      active = size_t(std::count(state.begin(), state.end(), uint8_t(kActive)));
-      // A handful of texels left is not worth an iteration: they keep the exit consumed so far.
-      if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
-    }
-  }
-
-  // 3. Integer slices.
-  forBands([&](int32_t r0, int32_t r1) {
-    for (int32_t j = r0; j < r1; ++j) {
-      uint32_t enterHint = 0, exitHint = 0;
-      for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
-        if (kind[at] == kNone) continue;
-        enterHint = slices_.slice(enterKey[at], enterHint);
-        const uint32_t e = std::min(n - 1, enterHint);
-        region.enter[at] = e;
-        uint32_t x = e + 1;
-        if (kind[at] == kClosedFront && state[at] != kInactive) {
-          if (state[at] == kStuck) {
-            x = n;
-          } else {
-            exitHint = slices_.slice(std::max(frontCursor[at], backCursor[at]), exitHint);
-            x = std::min(n, std::max(e + 1, exitHint));
-          }
-        }
-        region.exit[at] = x;
+          for (int32_t j = r0; j < r1; ++j) findActive(j);
+        });
+        active = size_t(std::count(state.begin(), state.end(), uint8_t(kActive)));
+        // A handful of texels left is not worth an iteration: they keep the exit consumed so far.
+        if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
       }
     }
-  });
-  for (size_t at = 0; at < texels; ++at)
-    local.texelsAtPeelCap += state[at] == kCapped || state[at] == kActive;
-  local.peelMs = peelTime.ms();
+
+    // 3. Integer slices.
+    forBands([&](int32_t r0, int32_t r1) {
+      for (int32_t j = r0; j < r1; ++j) {
+        uint32_t enterHint = 0, exitHint = 0;
+        for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at)
+          sliceTexel(at, state[at], std::max(frontCursor[at], backCursor[at]), enterHint, exitHint);
+      }
+    });
+    for (size_t at = 0; at < texels; ++at)
+      local.texelsAtPeelCap += state[at] == kCapped || state[at] == kActive;
+    local.peelMs = peelTime.ms();
+  }
+
   if (stats) *stats = local;
   return region;
 }
 
 }  // namespace
 
-std::unique_ptr<DepthRenderer> createCpuDepthRenderer() { return std::make_unique<CpuDepthRenderer>(); }
+std::unique_ptr<DepthRenderer> createCpuDepthRenderer(CpuPeel peel) { return std::make_unique<CpuDepthRenderer>(peel); }
 
 }  // namespace cpvs

@@ -8,6 +8,16 @@
 
 namespace cpvs {
 
-std::unique_ptr<DepthRenderer> createCpuDepthRenderer();
+// How the exit depth's lockstep peel runs. Both give the same maps.
+enum class CpuPeel {
+  // One pass keeps each texel's nearest closed crossings behind its enter surface and the peel is replayed per
+  // texel from them (peel caps up to 3; deeper caps peel in passes).
+  Replay,
+  // One pass for the enter surface, then one pass over the closed triangles per peel iteration, as the GL
+  // renderer does.
+  Passes,
+};
+
+std::unique_ptr<DepthRenderer> createCpuDepthRenderer(CpuPeel peel = CpuPeel::Replay);
 
 }  // namespace cpvs
