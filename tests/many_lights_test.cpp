@@ -11,6 +11,7 @@
 
 #include "formats/cpvs/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/cone_crop.h"
 #include "libcpvs/bake/light_subsets.h"
 #include "libcpvs/bake/merge_parts.h"
 #include "libcpvs/base/error.h"
@@ -286,6 +287,60 @@ TEST(ManyLights, ConeCropChangesNoLookupAndSavesBytes) {
     bakeScene(wide, cropped, &wideReport);
     EXPECT_EQ(wideReport.lights[0].views[0].texelsOutsideCone, 0u) << outer;
   }
+}
+
+// The renderer visits, and the bake keeps, exactly the texels whose centre lies within the crop radius: the
+// spans found by bisection equal the per-texel test on every row of every region, for cones narrower than the
+// view, off-axis views and regions that the cone's edge crosses, and a region wholly outside is all free.
+TEST(ConeCrop, SpansHoldExactlyTheTexelsWithinTheRadius) {
+  Scene scene;
+  test::addBox(scene, "ground", {-40, -1, -40}, {40, 0, 40});
+  test::classifyMeshes(scene);
+  const WorldGeometry world = flatten(scene);
+  size_t rows = 0, partialRows = 0, emptyRows = 0;
+  for (const double outer : {0.3, 0.6, 0.9})
+    for (const glm::dvec3 direction : {glm::dvec3(0, -1, 0), glm::dvec3(0.4, -1, 0.25)}) {
+      const Light light = test::spotLight("lamp", {1, 12, -2}, direction, outer, 60);
+      for (const uint32_t n : {256u, 1000u}) {
+        const LightView view = makeLightViews(light, world, n).at(0);
+        const ConeCrop crop = coneCropOf(light, view);
+        ASSERT_TRUE(crop.active) << outer;
+        const double ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
+        for (const RegionRect rect : {RegionRect{0, 0, n, n}, RegionRect{0, 0, n / 4, n / 4},
+                                      RegionRect{n / 4, n / 2, n / 4, n / 8}, RegionRect{n - 24, 0, 24, n}}) {
+          const RowSpans spans = crop.inside(view, rect);
+          DepthRegion region;
+          region.rect = rect;
+          region.resolution = n;
+          region.enter.assign(size_t(rect.width) * rect.height, 7);
+          region.exit.assign(region.enter.size(), 9);
+          const uint64_t freed = ConeCrop::freeOutside(spans, region);
+          uint64_t outside = 0;
+          for (uint32_t y = 0; y < rect.height; ++y) {
+            const double b = view.yMin + (rect.y0 + y + 0.5) * ey / n;
+            ++rows;
+            partialRows += spans.begin[y] > 0 || spans.end[y] < rect.width;
+            emptyRows += spans.begin[y] >= spans.end[y];
+            for (uint32_t x = 0; x < rect.width; ++x) {
+              const double a = view.xMin + (rect.x0 + x + 0.5) * ex / n;
+              const bool within = a * a + b * b <= crop.radius * crop.radius;
+              ASSERT_EQ(within, x >= spans.begin[y] && x < spans.end[y])
+                  << "texel " << x << "," << y << " of region " << rect.x0 << "," << rect.y0 << " (n " << n << ")";
+              outside += !within;
+              const size_t i = size_t(y) * rect.width + x;
+              ASSERT_EQ(region.enter[i], within ? 7u : 0u);
+              ASSERT_EQ(region.exit[i], within ? 9u : n);
+            }
+          }
+          EXPECT_EQ(freed, outside);
+          if (crop.regionOutside(view, rect)) {
+            EXPECT_EQ(outside, uint64_t(rect.width) * rect.height);
+          }
+        }
+      }
+    }
+  EXPECT_GT(partialRows, rows / 4);
+  EXPECT_GT(emptyRows, 100u);
 }
 
 TEST(ManyLights, ToolsSplitMergeAndLogOneLinePerLight) {

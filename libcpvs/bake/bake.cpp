@@ -1,6 +1,8 @@
 #include "libcpvs/bake/bake.h"
 
 #include <algorithm>
+#include <memory>
+#include <mutex>
 #include <optional>
 
 #include <nlohmann/json.hpp>
@@ -148,11 +150,13 @@ LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<
 
 std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world,
                                                   const BakeSettings& settings) {
-  std::vector<std::vector<LightView>> views;
-  for (const Light& light : scene.lights) {
-    views.push_back(makeLightViews(light, world, settings.resolution));
-    if (settings.voxelSize <= 0) continue;
-    uint32_t n = resolutionForVoxelSize(views.back(), settings.voxelSize, settings.resolution);
+  // Each light's views are fitted on their own (in parallel: the fit measures the geometry each light reaches).
+  std::vector<std::vector<LightView>> views(scene.lights.size());
+  parallelFor(scene.lights.size(), [&](size_t i) {
+    const Light& light = scene.lights[i];
+    views[i] = makeLightViews(light, world, settings.resolution);
+    if (settings.voxelSize <= 0) return;
+    uint32_t n = resolutionForVoxelSize(views[i], settings.voxelSize, settings.resolution);
     // The estimate scales the fit at the largest N; the fit's padding grows at small N, so check and double.
     while (n < settings.resolution) {
       std::vector<LightView> fitted = makeLightViews(light, world, n);
@@ -160,12 +164,12 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
       for (const LightView& v : fitted)
         if (!v.empty) largest = std::max(largest, largestVoxelSize(v));
       if (largest <= settings.voxelSize) {
-        views.back() = std::move(fitted);
+        views[i] = std::move(fitted);
         break;
       }
       n *= 2;
     }
-  }
+  }, 1);
   return views;
 }
 
@@ -215,6 +219,191 @@ void describeDag(const ShadowDag& dag, ViewReport& vr) {
   vr.bytes = dag.bytes();
 }
 
+// What one bake shares between its lights: the scene as flattened, every light's views, the settings, the
+// cache, the callbacks (serialised), and the renderers (one per lane: a GL context is tied to one thread).
+struct BakeRun {
+  const Scene& scene;
+  const BakeSettings& settings;
+  const WorldGeometry& world;
+  const std::vector<std::vector<LightView>>& allViews;
+  const BakeCallbacks& callbacks;
+  std::optional<BakeCache>& cache;
+  std::vector<std::unique_ptr<DepthRenderer>> renderers;  // per lane, opened on first use
+  std::mutex mutex;                                       // callbacks, progress, the renderer's description
+  std::string rendererDescription;
+  size_t totalViews = 0, doneViews = 0;
+
+  void progress(double viewsDone) {
+    if (callbacks.progress) callbacks.progress(viewsDone / double(totalViews));
+  }
+};
+
+// One light's result: what goes into the file, its report, and the warnings it raised (kept in light order).
+struct LightOutcome {
+  BakedLight baked;
+  LightReport report;
+  std::vector<std::string> warnings;
+};
+
+// Bakes one light's views on `lane` (its renderer), region after region; masks and DAG of a region run beside the
+// rasterising of the next one.
+LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
+  const BakeSettings& settings = run.settings;
+  const BakeCallbacks& callbacks = run.callbacks;
+  const Stopwatch lightTime;
+  LightOutcome out;
+  BakedLight& baked = out.baked;
+  baked.light = run.scene.lights[li];
+  if (callbacks.lightStarted) {
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    callbacks.lightStarted(baked.light.name);
+  }
+  LightReport& lightReport = out.report;
+  lightReport.name = baked.light.name;
+  lightReport.index = li;
+  lightReport.type = baked.light.type;
+  const std::vector<LightView>& views = run.allViews[li];
+  const LightGeometry lightGeometry = gatherLightGeometry(run.world, views, settings.regionSize);
+  lightReport.estimatedCost = lightGeometry.cost;
+  lightReport.reachesGeometry = lightGeometry.reachesGeometry;
+  if (!lightGeometry.reachesGeometry)
+    out.warnings.push_back("light '" + baked.light.name + "' (index " + std::to_string(li) +
+                           ") reaches no geometry: every voxel of its views is lit (check its position, direction "
+                           "and range)");
+  uint64_t cacheKey = 0;
+  if (run.cache) {
+    cacheKey = lightBakeKey(settings, baked.light, views, lightGeometry.views);
+    std::string problem;
+    if (std::optional<BakedLight> hit = run.cache->find(cacheKey, baked.light, &problem)) {
+      if (hit->views.size() == views.size()) {
+        baked = std::move(*hit);
+        lightReport.cache = LightReport::Cache::Hit;
+      } else {
+        problem = run.cache->pathOf(cacheKey) + ": holds " + std::to_string(hit->views.size()) + " view(s), expected " +
+                  std::to_string(views.size());
+      }
+    }
+    if (!problem.empty()) out.warnings.push_back("bake cache entry ignored and baked again: " + problem);
+    if (lightReport.cache != LightReport::Cache::Hit) lightReport.cache = LightReport::Cache::Miss;
+  }
+  const bool fromCache = lightReport.cache == LightReport::Cache::Hit;
+  const auto viewDone = [&] {
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    run.progress(double(++run.doneViews));
+  };
+  for (size_t vi = 0; vi < views.size(); ++vi) {
+    const LightView& view = views[vi];
+    ViewReport vr;
+    vr.resolution = view.resolution;
+    vr.face = view.face;
+    vr.empty = view.empty;
+    vr.shadowMapBytes = uint64_t(view.resolution) * view.resolution * 2;
+    if (fromCache) {
+      describeDag(baked.views[vi].dag, vr);
+      lightReport.views.push_back(vr);
+      viewDone();
+      continue;
+    }
+    BakedView bakedView{view, {}};
+    const ViewGeometry& geometry = lightGeometry.views[vi];
+    if (view.empty || geometry.triangleCount() == 0) {
+      bakedView.dag = allLitDag(view.resolution);
+    } else {
+      std::unique_ptr<DepthRenderer>& renderer = run.renderers[lane];
+      if (!renderer) {
+        renderer = DepthRenderer::create(settings.backend);
+        const std::lock_guard<std::mutex> lock(run.mutex);
+        run.rendererDescription = renderer->description();
+      }
+      const uint32_t regionSize = std::min({settings.regionSize, renderer->maxRegionSize(), view.resolution});
+      const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
+      DagBuilder builder(view.resolution, regionSize, settings.nodeReuse);
+      const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
+      vr.regions = uint32_t(regions.size());
+      // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
+      // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
+      BackgroundWork pending;
+      for (size_t ri = 0; ri < regions.size(); ++ri) {
+        RenderStats stats;
+        std::shared_ptr<DepthRegion> depth;
+        if (crop.regionOutside(view, regions[ri])) {
+          depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, regions[ri]));
+          vr.texelsOutsideCone += depth->enter.size();
+        } else {
+          const RowSpans inside = crop.inside(view, regions[ri]);
+          depth = std::make_shared<DepthRegion>(
+              renderer->render(geometry, view, regions[ri], settings.peel, &stats, crop.active ? &inside : nullptr));
+          vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);
+        }
+        vr.depthMs += stats.enterMs;
+        vr.peelMs += stats.peelMs;
+        vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);
+        vr.texelsAtPeelCap += stats.texelsAtPeelCap;
+        vr.trianglesSubmitted += stats.trianglesSubmitted;
+        if (callbacks.depthRegion) {
+          const std::lock_guard<std::mutex> lock(run.mutex);
+          callbacks.depthRegion(li, vi, view, *depth);
+        }
+        if (settings.maxMemoryBytes && currentRssBytes() > settings.maxMemoryBytes)
+          throw Error(ErrorCategory::RuntimeFailure,
+                      "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB exceeded (" +
+                          std::to_string(currentRssBytes() >> 20) + " MiB resident) while baking light '" +
+                          baked.light.name + "' view " + std::to_string(vi) + " at " +
+                          std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
+        pending.wait();
+        auto work = [&, depth]() {
+          Stopwatch masks;
+          const TileChains chains = buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads));
+          vr.masksMs += masks.ms();
+          vr.tileMasks += chains.start.size();
+          Stopwatch dag;
+          builder.addRegion(chains);
+          vr.dagMs += dag.ms();
+        };
+        if (settings.threads > 1)
+          pending.start(work);
+        else
+          work();
+        if (callbacks.progress) {
+          const std::lock_guard<std::mutex> lock(run.mutex);
+          run.progress(double(run.doneViews) + double(ri + 1) / double(regions.size()));
+        }
+      }
+      pending.wait();
+      Stopwatch finish;
+      bakedView.dag = builder.finish();
+      vr.dagMs += finish.ms();
+      vr.nodesBuilt = builder.stats().nodesBuilt;
+      vr.nodesReused = builder.stats().nodesReused;
+    }
+    describeDag(bakedView.dag, vr);
+    baked.views.push_back(std::move(bakedView));
+    lightReport.views.push_back(vr);
+    viewDone();
+  }
+  if (run.cache && !fromCache) {
+    try {
+      run.cache->store(cacheKey, baked);
+    } catch (const Error& e) {  // the bake itself is fine: only later runs lose the entry
+      out.warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
+    }
+  }
+  lightReport.ms = lightTime.ms();
+  return out;
+}
+
+// How many lights bake at once. The CPU rasteriser runs one light per thread: the per-region passes of one light
+// keep two cores only ~90 % busy (and cost a quarter more CPU time in hand-offs) where independent lights keep
+// them full. A GL context belongs to one thread, so GL backends bake one light at a time. Within a memory
+// budget, each lane's region must fit.
+unsigned lanesFor(const BakeSettings& settings, size_t lights) {
+  if (settings.backend != RasterBackend::Cpu) return 1;
+  uint64_t lanes = std::min<uint64_t>(std::max(1u, settings.threads), std::max<size_t>(1, lights));
+  if (settings.maxMemoryBytes)
+    lanes = std::min<uint64_t>(lanes, std::max<uint64_t>(1, settings.maxMemoryBytes / 4 / regionMemoryBytes(settings.regionSize)));
+  return unsigned(lanes);
+}
+
 CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                           const BakeCallbacks& callbacks) {
   BakeSettings settings = requested;
@@ -226,7 +415,6 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
 
-  std::unique_ptr<DepthRenderer> renderer;  // opened on first use: scenes without geometry need none
   BakeReport localReport;
   BakeReport& rep = report ? *report : localReport;
   rep.inputHash = inputHash;
@@ -237,140 +425,33 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   std::optional<BakeCache> cache;
   if (!settings.cacheFolder.empty()) cache.emplace(settings.cacheFolder);
 
-  // Progress counts views, weighted equally.
-  size_t totalViews = 0, doneViews = 0;
-  for (const uint32_t li : chosen) totalViews += allViews[li].size();
+  const unsigned lanes = lanesFor(settings, chosen.size());
+  BakeRun run{scene, settings, world, allViews, callbacks, cache, {}, {}, {}, 0, 0};
+  run.renderers.resize(lanes);
+  for (const uint32_t li : chosen) run.totalViews += allViews[li].size();  // progress counts views, weighted equally
 
-  for (size_t done = 0; done < chosen.size(); ++done) {
-    const uint32_t li = chosen[done];
-    const Stopwatch lightTime;
-    BakedLight baked;
-    baked.light = scene.lights[li];
-    if (callbacks.lightStarted) callbacks.lightStarted(baked.light.name);
-    LightReport lightReport;
-    lightReport.name = baked.light.name;
-    lightReport.index = li;
-    lightReport.type = baked.light.type;
-    const LightGeometry lightGeometry = gatherLightGeometry(world, allViews[li], settings.regionSize);
-    lightReport.estimatedCost = lightGeometry.cost;
-    lightReport.reachesGeometry = lightGeometry.reachesGeometry;
-    if (!lightGeometry.reachesGeometry)
-      rep.warnings.push_back("light '" + baked.light.name + "' (index " + std::to_string(li) +
-                             ") reaches no geometry: every voxel of its views is lit (check its position, direction "
-                             "and range)");
-    uint64_t cacheKey = 0;
-    if (cache) {
-      cacheKey = lightBakeKey(settings, baked.light, allViews[li], lightGeometry.views);
-      std::string problem;
-      if (std::optional<BakedLight> hit = cache->find(cacheKey, baked.light, &problem)) {
-        if (hit->views.size() == allViews[li].size()) {
-          baked = std::move(*hit);
-          lightReport.cache = LightReport::Cache::Hit;
-        } else {
-          problem = cache->pathOf(cacheKey) + ": holds " + std::to_string(hit->views.size()) + " view(s), expected " +
-                    std::to_string(allViews[li].size());
-        }
-      }
-      if (!problem.empty()) rep.warnings.push_back("bake cache entry ignored and baked again: " + problem);
-      if (lightReport.cache != LightReport::Cache::Hit) lightReport.cache = LightReport::Cache::Miss;
+  // Lights finish in any order on several lanes; the file, the report and the per-light callbacks take them in
+  // the chosen order, each as soon as every light before it is done.
+  std::vector<std::optional<LightOutcome>> outcomes(chosen.size());
+  size_t handedOver = 0;
+  const auto handOverFinished = [&] {  // under run.mutex
+    while (handedOver < outcomes.size() && outcomes[handedOver]) {
+      LightOutcome& o = *outcomes[handedOver];
+      rep.warnings.insert(rep.warnings.end(), o.warnings.begin(), o.warnings.end());
+      content.lights.push_back(std::move(o.baked));
+      rep.lights.push_back(std::move(o.report));
+      outcomes[handedOver].reset();
+      ++handedOver;
+      if (callbacks.lightDone) callbacks.lightDone(rep.lights.back(), handedOver, chosen.size());
     }
-    const bool fromCache = lightReport.cache == LightReport::Cache::Hit;
-    for (size_t vi = 0; vi < allViews[li].size(); ++vi) {
-      const LightView& view = allViews[li][vi];
-      ViewReport vr;
-      vr.resolution = view.resolution;
-      vr.face = view.face;
-      vr.empty = view.empty;
-      vr.shadowMapBytes = uint64_t(view.resolution) * view.resolution * 2;
-      if (fromCache) {
-        describeDag(baked.views[vi].dag, vr);
-        lightReport.views.push_back(vr);
-        ++doneViews;
-        if (callbacks.progress) callbacks.progress(double(doneViews) / double(totalViews));
-        continue;
-      }
-      BakedView bakedView{view, {}};
-      const ViewGeometry& geometry = lightGeometry.views[vi];
-      if (view.empty || geometry.triangleCount() == 0) {
-        bakedView.dag = allLitDag(view.resolution);
-      } else {
-        if (!renderer) {
-          renderer = DepthRenderer::create(settings.backend);
-          rep.renderer = renderer->description();
-        }
-        const uint32_t regionSize =
-            std::min({settings.regionSize, renderer->maxRegionSize(), view.resolution});
-        const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
-        DagBuilder builder(view.resolution, regionSize, settings.nodeReuse);
-        const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
-        vr.regions = uint32_t(regions.size());
-        // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
-        // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
-        BackgroundWork pending;
-        for (size_t ri = 0; ri < regions.size(); ++ri) {
-          RenderStats stats;
-          std::shared_ptr<DepthRegion> depth;
-          if (crop.regionOutside(view, regions[ri])) {
-            depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, regions[ri]));
-            vr.texelsOutsideCone += depth->enter.size();
-          } else {
-            depth = std::make_shared<DepthRegion>(renderer->render(geometry, view, regions[ri], settings.peel, &stats));
-            vr.texelsOutsideCone += crop.freeOutside(view, *depth);
-          }
-          vr.depthMs += stats.enterMs;
-          vr.peelMs += stats.peelMs;
-          vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);
-          vr.texelsAtPeelCap += stats.texelsAtPeelCap;
-          vr.trianglesSubmitted += stats.trianglesSubmitted;
-          if (callbacks.depthRegion) callbacks.depthRegion(li, vi, view, *depth);
-          if (settings.maxMemoryBytes && currentRssBytes() > settings.maxMemoryBytes)
-            throw Error(ErrorCategory::RuntimeFailure,
-                        "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB exceeded (" +
-                            std::to_string(currentRssBytes() >> 20) + " MiB resident) while baking light '" +
-                            baked.light.name + "' view " + std::to_string(vi) + " at " +
-                            std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
-          pending.wait();
-          auto work = [&, depth]() {
-            Stopwatch masks;
-            const TileChains chains = buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads));
-            vr.masksMs += masks.ms();
-            vr.tileMasks += chains.start.size();
-            Stopwatch dag;
-            builder.addRegion(chains);
-            vr.dagMs += dag.ms();
-          };
-          if (settings.threads > 1)
-            pending.start(work);
-          else
-            work();
-          if (callbacks.progress)
-            callbacks.progress((double(doneViews) + double(ri + 1) / double(regions.size())) / double(totalViews));
-        }
-        pending.wait();
-        Stopwatch finish;
-        bakedView.dag = builder.finish();
-        vr.dagMs += finish.ms();
-        vr.nodesBuilt = builder.stats().nodesBuilt;
-        vr.nodesReused = builder.stats().nodesReused;
-      }
-      describeDag(bakedView.dag, vr);
-      baked.views.push_back(std::move(bakedView));
-      lightReport.views.push_back(vr);
-      ++doneViews;
-      if (callbacks.progress) callbacks.progress(double(doneViews) / double(totalViews));
-    }
-    if (cache && !fromCache) {
-      try {
-        cache->store(cacheKey, baked);
-      } catch (const Error& e) {  // the bake itself is fine: only later runs lose the entry
-        rep.warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
-      }
-    }
-    lightReport.ms = lightTime.ms();
-    content.lights.push_back(std::move(baked));
-    rep.lights.push_back(std::move(lightReport));
-    if (callbacks.lightDone) callbacks.lightDone(rep.lights.back(), done + 1, chosen.size());
-  }
+  };
+  parallelLanes(chosen.size(), lanes, [&](unsigned lane, size_t i) {
+    LightOutcome outcome = bakeLight(run, chosen[i], lane);
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    outcomes[i] = std::move(outcome);
+    handOverFinished();
+  });
+  rep.renderer = run.rendererDescription;
   return content;
 }
 

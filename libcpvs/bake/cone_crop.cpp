@@ -40,21 +40,67 @@ DepthRegion ConeCrop::freeRegion(const LightView& view, const RegionRect& rect) 
   return region;
 }
 
-uint64_t ConeCrop::freeOutside(const LightView& view, DepthRegion& region) const {
-  if (!active) return 0;
+RowSpans ConeCrop::inside(const LightView& view, const RegionRect& rect) const {
+  RowSpans spans;
+  spans.begin.assign(rect.height, 0);
+  spans.end.assign(rect.height, rect.width);
+  if (!active || rect.width == 0) return spans;
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
+  for (uint32_t y = 0; y < rect.height; ++y) {
+    const double b = view.yMin + (rect.y0 + y + 0.5) * ey / n;
+    // Texel x's centre is at lateral a(x), which grows with x: the texels within the radius are one run around
+    // the texel nearest the axis, found from it by bisection on each side.
+    const auto within = [&](int64_t x) {
+      const double a = view.xMin + (rect.x0 + x + 0.5) * ex / n;
+      return a * a + b * b <= radius * radius;
+    };
+    const int64_t last = int64_t(rect.width) - 1;
+    const int64_t nearest = std::clamp<int64_t>(int64_t(std::llround(-view.xMin * n / ex - rect.x0 - 0.5)), 0, last);
+    int64_t seed = -1;
+    for (int64_t x : {nearest, nearest - 1, nearest + 1})
+      if (x >= 0 && x <= last && within(x)) {
+        seed = x;
+        break;
+      }
+    if (seed < 0) {
+      spans.begin[y] = spans.end[y] = 0;
+      continue;
+    }
+    int64_t lo = 0, hi = seed;  // first texel within: in [lo, hi]
+    while (lo < hi) {
+      const int64_t mid = lo + (hi - lo) / 2;
+      if (within(mid))
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    spans.begin[y] = uint32_t(lo);
+    lo = seed;
+    hi = last;  // last texel within: in [lo, hi]
+    while (lo < hi) {
+      const int64_t mid = lo + (hi - lo + 1) / 2;
+      if (within(mid))
+        lo = mid;
+      else
+        hi = mid - 1;
+    }
+    spans.end[y] = uint32_t(lo + 1);
+  }
+  return spans;
+}
+
+uint64_t ConeCrop::freeOutside(const RowSpans& inside, DepthRegion& region) {
   const RegionRect& rect = region.rect;
   uint64_t freed = 0;
   for (uint32_t y = 0; y < rect.height; ++y) {
-    const double b = view.yMin + (rect.y0 + y + 0.5) * ey / n;
-    for (uint32_t x = 0; x < rect.width; ++x) {
-      const double a = view.xMin + (rect.x0 + x + 0.5) * ex / n;
-      if (a * a + b * b <= radius * radius) continue;
-      const size_t i = size_t(y) * rect.width + x;
-      region.enter[i] = 0;
-      region.exit[i] = region.resolution;
-      ++freed;
-    }
+    const size_t row = size_t(y) * rect.width;
+    const auto freeRun = [&](uint32_t from, uint32_t to) {
+      std::fill(region.enter.begin() + ptrdiff_t(row + from), region.enter.begin() + ptrdiff_t(row + to), 0u);
+      std::fill(region.exit.begin() + ptrdiff_t(row + from), region.exit.begin() + ptrdiff_t(row + to), region.resolution);
+      freed += to - from;
+    };
+    freeRun(0, inside.begin[y]);
+    freeRun(std::max(inside.begin[y], inside.end[y]), rect.width);
   }
   return freed;
 }

@@ -22,9 +22,12 @@ struct ConeCrop {
   bool regionOutside(const LightView& view, const RegionRect& rect) const;
   // A region all free, for one wholly outside (nothing rendered).
   static DepthRegion freeRegion(const LightView& view, const RegionRect& rect);
-  // Leaves every texel of `region` outside the radius free (enter 0, exit N: all voxels but the first may be
+  // Per row of the region, the texels within the radius (each row's are contiguous): what the renderer must
+  // render. Inactive: every texel.
+  RowSpans inside(const LightView& view, const RegionRect& rect) const;
+  // Leaves every texel of `region` outside `inside` free (enter 0, exit N: all voxels but the first may be
   // either); returns how many.
-  uint64_t freeOutside(const LightView& view, DepthRegion& region) const;
+  static uint64_t freeOutside(const RowSpans& inside, DepthRegion& region);
 };
 
 ConeCrop coneCropOf(const Light& light, const LightView& view);

@@ -3,6 +3,7 @@
 // (callers write to disjoint, pre-sized outputs or concatenate parts in order), so bytes do not depend on
 // the thread count.
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <utility>
 
@@ -38,6 +39,23 @@ void parallelParts(size_t count, unsigned parts, Fn&& fn) {
       for (unsigned p = r.begin(); p != r.end(); ++p) fn(p, count * p / parts, count * (p + 1) / parts);
     }, tbb::simple_partitioner());
   });
+}
+
+// fn(lane, i) for every i in [0, count), in index order as lanes free up, at most `lanes` calls at a time (lane
+// in [0, lanes): what a call may own, such as a renderer). Each call runs isolated: a thread waiting inside one
+// call's parallel loops helps only that call, so no call ends up suspended under another's stack.
+template <class Fn>
+void parallelLanes(size_t count, unsigned lanes, Fn&& fn) {
+  lanes = unsigned(std::clamp<size_t>(lanes, 1, std::max<size_t>(1, count)));
+  if (lanes == 1) {
+    for (size_t i = 0; i < count; ++i) fn(0u, i);
+    return;
+  }
+  std::atomic<size_t> next{0};
+  tbb::parallel_for(tbb::blocked_range<unsigned>(0, lanes, 1), [&](const tbb::blocked_range<unsigned>& r) {
+    for (unsigned lane = r.begin(); lane != r.end(); ++lane)
+      for (size_t i = next++; i < count; i = next++) tbb::this_task_arena::isolate([&] { fn(lane, i); });
+  }, tbb::simple_partitioner());
 }
 
 // One piece of work running beside the calling thread (e.g. tile masks and DAG building while the caller

@@ -282,7 +282,7 @@ public:
   uint32_t maxRegionSize() const override { return 1u << 14; }
   std::string description() const override { return "cpvs CPU rasteriser"; }
   DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                     const PeelSettings& peel, RenderStats* stats) override;
+                     const PeelSettings& peel, RenderStats* stats, const RowSpans* needed) override;
 
 private:
   CpuPeel peelMethod_;
@@ -387,7 +387,7 @@ std::vector<RasterTriangle> CpuDepthRenderer::setUp(const ViewGeometry& geometry
 }
 
 DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                                     const PeelSettings& peel, RenderStats* stats) {
+                                     const PeelSettings& peel, RenderStats* stats, const RowSpans* needed) {
   const uint32_t n = view.resolution;
   if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
       uint64_t(rect.y0) + rect.height > n || rect.width > maxRegionSize() || rect.height > maxRegionSize())
@@ -453,6 +453,16 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     region.exit[at] = x;
   };
 
+  // The texels of each row the caller needs (all of them without `needed`): the replay visits only those.
+  if (needed && (needed->begin.size() != rect.height || needed->end.size() != rect.height))
+    throw Error(ErrorCategory::InvalidArgument, "depth renderer: needed texels given for " +
+                                                    std::to_string(needed->begin.size()) + " rows of a region of " +
+                                                    std::to_string(rect.height));
+  const auto spanBegin = [&](int32_t j) { return needed ? int32_t(std::min(needed->begin[j], width)) : 0; };
+  const auto spanEnd = [&](int32_t j) {
+    return needed ? std::max(spanBegin(j), int32_t(std::min(needed->end[j], width))) : int32_t(width);
+  };
+
   // Replays each texel's lockstep peel from the crossings one pass keeps (same maps as the passes below).
   const auto replayWith = [&](auto cap) {
     constexpr int P = decltype(cap)::value;
@@ -469,9 +479,12 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
       std::fill(enterKey.begin() + b0, enterKey.begin() + b1, kInfinity);
       std::fill(kind.begin() + b0, kind.begin() + b1, uint8_t(kNone));
-      for (size_t at = b0; at < b1; ++at) kept[at].clear();
+      for (int32_t j = r0; j < r1; ++j)
+        for (size_t at = size_t(j) * width + spanBegin(j); at < size_t(j) * width + spanEnd(j); ++at) kept[at].clear();
       for (const RasterTriangle& t : triangles)
         scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
+          i0 = std::max(i0, spanBegin(j));
+          i1 = std::min(i1, spanEnd(j));
           float* keys = &enterKey[size_t(j) * width];
           uint8_t* kinds = &kind[size_t(j) * width];
           Kept* row = &kept[size_t(j) * width];
@@ -512,7 +525,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       counts.fill(0);
       for (int32_t j = r0; j < r1; ++j) {
         uint32_t enterHint = 0, exitHint = 0;
-        for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+        for (size_t at = size_t(j) * width + spanBegin(j); at < size_t(j) * width + spanEnd(j); ++at) {
           uint8_t texelState = kInactive;
           float exitKey = 0;
           if (kind[at] == kClosedFront) {

@@ -48,9 +48,12 @@ public:
   virtual std::string description() const = 0;
 
   // Renders the region's enter and exit slices. `geometry` holds the triangles that reach the view (see
-  // view_geometry.h); the renderer submits only those that overlap the region.
+  // view_geometry.h); the renderer submits only those that overlap the region. With `needed`, only those
+  // texels' slices count: the rest may hold anything (the CPU rasteriser does not visit them, and the peel's
+  // early stop counts only needed texels still inside; GL renders the whole region).
   virtual DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                             const PeelSettings& peel, RenderStats* stats = nullptr) = 0;
+                             const PeelSettings& peel, RenderStats* stats = nullptr,
+                             const RowSpans* needed = nullptr) = 0;
 };
 
 }  // namespace cpvs
