@@ -124,6 +124,17 @@ inline double depthAt(const RasterTriangle& t, double rowQ, int64_t i) {
   return std::clamp(rowQ + t.ku * (double(t.x0 + i) + t.du), t.qMin, t.qMax);
 }
 
+// A triangle's depth keys along one row (depthAt, then the key's sign), held by value: the loops over a row
+// store through uint8_t pointers, which may alias anything, so fields read through the triangle would be
+// reloaded after every store.
+struct RowKeys {
+  double rowQ, ku, du, qMin, qMax, sign;
+  int64_t x0;
+  RowKeys(const RasterTriangle& t, double q, double keySign)
+      : rowQ(q), ku(t.ku), du(t.du), qMin(t.qMin), qMax(t.qMax), sign(keySign), x0(t.x0) {}
+  float at(int64_t i) const { return float(sign * std::clamp(rowQ + ku * (double(x0 + i) + du), qMin, qMax)); }
+};
+
 template <class Fn>
 void scan(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
   bool fast = true;
@@ -434,23 +445,35 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
   std::vector<uint8_t>& state = state_;
   std::vector<float>&frontCursor = frontCursor_, &backCursor = backCursor_;
   state.assign(texels, kInactive);
+  enterKey.resize(texels);
+  kind.resize(texels);
+  // Raw pointers for the per-texel loops: stores through uint8_t may alias anything, so the compiler would
+  // reload every vector's data pointer after each of them.
+  float* const enterKeyAt = enterKey.data();
+  uint8_t* const kindAt = kind.data();
+  uint8_t* const stateAt = state.data();
+  uint32_t* const enterOut = region.enter.data();
+  uint32_t* const exitOut = region.exit.data();
+  const SliceTable& table = slices_;
   // Integer slices of one texel: e from its enter key; x from its peel's outcome (state, and the key of the last
   // layer consumed). Hints: the row's previous slices.
-  const auto sliceTexel = [&](size_t at, uint8_t texelState, float exitKey, uint32_t& enterHint, uint32_t& exitHint) {
-    if (kind[at] == kNone) return;
-    enterHint = slices_.slice(enterKey[at], enterHint);
+  const auto sliceTexel = [=, &table](size_t at, uint8_t texelState, float exitKey, uint32_t& enterHint,
+                                      uint32_t& exitHint) {
+    const uint8_t k = kindAt[at];
+    if (k == kNone) return;
+    enterHint = table.slice(enterKeyAt[at], enterHint);
     const uint32_t e = std::min(n - 1, enterHint);
-    region.enter[at] = e;
+    enterOut[at] = e;
     uint32_t x = e + 1;
-    if (kind[at] == kClosedFront && texelState != kInactive) {
+    if (k == kClosedFront && texelState != kInactive) {
       if (texelState == kStuck) {
         x = n;
       } else {
-        exitHint = slices_.slice(exitKey, exitHint);
+        exitHint = table.slice(exitKey, exitHint);
         x = std::min(n, std::max(e + 1, exitHint));
       }
     }
-    region.exit[at] = x;
+    exitOut[at] = x;
   };
 
   // The texels of each row the caller needs (all of them without `needed`): the replay visits only those.
@@ -468,8 +491,6 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     constexpr int P = decltype(cap)::value;
     using Kept = KeptCrossings<P>;
     crossings_.resize(texels * sizeof(Kept));
-    enterKey.resize(texels);
-    kind.resize(texels);
     Kept* const kept = reinterpret_cast<Kept*>(crossings_.data());
     std::vector<std::array<uint64_t, P + 2>> finishedAt(bands);  // per band: texels by the iteration they leave
     std::vector<std::pair<double, double>> bandMs(bands);  // CPU ms per band: scan, replay and slices
@@ -479,19 +500,23 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       const size_t b0 = size_t(r0) * width, b1 = size_t(r1) * width;
       std::fill(enterKey.begin() + b0, enterKey.begin() + b1, kInfinity);
       std::fill(kind.begin() + b0, kind.begin() + b1, uint8_t(kNone));
-      for (int32_t j = r0; j < r1; ++j)
-        for (size_t at = size_t(j) * width + spanBegin(j); at < size_t(j) * width + spanEnd(j); ++at) kept[at].clear();
+      for (int32_t j = r0; j < r1; ++j) {
+        const size_t rowBegin = size_t(j) * width + size_t(spanBegin(j)), rowEnd = size_t(j) * width + size_t(spanEnd(j));
+        for (size_t at = rowBegin; at < rowEnd; ++at) kept[at].clear();
+      }
       for (const RasterTriangle& t : triangles)
         scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
           i0 = std::max(i0, spanBegin(j));
           i1 = std::min(i1, spanEnd(j));
-          float* keys = &enterKey[size_t(j) * width];
-          uint8_t* kinds = &kind[size_t(j) * width];
-          Kept* row = &kept[size_t(j) * width];
-          const auto enter = [&](int32_t i, float key) {
-            if (key < keys[i] || (key == keys[i] && t.kind < kinds[i])) {
+          float* const keys = enterKeyAt + size_t(j) * width;
+          uint8_t* const kinds = kindAt + size_t(j) * width;
+          Kept* const row = kept + size_t(j) * width;
+          const uint8_t triangleKind = t.kind;
+          const RowKeys keyAt(t, rowQ, keySign);
+          const auto enter = [=](int32_t i, float key) {
+            if (key < keys[i] || (key == keys[i] && triangleKind < kinds[i])) {
               keys[i] = key;
-              kinds[i] = t.kind;
+              kinds[i] = triangleKind;
             }
           };
           if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
@@ -503,17 +528,17 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
                 kinds[i] = t.kind;
               }
             }
-          } else if (t.kind == kOpen) {
-            for (int32_t i = i0; i < i1; ++i) enter(i, keyOf(depthAt(t, rowQ, i)));
-          } else if (t.kind == kClosedFront) {
+          } else if (triangleKind == kOpen) {
+            for (int32_t i = i0; i < i1; ++i) enter(i, keyAt.at(i));
+          } else if (triangleKind == kClosedFront) {
             for (int32_t i = i0; i < i1; ++i) {
-              const float key = keyOf(depthAt(t, rowQ, i));
+              const float key = keyAt.at(i);
               enter(i, key);
               row[i].addFront(key);
             }
           } else {
             for (int32_t i = i0; i < i1; ++i) {
-              const float key = keyOf(depthAt(t, rowQ, i));
+              const float key = keyAt.at(i);
               enter(i, key);
               row[i].addBack(key);
             }
@@ -525,15 +550,16 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       counts.fill(0);
       for (int32_t j = r0; j < r1; ++j) {
         uint32_t enterHint = 0, exitHint = 0;
-        for (size_t at = size_t(j) * width + spanBegin(j); at < size_t(j) * width + spanEnd(j); ++at) {
+        const size_t rowBegin = size_t(j) * width + size_t(spanBegin(j)), rowEnd = size_t(j) * width + size_t(spanEnd(j));
+        for (size_t at = rowBegin; at < rowEnd; ++at) {
           uint8_t texelState = kInactive;
           float exitKey = 0;
-          if (kind[at] == kClosedFront) {
-            const ReplayedTexel r = replayTexel(kept[at], enterKey[at], P, P);
+          if (kindAt[at] == kClosedFront) {
+            const ReplayedTexel r = replayTexel(kept[at], enterKeyAt[at], P, P);
             texelState = r.state;
             exitKey = std::max(r.frontCursor, r.backCursor);
             ++counts[r.finishedAt];
-            state[at] = r.finishedAt;  // kept for the fix-up below
+            stateAt[at] = r.finishedAt;  // kept for the fix-up below
           }
           sliceTexel(at, texelState, exitKey, enterHint, exitHint);
         }
@@ -584,8 +610,8 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     frontCursor.resize(texels);
     backCursor.resize(texels);
     // 1. Enter: the nearest surface and its kind.
-    enterKey.assign(texels, kInfinity);
-    kind.assign(texels, kNone);
+    std::fill(enterKey.begin(), enterKey.end(), kInfinity);
+    std::fill(kind.begin(), kind.end(), uint8_t(kNone));
     forBands([&](int32_t r0, int32_t r1) {
       for (const RasterTriangle& t : triangles)
         scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {

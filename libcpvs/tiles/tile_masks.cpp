@@ -54,6 +54,32 @@ struct Entry {
   uint64_t mask;
 };
 
+// byEnter = (e[j] << 8) | j for the 64 texels, in ascending order. A tile's enter slices usually span a few
+// dozen slices (a surface seen at some slope), so a counting sort over that span, which keeps texel order
+// within a slice, replaces a general sort; a wider span (a depth discontinuity) falls back to std::sort.
+void sortByEnter(const uint32_t (&e)[64], uint64_t (&byEnter)[64]) {
+  uint32_t lo = e[0], hi = e[0];
+  for (uint32_t j = 1; j < 64; ++j) {
+    lo = std::min(lo, e[j]);
+    hi = std::max(hi, e[j]);
+  }
+  constexpr uint32_t kSpan = 256;
+  if (hi - lo >= kSpan) {
+    for (uint32_t j = 0; j < 64; ++j) byEnter[j] = (uint64_t(e[j]) << 8) | j;
+    std::sort(byEnter, byEnter + 64);
+    return;
+  }
+  if (hi == lo) {  // one enter slice: texel order
+    for (uint32_t j = 0; j < 64; ++j) byEnter[j] = (uint64_t(lo) << 8) | j;
+    return;
+  }
+  uint8_t count[kSpan + 1] = {};
+  const uint32_t span = hi - lo + 1;
+  for (uint32_t j = 0; j < 64; ++j) ++count[e[j] - lo + 1];
+  for (uint32_t k = 1; k <= span; ++k) count[k] = uint8_t(count[k] + count[k - 1]);  // count[k]: texels below lo + k
+  for (uint32_t j = 0; j < 64; ++j) byEnter[count[e[j] - lo]++] = (uint64_t(e[j]) << 8) | j;
+}
+
 // One tile's chain. e[j], x[j]: enter and exit slices of texel j (bit j).
 //
 // Every mask the rules produce shadows the texels whose enter slice lies in front of some slice z, so masks
@@ -66,8 +92,7 @@ uint32_t buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n
   out.clear();
   out.push_back({0, kAllLit});
   uint64_t byEnter[64];  // (enter << 8) | texel, sorted: texel order breaks ties, so the walk is deterministic
-  for (uint32_t j = 0; j < 64; ++j) byEnter[j] = (uint64_t(e[j]) << 8) | j;
-  std::sort(byEnter, byEnter + 64);
+  sortByEnter(e, byEnter);
   uint32_t enterAt[64], litExitFrom[65];  // enter of the k-th texel; min exit of texels k..63 (n past the end)
   litExitFrom[64] = n;
   for (int k = 63; k >= 0; --k) {
