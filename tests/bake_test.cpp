@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -249,6 +250,69 @@ TEST(Bake, RegionsChangeNoVoxelAndThreadsNoByte) {
         EXPECT_TRUE(bytes == reference) << "region " << region << ": --threads changed the bytes";
     }
   }
+}
+
+// Baking straight into the file, light by light as lights finish (on several lanes), writes exactly the bytes of
+// the bake written at once: for several lights of every kind, 1, 2 and 4 threads, and lights taken from a cache.
+TEST(Bake, WrittenAsLightsFinishEqualsWrittenAtOnce) {
+  Scene scene = mixedScene();
+  Light point;
+  point.type = LightType::Point;
+  point.name = "bulb";
+  point.position = {0, 5, 6};
+  point.range = 30;
+  scene.lights.push_back(point);
+  scene.lights.push_back(test::spotLight("second spot", {4, 9, -3}, {-0.2, -1, 0.1}, 0.5, 30));
+  BakeSettings settings;
+  settings.resolution = 128;
+  settings.regionSize = 64;
+  const std::string whole = writeCpvs(bakeScene(scene, settings));
+  const std::string cache = test::tempDir() + "/cache";
+  for (const unsigned threads : {1u, 2u, 4u})
+    for (const bool cached : {false, true, true}) {
+      settings.threads = threads;
+      settings.cacheFolder = cached ? cache : "";
+      std::string streamed;
+      std::vector<uint8_t> timesWritten;  // every byte exactly once: a file sink must not rely on holes
+      size_t writes = 0;
+      BakeReport report;
+      const uint64_t size = bakeSceneTo(scene, settings, [&](uint64_t at, const char* data, size_t n) {
+        if (streamed.size() < at + n) {
+          streamed.resize(size_t(at + n), '\0');
+          timesWritten.resize(size_t(at + n), 0);
+        }
+        std::memcpy(streamed.data() + at, data, n);
+        for (size_t i = 0; i < n; ++i) ++timesWritten[at + i];
+        ++writes;
+      }, &report);
+      EXPECT_EQ(size, whole.size());
+      EXPECT_EQ(std::count(timesWritten.begin(), timesWritten.end(), uint8_t(1)), ptrdiff_t(timesWritten.size()));
+      EXPECT_GT(writes, 2 * scene.lights.size()) << "written in pieces";
+      EXPECT_TRUE(streamed == whole) << threads << " thread(s), cache " << cached;
+      ASSERT_EQ(report.lights.size(), scene.lights.size());
+      for (size_t i = 0; i < report.lights.size(); ++i) EXPECT_EQ(report.lights[i].index, i) << "in light order";
+    }
+}
+
+// The writer refuses to write what it was not laid out for, naming the light.
+TEST(Bake, CpvsWriterRefusesLightsItWasNotLaidOutFor) {
+  const Scene scene = mixedScene();
+  BakeSettings settings;
+  settings.resolution = 64;
+  const CpvsContent content = bakeScene(scene, settings);
+  const auto sink = [](uint64_t, const char*, size_t) {};
+  CpvsWriter swapped("{}", {scene.lights[1], scene.lights[0]}, {1, 1}, sink);
+  try {
+    swapped.add(content.lights[0]);
+    FAIL() << "added the wrong light";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("laid out for 'spot'"), std::string::npos) << e.what();
+  }
+  CpvsWriter short_("{}", {scene.lights[0], scene.lights[1]}, {1, 1}, sink);
+  short_.add(content.lights[0]);
+  EXPECT_THROW(short_.finish(), Error);
+  CpvsWriter views("{}", {scene.lights[0]}, {2}, sink);
+  EXPECT_THROW(views.add(content.lights[0]), Error);
 }
 
 TEST(Bake, ReportCountsWhatWasBuilt) {

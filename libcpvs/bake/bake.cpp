@@ -404,8 +404,9 @@ unsigned lanesFor(const BakeSettings& settings, size_t lights) {
   return unsigned(lanes);
 }
 
+// Bakes the chosen lights; with `stream`, each finished light goes to a CpvsWriter instead of the content.
 CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
-                          const BakeCallbacks& callbacks) {
+                          const BakeCallbacks& callbacks, const CpvsWriter::WriteAt* stream, uint64_t* fileBytes) {
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
@@ -425,6 +426,18 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   std::optional<BakeCache> cache;
   if (!settings.cacheFolder.empty()) cache.emplace(settings.cacheFolder);
 
+  std::optional<CpvsWriter> writer;
+  if (stream) {
+    const Stopwatch write;
+    std::vector<Light> lights;
+    std::vector<size_t> viewCounts;
+    for (const uint32_t li : chosen) {
+      lights.push_back(scene.lights[li]);
+      viewCounts.push_back(allViews[li].size());
+    }
+    writer.emplace(content.settingsJson, std::move(lights), std::move(viewCounts), *stream);
+    rep.writeMs += write.ms();
+  }
   const unsigned lanes = lanesFor(settings, chosen.size());
   BakeRun run{scene, settings, world, allViews, callbacks, cache, {}, {}, {}, 0, 0};
   run.renderers.resize(lanes);
@@ -438,7 +451,13 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     while (handedOver < outcomes.size() && outcomes[handedOver]) {
       LightOutcome& o = *outcomes[handedOver];
       rep.warnings.insert(rep.warnings.end(), o.warnings.begin(), o.warnings.end());
-      content.lights.push_back(std::move(o.baked));
+      if (writer) {
+        const Stopwatch write;
+        writer->add(o.baked);
+        rep.writeMs += write.ms();
+      } else {
+        content.lights.push_back(std::move(o.baked));
+      }
       rep.lights.push_back(std::move(o.report));
       outcomes[handedOver].reset();
       ++handedOver;
@@ -452,6 +471,12 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     handOverFinished();
   });
   rep.renderer = run.rendererDescription;
+  if (writer) {
+    const Stopwatch write;
+    const uint64_t size = writer->finish();
+    rep.writeMs += write.ms();
+    if (fileBytes) *fileBytes = size;
+  }
   return content;
 }
 
@@ -462,8 +487,16 @@ CpvsContent bakeScene(const Scene& scene, const BakeSettings& settings, BakeRepo
   // Every parallel loop of the bake (rasterising, tile masks, the DAG beside them) runs on `threads` threads.
   tbb::task_arena arena(int(std::clamp(settings.threads, 1u, 256u)));
   CpvsContent content;
-  arena.execute([&] { content = bakeSceneHere(scene, settings, report, callbacks); });
+  arena.execute([&] { content = bakeSceneHere(scene, settings, report, callbacks, nullptr, nullptr); });
   return content;
+}
+
+uint64_t bakeSceneTo(const Scene& scene, const BakeSettings& settings, const CpvsWriter::WriteAt& writeAt,
+                     BakeReport* report, const BakeCallbacks& callbacks) {
+  tbb::task_arena arena(int(std::clamp(settings.threads, 1u, 256u)));
+  uint64_t fileBytes = 0;
+  arena.execute([&] { bakeSceneHere(scene, settings, report, callbacks, &writeAt, &fileBytes); });
+  return fileBytes;
 }
 
 }  // namespace cpvs

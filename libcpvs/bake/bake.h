@@ -81,6 +81,7 @@ struct BakeReport {
   size_t sceneTriangles = 0;              // the scene's own triangles, as flattened for the bake
   size_t sceneLights = 0;                 // lights in the scene; `lights` holds those this run baked
   std::vector<std::string> warnings;      // a light that reaches no geometry, ranges tiny against the scene
+  double writeMs = 0;                     // bakeSceneTo: time spent writing the file
 };
 
 struct BakeCallbacks {
@@ -92,6 +93,12 @@ struct BakeCallbacks {
   std::function<void(const std::string& name)> lightStarted;
   std::function<void(const LightReport&, size_t done, size_t total)> lightDone;
 };
+
+// The same bake, written as it goes: each light's DAGs are handed to a CpvsWriter as soon as it and every light
+// before it are done, so memory holds the lights in flight rather than the whole file. `writeAt` receives the
+// bytes writeCpvs(bakeScene(...)) would return. Returns the file size.
+uint64_t bakeSceneTo(const Scene& scene, const BakeSettings& settings, const CpvsWriter::WriteAt& writeAt,
+                     BakeReport* report = nullptr, const BakeCallbacks& callbacks = {});
 
 // Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
 uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings);

@@ -45,88 +45,53 @@ private:
   std::string& b_;
 };
 
-struct Section {
-  uint32_t type = 0;
-  uint32_t elementSize = 0;
-  uint64_t offset = 0, size = 0;
-};
-
-std::string where(const BakedLight& light, size_t li, size_t vi) {
-  return "light " + std::to_string(li) + " '" + light.light.name + "' view " + std::to_string(vi);
+std::string where(const Light& light, size_t li, size_t vi) {
+  return "light " + std::to_string(li) + " '" + light.name + "' view " + std::to_string(vi);
 }
 
 }  // namespace
 
-std::string writeCpvs(const CpvsContent& content) {
+CpvsWriter::CpvsWriter(std::string settingsJson, std::vector<Light> lights, std::vector<size_t> viewsPerLight,
+                       WriteAt writeAt)
+    : settingsJson_(std::move(settingsJson)), lights_(std::move(lights)), viewsPerLight_(std::move(viewsPerLight)),
+      writeAt_(std::move(writeAt)) {
   constexpr uint64_t kU32 = std::numeric_limits<uint32_t>::max();
-  // Counts that the fixed-width fields must hold.
+  if (viewsPerLight_.size() != lights_.size()) fail("a view count is needed for every light");
   uint64_t viewCount = 0, namesBytes = 0;
-  for (size_t li = 0; li < content.lights.size(); ++li) {
-    const BakedLight& light = content.lights[li];
-    namesBytes += light.light.name.size();
-    viewCount += light.views.size();
-    for (size_t vi = 0; vi < light.views.size(); ++vi) {
-      const BakedView& v = light.views[vi];
-      const ShadowDag& dag = v.dag;
-      if (dag.resolution != v.view.resolution && !(dag.resolution == 0 && dag.nodes.empty() && dag.leaves.empty()))
-        fail(where(light, li, vi) + ": the DAG's resolution " + std::to_string(dag.resolution) +
-             " differs from the view's " + std::to_string(v.view.resolution));
-      if (dag.nodesPerLevel.size() > kMaxLevels)
-        fail(where(light, li, vi) + ": " + std::to_string(dag.nodesPerLevel.size()) + " DAG levels (at most " +
-             std::to_string(kMaxLevels) + ")");
-      if (dag.nodes.size() > kU32 || dag.leaves.size() > kU32)
-        fail(where(light, li, vi) + ": DAG too large for 32-bit references");
-      if (v.view.face < -1 || v.view.face > 5)
-        fail(where(light, li, vi) + ": cube face " + std::to_string(v.view.face) + " (expected -1..5)");
-    }
+  for (size_t li = 0; li < lights_.size(); ++li) {
+    namesBytes += lights_[li].name.size();
+    viewCount += viewsPerLight_[li];
   }
-  if (content.lights.size() > kU32 || viewCount > kU32 || namesBytes > kU32)
+  if (lights_.size() > kU32 || viewCount > kU32 || namesBytes > kU32)
     fail("too many lights, views or name bytes for 32-bit fields");
 
   // Layout: header, section table, BAKE, STRS, LGHT, VIEW, then NODE and LEAF of each view in order.
-  std::vector<Section> sections;
-  sections.push_back({kBake, 1, 0, content.settingsJson.size()});
-  sections.push_back({kStrs, 1, 0, namesBytes});
-  sections.push_back({kLght, kLightRecordSize, 0, content.lights.size() * uint64_t(kLightRecordSize)});
-  sections.push_back({kView, kViewRecordSize, 0, viewCount * kViewRecordSize});
-  for (const BakedLight& light : content.lights)
-    for (const BakedView& v : light.views) {
-      sections.push_back({kNode, 2, 0, v.dag.nodes.size() * 2});
-      sections.push_back({kLeaf, 8, 0, v.dag.leaves.size() * 8});
-    }
-  const uint64_t tableOffset = kHeaderSize;
-  const uint64_t tableSize = sections.size() * uint64_t(kSectionEntrySize);
-  uint64_t cursor = alignUp(tableOffset + tableSize), fileSize = cursor;
-  for (Section& s : sections) {
-    s.offset = cursor;
-    fileSize = s.offset + s.size;  // the file ends where the last section ends
-    cursor = alignUp(fileSize);
+  sections_.push_back({kBake, 1, 0, settingsJson_.size()});
+  sections_.push_back({kStrs, 1, 0, namesBytes});
+  sections_.push_back({kLght, kLightRecordSize, 0, lights_.size() * uint64_t(kLightRecordSize)});
+  sections_.push_back({kView, kViewRecordSize, 0, viewCount * kViewRecordSize});
+  for (uint64_t v = 0; v < viewCount; ++v) {
+    sections_.push_back({kNode, 2});
+    sections_.push_back({kLeaf, 8});
   }
+  end_ = alignUp(kHeaderSize + sections_.size() * uint64_t(kSectionEntrySize));  // header and table: at finish()
+  viewRecords_.assign(viewCount, {});
 
-  std::string bytes(fileSize, '\0');
-  Out out(bytes);
-
-  // BAKE and STRS.
-  out.raw(sections[0].offset, content.settingsJson.data(), content.settingsJson.size());
-  {
-    uint64_t at = sections[1].offset;
-    for (const BakedLight& light : content.lights) {
-      out.raw(at, light.light.name.data(), light.light.name.size());
-      at += light.light.name.size();
-    }
-  }
-  // LGHT, VIEW, NODE, LEAF.
-  uint64_t nameOffset = 0;
-  uint32_t viewIndex = 0;
-  uint32_t sectionIndex = 4;
-  for (size_t li = 0; li < content.lights.size(); ++li) {
-    const Light& l = content.lights[li].light;
-    const uint64_t r = sections[2].offset + li * kLightRecordSize;
+  writeSection(sections_[0], settingsJson_.data());
+  std::string names;
+  for (const Light& l : lights_) names += l.name;
+  writeSection(sections_[1], names.data());
+  std::string records(sections_[2].size, '\0');
+  Out out(records);
+  uint64_t nameOffset = 0, viewIndex = 0;
+  for (size_t li = 0; li < lights_.size(); ++li) {
+    const Light& l = lights_[li];
+    const uint64_t r = li * kLightRecordSize;
     out.u32(r + 0, uint32_t(l.type));
     out.u32(r + 4, uint32_t(nameOffset));
     out.u32(r + 8, uint32_t(l.name.size()));
-    out.u32(r + 12, viewIndex);
-    out.u32(r + 16, uint32_t(content.lights[li].views.size()));
+    out.u32(r + 12, uint32_t(viewIndex));
+    out.u32(r + 16, uint32_t(viewsPerLight_[li]));
     for (int c = 0; c < 3; ++c) out.f32(r + 20 + 4 * c, l.color[c]);
     out.f32(r + 32, l.intensity);
     // r + 36: reserved, zero
@@ -136,62 +101,154 @@ std::string writeCpvs(const CpvsContent& content) {
     for (int c = 0; c < 3; ++c) out.f64(r + 64 + 8 * c, l.position[c]);
     for (int c = 0; c < 3; ++c) out.f64(r + 88 + 8 * c, l.direction[c]);
     nameOffset += l.name.size();
-
-    for (const BakedView& bv : content.lights[li].views) {
-      const LightView& v = bv.view;
-      const ShadowDag& dag = bv.dag;
-      const uint64_t w = sections[3].offset + uint64_t(viewIndex) * kViewRecordSize;
-      const uint32_t levels = DagView{v.resolution, dag.rootCode, {}, {}}.levels();
-      out.u8(w + 0, uint8_t(v.projection));
-      out.u8(w + 1, uint8_t(v.mapping));
-      out.u8(w + 2, uint8_t(int8_t(v.face)));
-      out.u8(w + 3, v.empty ? 1 : 0);
-      out.u32(w + 4, v.resolution);
-      out.u8(w + 8, uint8_t(dag.rootCode));
-      out.u8(w + 9, uint8_t(std::min<uint32_t>(levels, 255)));
-      // w + 10: reserved u16, zero
-      out.u32(w + 12, uint32_t(li));
-      out.u32(w + 16, sectionIndex);
-      out.u32(w + 20, sectionIndex + 1);
-      out.u64(w + 24, dag.nodes.size());
-      out.u64(w + 32, dag.leaves.size());
-      for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) out.f64(w + 40 + 8 * (4 * c + row), v.viewFromWorld[c][row]);
-      out.f64(w + 168, v.xMin);
-      out.f64(w + 176, v.xMax);
-      out.f64(w + 184, v.yMin);
-      out.f64(w + 192, v.yMax);
-      out.f64(w + 200, v.near);
-      out.f64(w + 208, v.far);
-      for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(w + 216 + 8 * k, dag.nodesPerLevel[k]);
-      out.raw(sections[sectionIndex].offset, dag.nodes.data(), dag.nodes.size() * 2);
-      out.raw(sections[sectionIndex + 1].offset, dag.leaves.data(), dag.leaves.size() * 8);
-      sectionIndex += 2;
-      ++viewIndex;
-    }
+    viewIndex += viewsPerLight_[li];
   }
+  writeSection(sections_[2], records.data());
+  // VIEW: its place (and the padding before it) now, its records when every light is in (finish()).
+  Section& view = sections_[3];
+  view.offset = alignUp(end_);
+  static const char kZeros[kAlignment] = {};
+  if (view.offset > end_) writeAt_(end_, kZeros, size_t(view.offset - end_));
+  end_ = view.offset + view.size;
+}
 
-  // Section table, then the header that covers it.
-  for (size_t i = 0; i < sections.size(); ++i) {
-    const Section& s = sections[i];
+void CpvsWriter::writeSection(Section& section, const void* data) {
+  section.offset = alignUp(end_);
+  static const char kZeros[kAlignment] = {};
+  if (section.offset > end_) writeAt_(end_, kZeros, size_t(section.offset - end_));
+  if (section.size) writeAt_(section.offset, static_cast<const char*>(data), size_t(section.size));
+  section.checksum = XXH3_64bits(data, size_t(section.size));
+  end_ = section.offset + section.size;
+}
+
+void CpvsWriter::add(const BakedLight& baked) {
+  constexpr uint64_t kU32 = std::numeric_limits<uint32_t>::max();
+  const size_t li = added_;
+  if (li >= lights_.size()) fail("more lights added than the file was laid out for");
+  const Light& light = lights_[li];
+  if (baked.light.name != light.name || baked.light.type != light.type)
+    fail("light " + std::to_string(li) + " added is '" + baked.light.name + "', the file was laid out for '" +
+         light.name + "'");
+  if (baked.views.size() != viewsPerLight_[li])
+    fail("light " + std::to_string(li) + " '" + light.name + "' has " + std::to_string(baked.views.size()) +
+         " view(s), the file was laid out for " + std::to_string(viewsPerLight_[li]));
+  if (checkLights_) {
+    // Never hand out a file a reader would reject: the light on its own must read back as a valid file.
+    std::string bytes;
+    CpvsWriter alone(settingsJson_, {light}, {baked.views.size()}, [&](uint64_t at, const char* data, size_t n) {
+      if (bytes.size() < at + n) bytes.resize(at + n, '\0');
+      std::memcpy(bytes.data() + at, data, n);
+    });
+    alone.checkLights_ = false;
+    alone.add(baked);
+    alone.finish();
+    const auto check = CpvsFile::fromBorrowedBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()},
+                                                   "the written .cpvs");
+    if (!check)
+      fail(where(light, li, 0) + ": does not form a valid .cpvs (a bug in the baker): " + check.outcome().message());
+  }
+  for (size_t vi = 0; vi < baked.views.size(); ++vi) {
+    const BakedView& bv = baked.views[vi];
+    const LightView& v = bv.view;
+    const ShadowDag& dag = bv.dag;
+    if (dag.resolution != v.resolution && !(dag.resolution == 0 && dag.nodes.empty() && dag.leaves.empty()))
+      fail(where(light, li, vi) + ": the DAG's resolution " + std::to_string(dag.resolution) +
+           " differs from the view's " + std::to_string(v.resolution));
+    if (dag.nodesPerLevel.size() > kMaxLevels)
+      fail(where(light, li, vi) + ": " + std::to_string(dag.nodesPerLevel.size()) + " DAG levels (at most " +
+           std::to_string(kMaxLevels) + ")");
+    if (dag.nodes.size() > kU32 || dag.leaves.size() > kU32)
+      fail(where(light, li, vi) + ": DAG too large for 32-bit references");
+    if (v.face < -1 || v.face > 5)
+      fail(where(light, li, vi) + ": cube face " + std::to_string(v.face) + " (expected -1..5)");
+    const uint32_t sectionIndex = uint32_t(4 + 2 * viewsAdded_);
+    std::string record(kViewRecordSize, '\0');
+    Out out(record);
+    const uint32_t levels = DagView{v.resolution, dag.rootCode, {}, {}}.levels();
+    out.u8(0, uint8_t(v.projection));
+    out.u8(1, uint8_t(v.mapping));
+    out.u8(2, uint8_t(int8_t(v.face)));
+    out.u8(3, v.empty ? 1 : 0);
+    out.u32(4, v.resolution);
+    out.u8(8, uint8_t(dag.rootCode));
+    out.u8(9, uint8_t(std::min<uint32_t>(levels, 255)));
+    // 10: reserved u16, zero
+    out.u32(12, uint32_t(li));
+    out.u32(16, sectionIndex);
+    out.u32(20, sectionIndex + 1);
+    out.u64(24, dag.nodes.size());
+    out.u64(32, dag.leaves.size());
+    for (int c = 0; c < 4; ++c)
+      for (int row = 0; row < 4; ++row) out.f64(40 + 8 * (4 * c + row), v.viewFromWorld[c][row]);
+    out.f64(168, v.xMin);
+    out.f64(176, v.xMax);
+    out.f64(184, v.yMin);
+    out.f64(192, v.yMax);
+    out.f64(200, v.near);
+    out.f64(208, v.far);
+    for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(216 + 8 * k, dag.nodesPerLevel[k]);
+    viewRecords_[viewsAdded_].assign(record.begin(), record.end());
+    sections_[sectionIndex].size = dag.nodes.size() * 2;
+    writeSection(sections_[sectionIndex], dag.nodes.data());
+    sections_[sectionIndex + 1].size = dag.leaves.size() * 8;
+    writeSection(sections_[sectionIndex + 1], dag.leaves.data());
+    ++viewsAdded_;
+  }
+  ++added_;
+}
+
+uint64_t CpvsWriter::finish() {
+  if (added_ != lights_.size())
+    fail(std::to_string(added_) + " of the " + std::to_string(lights_.size()) + " lights were added");
+  std::string records;
+  records.reserve(size_t(sections_[3].size));
+  for (const std::vector<uint8_t>& r : viewRecords_) records.append(r.begin(), r.end());
+  Section& view = sections_[3];
+  if (view.size) writeAt_(view.offset, records.data(), records.size());
+  view.checksum = XXH3_64bits(records.data(), records.size());
+  const uint64_t tableOffset = kHeaderSize;
+  const uint64_t tableSize = sections_.size() * uint64_t(kSectionEntrySize);
+  std::string head(size_t(alignUp(tableOffset + tableSize)), '\0');
+  Out out(head);
+  for (size_t i = 0; i < sections_.size(); ++i) {
+    const Section& s = sections_[i];
     const uint64_t e = tableOffset + i * kSectionEntrySize;
     out.u32(e + 0, s.type);
     out.u32(e + 4, s.elementSize);
     out.u64(e + 8, s.offset);
     out.u64(e + 16, s.size);
-    out.u64(e + 24, XXH3_64bits(bytes.data() + s.offset, s.size));
+    out.u64(e + 24, s.checksum);
   }
   out.raw(0, kCpvsMagic, sizeof kCpvsMagic);
   out.u16(8, kCpvsMajorVersion);
   out.u16(10, kCpvsMinorVersion);
   out.u32(12, kHeaderSize);
-  out.u32(16, uint32_t(sections.size()));
+  out.u32(16, uint32_t(sections_.size()));
   out.u32(20, 0);  // flags
   out.u64(24, tableOffset);
-  out.u64(32, fileSize);
-  out.u64(40, XXH3_64bits(bytes.data() + tableOffset, tableSize));
+  out.u64(32, end_);  // the file ends where the last section ends
+  out.u64(40, XXH3_64bits(head.data() + tableOffset, tableSize));
   // 48..55: reserved, zero
-  out.u64(56, XXH3_64bits(bytes.data(), 56));
+  out.u64(56, XXH3_64bits(head.data(), 56));
+  writeAt_(0, head.data(), head.size());
+  return end_;
+}
+
+std::string writeCpvs(const CpvsContent& content) {
+  std::vector<Light> lights;
+  std::vector<size_t> views;
+  for (const BakedLight& l : content.lights) {
+    lights.push_back(l.light);
+    views.push_back(l.views.size());
+  }
+  std::string bytes;
+  CpvsWriter writer(content.settingsJson, std::move(lights), std::move(views), [&](uint64_t at, const char* data, size_t n) {
+    if (bytes.size() < at + n) bytes.resize(size_t(at + n), '\0');
+    std::memcpy(bytes.data() + at, data, n);
+  });
+  writer.checkLights_ = false;  // the whole file is checked below
+  for (const BakedLight& l : content.lights) writer.add(l);
+  writer.finish();
 
   // Never hand out a file that a reader would reject: validate it exactly as CpvsFile::open does.
   const auto check = CpvsFile::fromBorrowedBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "the written .cpvs");

@@ -1,5 +1,8 @@
 #pragma once
-// Serialising a bake into a .cpvs (the byte-level spec: docs/format.md).
+// Serialising a bake into a .cpvs (the byte-level spec: docs/format.md), all at once or light by light as a bake
+// finishes them.
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -24,6 +27,40 @@ struct BakedLight {
 struct CpvsContent {
   std::vector<BakedLight> lights;
   std::string settingsJson;  // bake-settings block: resolution, modes, tool version, input content hash
+};
+
+// Writes a .cpvs light by light: the lights and how many views each has are known before any is baked, so the
+// layout of the settings, names and records is fixed up front; each light's DAG sections are written as it is
+// added (in order), and the records, section table and header when the writer finishes. Memory holds one
+// light's DAGs at a time. The bytes equal writeCpvs's for the same content.
+class CpvsWriter {
+public:
+  // Receives bytes at an offset of the file; every byte of [0, file size) is written exactly once.
+  using WriteAt = std::function<void(uint64_t offset, const char* data, size_t size)>;
+  CpvsWriter(std::string settingsJson, std::vector<Light> lights, std::vector<size_t> viewsPerLight, WriteAt writeAt);
+  // The next light, in the order given. Each light is first checked as a one-light file would be by a reader;
+  // content that would not read back throws Error(RuntimeFailure) naming the light and view.
+  void add(const BakedLight& light);
+  // Writes the records, the section table and the header once every light is added; returns the file size.
+  uint64_t finish();
+
+private:
+  struct Section {
+    uint32_t type = 0, elementSize = 0;
+    uint64_t offset = 0, size = 0, checksum = 0;
+  };
+  struct ViewRecord;  // what the VIEW record of an added view needs besides its LightView
+  void writeSection(Section& section, const void* data);
+  std::string settingsJson_;
+  std::vector<Light> lights_;
+  std::vector<size_t> viewsPerLight_;
+  WriteAt writeAt_;
+  std::vector<Section> sections_;
+  std::vector<std::vector<uint8_t>> viewRecords_;  // each view's 472 bytes, filled as its light is added
+  size_t added_ = 0, viewsAdded_ = 0;
+  uint64_t end_ = 0;  // the end of the last section written
+  bool checkLights_ = true;
+  friend std::string writeCpvs(const CpvsContent& content);
 };
 
 // Serialises deterministically (same content, same bytes). The result is validated as a reader would before

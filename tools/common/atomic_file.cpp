@@ -122,6 +122,21 @@ void AtomicFile::write(std::string_view bytes) {
   }
 }
 
+void AtomicFile::writeAt(uint64_t offset, std::string_view bytes) {
+  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": write after the file was closed");
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::pwrite(fd_, bytes.data() + written, bytes.size() - written, off_t(offset + written));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const std::string reason = std::strerror(errno);
+      discard();
+      throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
+    }
+    written += size_t(n);
+  }
+}
+
 void AtomicFile::commit() {
   prepare();
   publish();

@@ -21,6 +21,8 @@ public:
   AtomicFile& operator=(const AtomicFile&) = delete;
 
   void write(std::string_view bytes);  // Throws Error(OutputFailed).
+  // Writes at an offset (pwrite), for files written out of order. Throws Error(OutputFailed).
+  void writeAt(uint64_t offset, std::string_view bytes);
   void commit();                       // prepare() then publish(). Throws Error(OutputFailed).
   // The two halves of commit: prepare flushes the bytes to disk (mode 0644) and gives the file a hidden
   // temporary name; publish renames it over the target (which cannot fail for want of space).

@@ -205,8 +205,15 @@ int run(int argc, char** argv) {
     callbacks.depthRegion = [&](size_t light, size_t view, const LightView&, const DepthRegion& depth) {
       dumpDepthRegion(o.dumpDepth, light, view, depth);
     };
+  // The file is written as the lights finish (memory holds the lights in flight, not the whole file).
   BakeReport report;
-  const CpvsContent content = bakeScene(scene, settings, &report, callbacks);
+  uint64_t fileBytes = 0;
+  if (cpvsFile)
+    fileBytes = bakeSceneTo(scene, settings, [&](uint64_t at, const char* data, size_t n) {
+      cpvsFile->writeAt(at, {data, n});
+    }, &report, callbacks);
+  else
+    bakeScene(scene, settings, &report, callbacks);
   progress.finish();
   if (!o.quiet)
     for (const std::string& w : report.warnings) std::cerr << "cpvs-bake: warning: " << w << "\n";
@@ -216,18 +223,9 @@ int run(int argc, char** argv) {
                    g.used ? "is the top of solid ground (voxels under it are free)"
                           : ("spans the scene but is not used as ground: " + g.reason).c_str());
 
-  double writeMs = 0;
-  uint64_t fileBytes = 0;
-  if (!o.output.empty()) {
-    const Stopwatch write;
-    const std::string bytes = writeCpvs(content);
-    cpvsFile->write(bytes);
-    writeMs = write.ms();
-    fileBytes = bytes.size();
-  }
   const double totalMs = total.ms();
 
-  if (reportFile) reportFile->write(reportJson(o, settings, report, totalMs, writeMs, fileBytes).dump(2) + "\n");
+  if (reportFile) reportFile->write(reportJson(o, settings, report, totalMs, report.writeMs, fileBytes).dump(2) + "\n");
   tools::commitTogether({cpvsFile ? &*cpvsFile : nullptr, reportFile ? &*reportFile : nullptr});
   if (!o.quiet) {
     size_t views = 0;
