@@ -122,11 +122,12 @@ struct LightGeometry {
   bool reachesGeometry = false;
 };
 
-LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<LightView>& views, uint32_t regionSize) {
+LightGeometry gatherLightGeometry(const WorldGeometry& world, const TriangleBvh& index, const std::vector<LightView>& views,
+                                  uint32_t regionSize) {
   constexpr double kTexelsPerTriangleDraw = 64;
   LightGeometry out;
   for (const LightView& view : views) {
-    out.views.push_back(view.empty ? ViewGeometry{} : gatherViewGeometry(world, view));
+    out.views.push_back(view.empty ? ViewGeometry{} : gatherViewGeometry(world, view, &index));
     const ViewGeometry& g = out.views.back();
     if (g.triangleCount() == 0) continue;
     out.reachesGeometry = true;
@@ -148,18 +149,34 @@ LightGeometry gatherLightGeometry(const WorldGeometry& world, const std::vector<
   return out;
 }
 
-std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world,
-                                                  const BakeSettings& settings) {
-  // Each light's views are fitted on their own (in parallel: the fit measures the geometry each light reaches).
+// settings.lights (or every light), ascending, each once; an index past the scene's lights is an error.
+std::vector<uint32_t> requestedLights(const Scene& scene, const BakeSettings& settings) {
+  std::vector<uint32_t> chosen = settings.lights;
+  std::sort(chosen.begin(), chosen.end());
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+  if (chosen.empty())
+    for (uint32_t i = 0; i < scene.lights.size(); ++i) chosen.push_back(i);
+  for (const uint32_t i : chosen)
+    if (i >= scene.lights.size())
+      throw Error(ErrorCategory::InvalidArgument, "light index " + std::to_string(i) + " is out of range: the scene has " +
+                                                      std::to_string(scene.lights.size()) + " light(s)");
+  return chosen;
+}
+
+// The views of the `requested` lights (the others' stay empty), each fitted on its own, in parallel: the fit looks
+// at the triangles near what each light reaches (`index`).
+std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const WorldGeometry& world, const TriangleBvh& index,
+                                                  const BakeSettings& settings, const std::vector<uint32_t>& requested) {
   std::vector<std::vector<LightView>> views(scene.lights.size());
-  parallelFor(scene.lights.size(), [&](size_t i) {
+  parallelFor(requested.size(), [&](size_t r) {
+    const size_t i = requested[r];
     const Light& light = scene.lights[i];
-    views[i] = makeLightViews(light, world, settings.resolution);
+    views[i] = makeLightViews(light, world, settings.resolution, &index);
     if (settings.voxelSize <= 0) return;
     uint32_t n = resolutionForVoxelSize(views[i], settings.voxelSize, settings.resolution);
     // The estimate scales the fit at the largest N; the fit's padding grows at small N, so check and double.
     while (n < settings.resolution) {
-      std::vector<LightView> fitted = makeLightViews(light, world, n);
+      std::vector<LightView> fitted = makeLightViews(light, world, n, &index);
       double largest = 0;
       for (const LightView& v : fitted)
         if (!v.empty) largest = std::max(largest, largestVoxelSize(v));
@@ -173,23 +190,18 @@ std::vector<std::vector<LightView>> viewsOfLights(const Scene& scene, const Worl
   return views;
 }
 
-// settings.lights (or every light), then its shard, balanced by each light's estimated cost: every light index
-// ends in exactly one shard.
+// The requested lights, or their shard, balanced by each light's estimated cost: every light index ends in
+// exactly one shard.
 std::vector<uint32_t> selectLights(const Scene& scene, const BakeSettings& settings, const WorldGeometry& world,
-                                   const std::vector<std::vector<LightView>>& views) {
-  std::vector<uint32_t> chosen = settings.lights;
-  std::sort(chosen.begin(), chosen.end());
-  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
-  if (chosen.empty())
-    for (uint32_t i = 0; i < scene.lights.size(); ++i) chosen.push_back(i);
-  for (const uint32_t i : chosen)
-    if (i >= scene.lights.size())
-      throw Error(ErrorCategory::InvalidArgument, "light index " + std::to_string(i) + " is out of range: the scene has " +
-                                                      std::to_string(scene.lights.size()) + " light(s)");
-  if (settings.shard.count <= 1) return chosen;
+                                   const TriangleBvh& index, const std::vector<std::vector<LightView>>& views,
+                                   const std::vector<uint32_t>& requested) {
+  if (settings.shard.count <= 1) return requested;
   std::vector<double> cost(scene.lights.size(), 0.0);
-  for (const uint32_t i : chosen) cost[i] = gatherLightGeometry(world, views[i], settings.regionSize).cost;
-  return shardLights(chosen, cost, settings.shard);
+  parallelFor(requested.size(), [&](size_t r) {
+    const uint32_t i = requested[r];
+    cost[i] = gatherLightGeometry(world, index, views[i], settings.regionSize).cost;
+  }, 1);
+  return shardLights(requested, cost, settings.shard);
 }
 
 // Lights whose range is tiny against the scene usually mean a unit mismatch (a level in centimetres, lights in
@@ -225,6 +237,7 @@ struct BakeRun {
   const Scene& scene;
   const BakeSettings& settings;
   const WorldGeometry& world;
+  const TriangleBvh& index;
   const std::vector<std::vector<LightView>>& allViews;
   const BakeCallbacks& callbacks;
   std::optional<BakeCache>& cache;
@@ -263,7 +276,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
   lightReport.index = li;
   lightReport.type = baked.light.type;
   const std::vector<LightView>& views = run.allViews[li];
-  const LightGeometry lightGeometry = gatherLightGeometry(run.world, views, settings.regionSize);
+  const LightGeometry lightGeometry = gatherLightGeometry(run.world, run.index, views, settings.regionSize);
   lightReport.estimatedCost = lightGeometry.cost;
   lightReport.reachesGeometry = lightGeometry.reachesGeometry;
   if (!lightGeometry.reachesGeometry)
@@ -411,8 +424,10 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
   const uint64_t inputHash = bakeInputHash(world, scene.lights, settings);
-  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, settings);
-  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, allViews);
+  const TriangleBvh index(world);  // once per bake: each light then looks only at what it reaches
+  const std::vector<uint32_t> asked = requestedLights(scene, settings);
+  const std::vector<std::vector<LightView>> allViews = viewsOfLights(scene, world, index, settings, asked);
+  const std::vector<uint32_t> chosen = selectLights(scene, settings, world, index, allViews, asked);
   CpvsContent content;
   content.settingsJson = settingsJson(settings, inputHash, chosen, scene.lights.size());
 
@@ -439,7 +454,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     rep.writeMs += write.ms();
   }
   const unsigned lanes = lanesFor(settings, chosen.size());
-  BakeRun run{scene, settings, world, allViews, callbacks, cache, {}, {}, {}, 0, 0};
+  BakeRun run{scene, settings, world, index, allViews, callbacks, cache, {}, {}, {}, 0, 0};
   run.renderers.resize(lanes);
   for (const uint32_t li : chosen) run.totalViews += allViews[li].size();  // progress counts views, weighted equally
 

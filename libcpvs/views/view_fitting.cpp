@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "libcpvs/views/polygon_clip.h"
+#include "libcpvs/views/view_geometry.h"
 
 namespace cpvs {
 namespace {
@@ -46,15 +47,16 @@ struct Extent {
   bool empty() const { return !(min.x <= max.x); }
 };
 
-Extent measureExtent(const WorldGeometry& world, const LightView& view, const std::vector<Plane>& planes) {
+// `corners`: the view-space corners of the volume the planes bound (empty: unbounded), for the index.
+Extent measureExtent(const WorldGeometry& world, const LightView& view, const std::vector<Plane>& planes,
+                     const std::vector<glm::dvec3>& corners, const TriangleBvh* index) {
   Extent extent;
   std::vector<glm::dvec3> poly, scratch;
-  std::vector<glm::dvec3> viewPositions(world.positions.size());
-  for (size_t i = 0; i < world.positions.size(); ++i) viewPositions[i] = transformPoint(view.viewFromWorld, world.positions[i]);
-  for (size_t t = 0; t < world.triangleCount(); ++t) {
+  const auto toView = [&](uint32_t vertex) { return transformPoint(view.viewFromWorld, world.positions[vertex]); };
+  for (const uint32_t t : trianglesNear(world, view, corners, index)) {
     if (world.isClosing(t)) continue;  // a ground's skirt lies under the scene: the view covers the scene
-    const glm::dvec3 v[3] = {viewPositions[world.indices[3 * t]], viewPositions[world.indices[3 * t + 1]],
-                             viewPositions[world.indices[3 * t + 2]]};
+    const glm::dvec3 v[3] = {toView(world.indices[3 * t]), toView(world.indices[3 * t + 1]),
+                             toView(world.indices[3 * t + 2])};
     if (!clipTriangle(v, planes, poly, scratch)) continue;
     for (const glm::dvec3& q : poly) {
       const glm::dvec3 abd = lateralAndDepth(view, q);
@@ -136,9 +138,20 @@ std::vector<Plane> perspectivePlanes(double tanHalf, double range, double minDep
   return planes;
 }
 
+// The corners of the volume perspectivePlanes bounds (none when the range is unlimited).
+std::vector<glm::dvec3> perspectiveCorners(double tanHalf, double range, double minDepth) {
+  if (!std::isfinite(range)) return {};
+  std::vector<glm::dvec3> corners;
+  for (const double d : {minDepth, range})
+    for (const double a : {-tanHalf, tanHalf})
+      for (const double b : {-tanHalf, tanHalf}) corners.push_back({a * d, b * d, -d});
+  return corners;
+}
+
 }  // namespace
 
-std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& world, uint32_t resolution) {
+std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& world, uint32_t resolution,
+                                      const TriangleBvh* index) {
   const double scale = sceneScale(world);
   std::vector<LightView> views;
   const glm::dvec3 yUp(0, 1, 0);
@@ -150,7 +163,7 @@ std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& w
       view.resolution = resolution;
       const glm::dvec3 origin = world.bounds.empty() ? glm::dvec3(0.0) : world.bounds.center();
       view.viewFromWorld = lookAlong(origin, light.direction, yUp);
-      fitView(view, measureExtent(world, view, {}), scale, kInf);
+      fitView(view, measureExtent(world, view, {}, {}, index), scale, kInf);
       views.push_back(view);
       break;
     }
@@ -163,7 +176,10 @@ std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& w
       // A square frustum around the cone; wider than ~170 degrees degenerates, so the cone is capped there.
       const double outer = std::clamp(light.outerConeAngle, 1e-4, 85.0 * 3.14159265358979323846 / 180.0);
       const double tanHalf = std::tan(outer);
-      fitView(view, measureExtent(world, view, perspectivePlanes(tanHalf, light.range, 1e-9 * scale)), scale, tanHalf);
+      fitView(view,
+              measureExtent(world, view, perspectivePlanes(tanHalf, light.range, 1e-9 * scale),
+                            perspectiveCorners(tanHalf, light.range, 1e-9 * scale), index),
+              scale, tanHalf);
       views.push_back(view);
       break;
     }
@@ -178,7 +194,10 @@ std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& w
         view.face = face;
         const glm::dvec3 up = face == 2 || face == 3 ? glm::dvec3(0, 0, 1) : yUp;
         view.viewFromWorld = lookAlong(light.position, axes[face], up);
-        fitView(view, measureExtent(world, view, perspectivePlanes(1.0, light.range, 1e-9 * scale)), scale, 1.0);
+        fitView(view,
+                measureExtent(world, view, perspectivePlanes(1.0, light.range, 1e-9 * scale),
+                              perspectiveCorners(1.0, light.range, 1e-9 * scale), index),
+                scale, 1.0);
         views.push_back(view);
       }
       break;

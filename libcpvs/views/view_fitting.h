@@ -6,12 +6,16 @@
 
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/scene/scene.h"
+#include "libcpvs/scene/triangle_bvh.h"
 
 namespace cpvs {
 
 // Builds the views of a light, fitted to the geometry it reaches (x/y extent and near/far), docs/architecture.md, "The voxel convention"
 // Directional: 1 orthographic; spot: 1 perspective (field of view from the outer cone); point: 6 cube faces.
-std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& geometry, uint32_t resolution);
+// With `index` (built over `geometry`), only the triangles near what the light can reach are looked at: the same
+// views, at a cost that follows the light's reach instead of the scene's size.
+std::vector<LightView> makeLightViews(const Light& light, const WorldGeometry& geometry, uint32_t resolution,
+                                      const TriangleBvh* index = nullptr);
 
 // The edge of the view's largest voxel in scene units: at the far plane (the farthest geometry the view holds),
 // the larger of its lateral extent and its depth (logarithmic slices are deepest there).

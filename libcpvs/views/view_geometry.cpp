@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "libcpvs/views/polygon_clip.h"
 
@@ -20,15 +21,58 @@ std::vector<Plane> viewPlanes(const LightView& view) {
           {{0, -1, -view.yMax}, 0}, {{0, 0, -1}, -0.5 * view.near}, {{0, 0, 1}, view.far}};
 }
 
+// The corners of the volume viewPlanes bounds, in view space.
+std::vector<glm::dvec3> viewCorners(const LightView& view) {
+  std::vector<glm::dvec3> corners;
+  const bool perspective = view.projection == Projection::Perspective;
+  for (const double d : {perspective ? 0.5 * view.near : view.near, view.far})
+    for (const double a : {view.xMin, view.xMax})
+      for (const double b : {view.yMin, view.yMax})
+        corners.push_back(perspective ? glm::dvec3(a * d, b * d, -d) : glm::dvec3(a, b, -d));
+  return corners;
+}
+
 }  // namespace
 
-ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& view) {
+void worldBoxOf(const LightView& view, const std::vector<glm::dvec3>& corners, double margin, glm::dvec3& lo,
+                glm::dvec3& hi) {
+  const glm::dmat4 worldFromView = glm::inverse(view.viewFromWorld);
+  lo = glm::dvec3(std::numeric_limits<double>::infinity());
+  hi = -lo;
+  for (const glm::dvec3& c : corners) {
+    const glm::dvec3 p(worldFromView * glm::dvec4(c, 1.0));
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  lo -= glm::dvec3(margin);
+  hi += glm::dvec3(margin);
+}
+
+std::vector<uint32_t> trianglesNear(const WorldGeometry& world, const LightView& view,
+                                    const std::vector<glm::dvec3>& corners, const TriangleBvh* index) {
+  std::vector<uint32_t> out;
+  bool bounded = index && !corners.empty();
+  for (const glm::dvec3& c : corners) bounded = bounded && std::isfinite(c.x) && std::isfinite(c.y) && std::isfinite(c.z);
+  if (!bounded) {
+    out.resize(world.triangleCount());
+    for (size_t t = 0; t < out.size(); ++t) out[t] = uint32_t(t);
+    return out;
+  }
+  // Far more than rounding in the clip tests, far less than anything a view resolves: a triangle this far
+  // outside the box clips to nothing, with or without the index.
+  double extent = world.bounds.empty() ? 1.0 : glm::length(world.bounds.extent());
+  for (const glm::dvec3& c : corners) extent = std::max(extent, glm::length(c));
+  glm::dvec3 lo, hi;
+  worldBoxOf(view, corners, 1e-6 * extent, lo, hi);
+  index->overlapping(lo, hi, out);
+  return out;
+}
+
+ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& view, const TriangleBvh* index) {
   ViewGeometry out;
   if (view.empty) return out;
   const std::vector<Plane> planes = viewPlanes(view);
-  std::vector<glm::dvec3> viewPositions(world.positions.size());
-  for (size_t i = 0; i < world.positions.size(); ++i)
-    viewPositions[i] = glm::dvec3(view.viewFromWorld * glm::dvec4(world.positions[i], 1.0));
+  const auto toView = [&](uint32_t vertex) { return glm::dvec3(view.viewFromWorld * glm::dvec4(world.positions[vertex], 1.0)); };
 
   const double n = view.resolution;
   const double uScale = n / (view.xMax - view.xMin), vScale = n / (view.yMax - view.yMin);
@@ -39,9 +83,9 @@ ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& vie
   std::vector<int32_t> openMasks;  // closed triangles are never masked
   std::vector<glm::vec2> openUvs;
 
-  for (size_t t = 0; t < world.triangleCount(); ++t) {
-    const glm::dvec3 v[3] = {viewPositions[world.indices[3 * t]], viewPositions[world.indices[3 * t + 1]],
-                             viewPositions[world.indices[3 * t + 2]]};
+  for (const uint32_t t : trianglesNear(world, view, viewCorners(view), index)) {
+    const glm::dvec3 v[3] = {toView(world.indices[3 * t]), toView(world.indices[3 * t + 1]),
+                             toView(world.indices[3 * t + 2])};
     if (!clipTriangle(v, planes, poly, scratch)) continue;
     glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
     for (const glm::dvec3& q : poly) {

@@ -9,6 +9,7 @@
 #include "libcpvs/views/view_regions.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/scene/scene.h"
+#include "libcpvs/scene/triangle_bvh.h"
 
 namespace cpvs {
 
@@ -31,7 +32,18 @@ struct ViewGeometry {
 
 // Keeps the triangles of `world` that intersect the view's volume (lateral extent, depth range, and for
 // perspective views the space in front of the light), transformed to view space.
-ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& view);
+// With `index` (built over `world`), only the triangles near the view's volume are looked at (same result).
+ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& view, const TriangleBvh* index = nullptr);
+
+// The world-space box around the view-space points `corners` (a view's volume), grown by `margin`: triangles
+// outside it cannot reach the volume.
+void worldBoxOf(const LightView& view, const std::vector<glm::dvec3>& corners, double margin, glm::dvec3& lo,
+                glm::dvec3& hi);
+
+// The triangles `index` finds near the view-space volume spanned by `corners`, or every triangle without an
+// index (or without corners: an unbounded volume).
+std::vector<uint32_t> trianglesNear(const WorldGeometry& world, const LightView& view,
+                                    const std::vector<glm::dvec3>& corners, const TriangleBvh* index);
 
 // The subset of `geometry` whose grid bounds overlap the region (with a one-texel guard band).
 ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect);
