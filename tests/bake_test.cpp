@@ -399,6 +399,9 @@ TEST(BakeTool, ReportHasTheFieldsPipelinesRead) {
   const nlohmann::json j = nlohmann::json::parse(readFile(dir + "/r.json"));
   EXPECT_TRUE(j["version"].is_string());
   EXPECT_GT(j["total_ms"].get<double>(), 0.0);
+  EXPECT_GT(j["load_ms"].get<double>(), 0.0);
+  EXPECT_GT(j["setup_ms"].get<double>(), 0.0);
+  EXPECT_LT(j["load_ms"].get<double>() + j["setup_ms"].get<double>(), j["total_ms"].get<double>());
   EXPECT_GT(j["peak_rss_bytes"].get<uint64_t>(), 0u);
   ASSERT_EQ(j["lights"].size(), 2u);
   EXPECT_EQ(j["lights"][0]["name"], "sun0");

@@ -420,6 +420,7 @@ unsigned lanesFor(const BakeSettings& settings, size_t lights) {
 // Bakes the chosen lights; with `stream`, each finished light goes to a CpvsWriter instead of the content.
 CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                           const BakeCallbacks& callbacks, const CpvsWriter::WriteAt* stream, uint64_t* fileBytes) {
+  const Stopwatch setup;
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
@@ -433,6 +434,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
 
   BakeReport localReport;
   BakeReport& rep = report ? *report : localReport;
+  rep.setupMs = setup.ms();
   rep.inputHash = inputHash;
   rep.groundSheets = world.groundSheets;
   rep.sceneTriangles = world.sceneTriangleCount();

@@ -82,6 +82,8 @@ struct BakeReport {
   size_t sceneLights = 0;                 // lights in the scene; `lights` holds those this run baked
   std::vector<std::string> warnings;      // a light that reaches no geometry, ranges tiny against the scene
   double writeMs = 0;                     // bakeSceneTo: time spent writing the file
+  double setupMs = 0;                     // the once-per-bake work over the whole scene: flattening, the input
+                                          // hash, the triangle index, every asked light's views and the selection
 };
 
 struct BakeCallbacks {

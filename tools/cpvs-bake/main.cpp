@@ -64,7 +64,7 @@ nlohmann::json groundSheetsJson(const std::vector<GroundSheet>& sheets) {
 }
 
 nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
-                          const BakeReport& report, double totalMs, double writeMs, uint64_t fileBytes) {
+                          const BakeReport& report, double totalMs, double loadMs, uint64_t fileBytes) {
   uint64_t dagBytes = 0;
   for (const LightReport& l : report.lights)
     for (const ViewReport& v : l.views) dagBytes += v.bytes;
@@ -80,7 +80,7 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"regions", v.regions},
                        {"phases_ms",
                         {{"depth", v.depthMs}, {"peel", v.peelMs}, {"masks", v.masksMs}, {"dag", v.dagMs},
-                         {"write", writeMs * share}}},
+                         {"write", report.writeMs * share}}},
                        {"triangles_submitted", v.trianglesSubmitted},
                        {"peel_iterations", v.peelIterations},
                        {"texels_at_peel_cap", v.texelsAtPeelCap},
@@ -123,6 +123,8 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
           {"scene_lights", report.sceneLights},
           {"warnings", report.warnings},
           {"total_ms", totalMs},
+          {"load_ms", loadMs},
+          {"setup_ms", report.setupMs},
           {"peak_rss_bytes", peakRssBytes()},
           {"file_bytes", fileBytes},
           {"lights", lights}};
@@ -179,6 +181,7 @@ int run(int argc, char** argv) {
   }
   const Stopwatch total;
   Scene scene = importGltf(o.scene, o.import);
+  const double loadMs = total.ms();
   o.lights.applyTo(scene);
   for (const std::string& w : scene.warnings)
     if (!o.quiet) std::cerr << "cpvs-bake: warning: " << w << "\n";
@@ -225,7 +228,7 @@ int run(int argc, char** argv) {
 
   const double totalMs = total.ms();
 
-  if (reportFile) reportFile->write(reportJson(o, settings, report, totalMs, report.writeMs, fileBytes).dump(2) + "\n");
+  if (reportFile) reportFile->write(reportJson(o, settings, report, totalMs, loadMs, fileBytes).dump(2) + "\n");
   tools::commitTogether({cpvsFile ? &*cpvsFile : nullptr, reportFile ? &*reportFile : nullptr});
   if (!o.quiet) {
     size_t views = 0;
