@@ -365,6 +365,17 @@ TEST(Scenegen, ClosedCityIsWatertightOutwardAndOnBudget) {
   EXPECT_TRUE(rotated);
 }
 
+// A level of ten million triangles: the densest layout with finer facades reaches the budget (no "tops out").
+TEST(Scenegen, CityReachesTenMillionTriangles) {
+  const std::string dir = tempDir();
+  std::string out;
+  ASSERT_TRUE(generate("city --triangles 10000000 -o " + dir + "/city.glb", &out));
+  EXPECT_EQ(out.find("tops out"), std::string::npos) << out;
+  const size_t colon = out.find("city: ");
+  ASSERT_NE(colon, std::string::npos) << out;
+  expectWithinBudget(std::stoull(out.substr(colon + 6)), 10000000);
+}
+
 TEST(Scenegen, LandscapeIsWatertightOutwardAndOnBudget) {
   const std::string dir = tempDir();
   ASSERT_TRUE(generate("landscape --triangles 20000 --seed 3 -o " + dir + "/land.glb"));

@@ -44,16 +44,19 @@ struct Detail {
 };
 
 // lambda = 0: plain boxes and coarse towers; 1: fins every 1.5 units, a ledge every 3.5, 36-sided
-// towers (about the 1M city); 2: the finest (fins every 0.9). Continuous, so that the triangle count can be
-// tuned finely.
+// towers (about the 1M city); 2: the finest a budget up to ~3.5M triangles uses (fins every 0.9). Continuous,
+// so that the triangle count can be tuned finely. Beyond 2 (only for budgets the city cannot otherwise reach,
+// such as a 10M-triangle level) the facades only grow finer: fins, ledges and round sides densify while tiers,
+// domes and roofs stay as at 2, so the city keeps its shape.
 constexpr double kMaxDetail = 2.0;
+constexpr double kFinestDetail = 8.0;
 Detail detailFor(double lambda) {
   Detail d;
   d.lambda = lambda;
-  const double l = lambda;
-  d.finSpacing = std::max(0.9, 14.0 / (1.0 + 8.33 * l));
-  d.ledgeSpacing = std::max(2.0, 45.0 / (1.0 + 12.0 * l));
-  d.roundSides = 10 + static_cast<int>(20.0 * l + 0.5);
+  const double l = std::min(lambda, kMaxDetail);
+  d.finSpacing = lambda <= kMaxDetail ? std::max(0.9, 14.0 / (1.0 + 8.33 * l)) : 0.9 * kMaxDetail / lambda;
+  d.ledgeSpacing = lambda <= kMaxDetail ? std::max(2.0, 45.0 / (1.0 + 12.0 * l)) : 2.0 * kMaxDetail / lambda;
+  d.roundSides = 10 + static_cast<int>(20.0 * lambda + 0.5);
   d.domeRings = 2 + static_cast<int>(2.0 * l + 0.5);
   d.roofUnitsMax = 1 + static_cast<int>(3.0 * l + 0.5);
   d.maxTiers = 3 + static_cast<int>(2.0 * l + 0.5);
@@ -487,10 +490,15 @@ GenScene generateCity(const CityOptions& o, CityInfo* info) {
   int lots = std::min(maxLots, lotsPerSideFor(target));
   while (lots > 2 && count(lots, 0.0) > target) lots -= std::max(1, lots / 8);
   while (lots < maxLots && count(lots, kMaxDetail) < target) lots = std::min(maxLots, lots + std::max(1, lots / 8));
-  double lo = 0.0, hi = kMaxDetail, best = 0.0;
+  double lo = 0.0, hi = kMaxDetail;
+  if (lots == maxLots && count(lots, kMaxDetail) < target) {  // the densest layout needs finer facades
+    lo = kMaxDetail;
+    hi = kFinestDetail;
+  }
+  double best = lo;
   std::uint64_t bestErr = ~0ull;
   for (int i = 0; i < 24; ++i) {
-    const double mid = i == 0 ? 0.0 : 0.5 * (lo + hi);
+    const double mid = i == 0 ? lo : 0.5 * (lo + hi);
     const std::uint64_t c = count(lots, mid);
     const std::uint64_t err = c > target ? c - target : target - c;
     if (err < bestErr) {
