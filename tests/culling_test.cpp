@@ -99,11 +99,11 @@ Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCullin
   settings.height = 128;
   settings.pcfKernel = 5;
   settings.shadows = mode;
-  settings.casterCulling = culling;
-  settings.maskVariant = variant;
-  settings.shadowMapSize = 256;
-  settings.clusters = clusters;
-  settings.keepShadowMaps = true;
+  settings.shadowMaps.casterCulling = culling;
+  settings.shadowMaps.maskVariant = variant;
+  settings.shadowMaps.size = 256;
+  settings.shadowMaps.clusters = clusters;
+  settings.shadowMaps.keepMaps = true;
   return c.renderer->render(camera, settings);
 }
 

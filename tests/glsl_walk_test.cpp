@@ -18,7 +18,7 @@
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/dag/dag_builder.h"
-#include "libcpvs/raster/gl_context.h"
+#include "libcpvs/gl/gl_context.h"
 #include "libcpvs/runtime/dag_walk.glsl.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 #include "libcpvs/tiles/tile_masks.h"

@@ -14,7 +14,8 @@ BELOW = {
 }
 BELOW["libcpvs/scene"] = BELOW["libcpvs/base"] | {"libcpvs/scene"}
 BELOW["libcpvs/views"] = BELOW["libcpvs/scene"] | {"libcpvs/views"}
-BELOW["libcpvs/raster"] = BELOW["libcpvs/views"] | {"libcpvs/raster"}
+BELOW["libcpvs/gl"] = BELOW["libcpvs/base"] | {"libcpvs/gl"}
+BELOW["libcpvs/raster"] = BELOW["libcpvs/views"] | BELOW["libcpvs/gl"] | {"libcpvs/raster"}
 BELOW["libcpvs/tiles"] = BELOW["libcpvs/raster"] | {"libcpvs/tiles"}
 BELOW["libcpvs/dag"] = BELOW["libcpvs/tiles"] | {"libcpvs/dag"}
 BELOW["libcpvs/bake"] = BELOW["libcpvs/dag"] | {"libcpvs/bake", "libcpvs/version.h"}

@@ -27,6 +27,7 @@
 #include "libcpvs/preview/gpu_scene.h"
 #include "libcpvs/preview/light_lists.h"
 #include "libcpvs/preview/preview_renderer.h"
+#include "libcpvs/preview/shadow_pass.h"
 #include "libcpvs/runtime/file_shadows.h"
 #include "support/test_support.h"
 
@@ -310,9 +311,9 @@ RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   settings.pcfKernel = 5;
   settings.shadows = mode;
   settings.compareWithRays = overlay == Overlay::Difference;
-  settings.shadowMapSize = 256;
-  settings.casterCulling = CasterCulling::VoxelGrid;  // changes no pixel (tests/culling_test.cpp)
-  settings.clusters = 3;
+  settings.shadowMaps.size = 256;
+  settings.shadowMaps.casterCulling = CasterCulling::VoxelGrid;  // changes no pixel (tests/culling_test.cpp)
+  settings.shadowMaps.clusters = 3;
   PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.0);
   const Frame f = b.renderer->render(camera, settings);
   return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f.radiance)), overlay);
@@ -377,6 +378,44 @@ TEST(PreviewImages, ShadowsChangeTheImage) {
   size_t differing = 0;
   for (size_t i = 0; i < shadowed.pixels.size(); ++i) differing += std::abs(int(shadowed.pixels[i]) - int(unshadowed.pixels[i])) > 16;
   EXPECT_GT(differing, shadowed.pixels.size() / 1000);  // the tiny scene's two shadows: about 0.4 % of the values
+}
+
+// A technique of the test's own, behind the same interface as the built-in ones: every listed pair half lit.
+// The renderer runs it knowing nothing of it, and the shading (linear in visibility) halves every pixel.
+class HalfLit final : public ShadowPass {
+public:
+  bool run(ShadowPassFrame& p) override {
+    ++runs;
+    p.frame.visibility.assign(size_t(p.frame.lists.offsets.back()) * 64, 0.5f);
+    return false;  // CPU-side: the renderer uploads it
+  }
+  int runs = 0;
+};
+
+TEST(Preview, AShadowTechniqueIsOneClassBehindShadowPass) {
+  Baked& b = tiny();
+  REQUIRE_RENDERER(b);
+  FrameSettings settings;
+  settings.width = 96;
+  settings.height = 64;
+  settings.shadows = ShadowMode::None;
+  const PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.5);
+  const Frame lit = b.renderer->render(camera, settings);
+  HalfLit half;
+  const Frame halved = b.renderer->render(camera, settings, half);
+  EXPECT_EQ(half.runs, 1);
+  ASSERT_EQ(halved.radiance.size(), lit.radiance.size());
+  size_t covered = 0;
+  for (size_t i = 0; i < lit.radiance.size(); ++i) {
+    if (lit.radiance[i].w == 0.0f) continue;
+    ++covered;
+    for (int c = 0; c < 3; ++c) ASSERT_NEAR(halved.radiance[i][c], 0.5f * lit.radiance[i][c], 1e-5f * (1.0f + lit.radiance[i][c])) << i;
+  }
+  EXPECT_GT(covered, halved.radiance.size() / 4);
+  float brightest = 0.0f;
+  for (const glm::vec4& c : lit.radiance) brightest = std::max(brightest, c.r + c.g + c.b);
+  EXPECT_GT(brightest, 1e-3f) << "the lights reach the view";
+  EXPECT_NE(halved.milliseconds("shading"), 0.0) << "the renderer's own passes still ran";
 }
 
 // A base-colour texture reaches the G-buffer decoded from sRGB, times the material's factor: a quad with a

@@ -1,16 +1,18 @@
 #include "libcpvs/eval/shadow_map_method.h"
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/named_values.h"
 
 namespace cpvs {
 
-BaselineDepth parseBaselineDepth(const std::string& name) {
-  if (name == "embree") return BaselineDepth::Embree;
-  if (name == "raster" || name == "gl") return BaselineDepth::Raster;
-  throw Error(ErrorCategory::InvalidArgument, "baseline depth '" + name + "': expected embree or raster");
-}
+namespace {
+// "gl" is the name older scripts used for the rasterised depth.
+constexpr Named<BaselineDepth> kBaselineDepths[] = {
+    {BaselineDepth::Embree, "embree"}, {BaselineDepth::Raster, "raster"}, {BaselineDepth::Raster, "gl"}};
+}  // namespace
 
-const char* baselineDepthName(BaselineDepth depth) { return depth == BaselineDepth::Embree ? "embree" : "raster"; }
+BaselineDepth parseBaselineDepth(const std::string& name) { return parseNamed(kBaselineDepths, name, "baseline depth"); }
+const char* baselineDepthName(BaselineDepth depth) { return nameOf(kBaselineDepths, depth); }
 
 ShadowMapMethod ShadowMapMethod::build(const Light& light, const std::vector<LightView>& views,
                                        const std::vector<uint64_t>& viewBudgets, BaselineDepth depth,

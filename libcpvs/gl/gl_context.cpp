@@ -1,4 +1,4 @@
-#include "libcpvs/raster/gl_context.h"
+#include "libcpvs/gl/gl_context.h"
 
 #include <dlfcn.h>
 
@@ -130,7 +130,7 @@ public:
     }
     if (!context_)
       throw Error(ErrorCategory::NotSupported, "OSMesa: cannot create an OpenGL 4.5 or 3.3 core context");
-    backend_ = RasterBackend::OSMesa;
+    platform_ = Platform::OSMesa;
     buffer_.assign(kDummySize * kDummySize * 4, 0);
     makeCurrent();
     try {
@@ -254,7 +254,7 @@ class EGLContextImpl final : public Context {
 public:
   EGLContextImpl() {
     const EGLApi& api = EGLApi::get();
-    backend_ = RasterBackend::EGL;
+    platform_ = Platform::EGL;
     std::string reasons;
     auto attempt = [&](EGLenum platform, void* native, const std::string& label) -> bool {
       std::string why;

@@ -1,13 +1,12 @@
 #pragma once
 // An OpenGL core context for off-screen rendering, created without linking libGL: libOSMesa.so.8 or
 // libEGL.so.1 is opened with dlopen() at run time and every GL entry point is fetched through the backend's
-// GetProcAddress into a GlFunctions table (docs/depth-maps.md, docs/depth-maps.md).
+// GetProcAddress into a Functions table (docs/depth-maps.md). The depth renderer (raster/) and cpvs-view
+// (preview/) both draw through it.
 #include <memory>
 #include <string>
 
 #include <GL/glcorearb.h>
-
-#include "libcpvs/raster/raster_backend.h"
 
 namespace cpvs::gl {
 
@@ -101,6 +100,9 @@ namespace cpvs::gl {
   X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)                        \
   X(PFNGLGENERATEMIPMAPPROC, GenerateMipmap)
 
+// Where a context comes from: Mesa's software OSMesa, or EGL (a GPU, or Mesa's surfaceless platform).
+enum class Platform { OSMesa, EGL };
+
 struct Functions {
 #define CPVS_GL_MEMBER(type, name) type name = nullptr;
   CPVS_GL_FUNCTIONS(CPVS_GL_MEMBER)
@@ -117,7 +119,7 @@ public:
   virtual void makeCurrent() = 0;
   virtual void release() = 0;
   const Functions& gl() const { return functions_; }
-  RasterBackend backend() const { return backend_; }
+  Platform platform() const { return platform_; }
   // "OSMesa 4.5 core: llvmpipe (LLVM 15.0.6, 256 bits)" and the like.
   const std::string& description() const { return description_; }
   int majorVersion() const { return major_; }
@@ -125,7 +127,7 @@ public:
 
 protected:
   Functions functions_;
-  RasterBackend backend_ = RasterBackend::OSMesa;
+  Platform platform_ = Platform::OSMesa;
   std::string description_;
   int major_ = 0, minor_ = 0;
 };

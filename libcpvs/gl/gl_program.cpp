@@ -1,4 +1,4 @@
-#include "libcpvs/raster/gl_program.h"
+#include "libcpvs/gl/gl_program.h"
 
 #include <algorithm>
 #include <chrono>

@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "libcpvs/raster/gl_context.h"
+#include "libcpvs/gl/gl_context.h"
 
 namespace cpvs::gl {
 

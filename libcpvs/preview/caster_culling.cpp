@@ -5,38 +5,26 @@
 #include <limits>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/named_values.h"
 #include "libcpvs/eval/shadow_map.h"
 
 namespace cpvs {
 
-CasterCulling parseCasterCulling(const std::string& name) {
-  if (name == "none") return CasterCulling::None;
-  if (name == "frustum") return CasterCulling::Frustum;
-  if (name == "voxel-grid") return CasterCulling::VoxelGrid;
-  if (name == "receiver-mask") return CasterCulling::ReceiverMask;
-  throw Error(ErrorCategory::InvalidArgument,
-              "unknown caster culling '" + name + "' (expected none, frustum, voxel-grid or receiver-mask)");
-}
+namespace {
+constexpr Named<CasterCulling> kCullings[] = {{CasterCulling::None, "none"},
+                                              {CasterCulling::Frustum, "frustum"},
+                                              {CasterCulling::VoxelGrid, "voxel-grid"},
+                                              {CasterCulling::ReceiverMask, "receiver-mask"}};
+constexpr Named<ReceiverMaskVariant> kMaskVariants[] = {{ReceiverMaskVariant::Fragments, "frag"},
+                                                        {ReceiverMaskVariant::BoundingVolumes, "bvol"}};
+}  // namespace
 
-const char* casterCullingName(CasterCulling culling) {
-  switch (culling) {
-    case CasterCulling::None: return "none";
-    case CasterCulling::Frustum: return "frustum";
-    case CasterCulling::VoxelGrid: return "voxel-grid";
-    case CasterCulling::ReceiverMask: return "receiver-mask";
-  }
-  return "?";
-}
-
+CasterCulling parseCasterCulling(const std::string& name) { return parseNamed(kCullings, name, "caster culling"); }
+const char* casterCullingName(CasterCulling culling) { return nameOf(kCullings, culling); }
 ReceiverMaskVariant parseReceiverMaskVariant(const std::string& name) {
-  if (name == "frag") return ReceiverMaskVariant::Fragments;
-  if (name == "bvol") return ReceiverMaskVariant::BoundingVolumes;
-  throw Error(ErrorCategory::InvalidArgument, "unknown receiver mask variant '" + name + "' (expected frag or bvol)");
+  return parseNamed(kMaskVariants, name, "receiver mask variant");
 }
-
-const char* receiverMaskVariantName(ReceiverMaskVariant variant) {
-  return variant == ReceiverMaskVariant::Fragments ? "frag" : "bvol";
-}
+const char* receiverMaskVariantName(ReceiverMaskVariant variant) { return nameOf(kMaskVariants, variant); }
 
 double lookupReachTexels(int pcfKernel, double biasMargin) {
   return 0.5 * pcfKernel + pcfKernel / std::sqrt(2.0) + biasMargin + 1.5;

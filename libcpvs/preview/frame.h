@@ -29,6 +29,17 @@ const char* overlayName(Overlay overlay);
 
 inline constexpr uint32_t kTileSize = 8;
 
+// The per-frame shadow-map techniques' own settings (ShadowMap, LightCluster): the maps' edge M (the light's
+// views at M texels, eval/shadow_map.h's 16-bit depth and lookup rule), the caster culling, and for
+// LightCluster the number of clusters.
+struct ShadowMapSettings {
+  uint32_t size = 512;
+  CasterCulling casterCulling = CasterCulling::None;
+  ReceiverMaskVariant maskVariant = ReceiverMaskVariant::Fragments;
+  uint32_t clusters = 10;
+  bool keepMaps = false;  // read the maps back (Frame::shadowMaps.texels), for tests
+};
+
 struct FrameSettings {
   uint32_t width = 1920, height = 1080;
   int pcfKernel = 9;  // the paper's 9 x 9
@@ -41,13 +52,7 @@ struct FrameSettings {
   bool recordCells = false;
   // Lights switched off (indices into the renderer's lights): in no tile's list, so neither shaded nor looked up.
   std::vector<uint32_t> disabledLights;
-  // ShadowMap and LightCluster: the maps' edge M (the light's views at M texels, eval/shadow_map.h's 16-bit
-  // depth and lookup rule), the caster culling, and for LightCluster the number of clusters.
-  uint32_t shadowMapSize = 512;
-  CasterCulling casterCulling = CasterCulling::None;
-  ReceiverMaskVariant maskVariant = ReceiverMaskVariant::Fragments;
-  uint32_t clusters = 10;
-  bool keepShadowMaps = false;  // read the maps back (Frame::shadowMaps.texels), for tests
+  ShadowMapSettings shadowMaps;  // ShadowMap and LightCluster only
 };
 
 // The maps a ShadowMap / LightCluster frame drew, one layer each.
@@ -58,7 +63,7 @@ struct ShadowMapFrame {
   std::vector<uint64_t> triangles;          // per layer: triangles drawn
   std::vector<uint64_t> trianglesPerLight;  // per file light: triangles drawn into the maps its lookups read
   uint64_t bytes = 0;                       // GPU memory of the maps and the index lists
-  std::vector<uint16_t> texels;             // keepShadowMaps: per layer M * M 16-bit depths, row-major
+  std::vector<uint16_t> texels;             // ShadowMapSettings::keepMaps: per layer M * M 16-bit depths, row-major
   uint64_t trianglesDrawn() const;
 };
 

@@ -4,8 +4,8 @@
 //   1. G-buffer: world position, camera-facing normal, base colour (rasterised)
 //   2. tile bounds: per 8 x 8 tile, the world bounds of its pixels (compute)
 //   3. light lists: per tile, the lights whose bounding volume meets them: count, prefix sum, fill (compute)
-//   4. shadows: per pixel and listed light, the CPVS lookup with K x K PCF walked on the GPU (compute); or the
-//      CPU runtime's batch lookups / Embree shadow rays on the read-back G-buffer, uploaded; or none
+//   4. shadows: per pixel and listed light, the visibility from the frame's shadow technique (shadow_pass.h):
+//      CPVS walked on the GPU, the CPU runtime, Embree rays, per-frame shadow maps, or none
 //   5. shading: KHR_lights_punctual, Lambert + a highlight (compute), read back as linear radiance
 // docs/viewer.md describes each pass and what the tests check.
 #include <memory>
@@ -20,6 +20,8 @@
 
 namespace cpvs {
 
+class ShadowPass;
+
 class PreviewRenderer {
 public:
   // `lights` reference their DAGs (the .cpvs file must outlive the renderer). Throws Error(NotSupported) when
@@ -30,8 +32,11 @@ public:
   PreviewRenderer(const PreviewRenderer&) = delete;
   PreviewRenderer& operator=(const PreviewRenderer&) = delete;
 
-  // Renders one frame. Throws Error(InvalidArgument) for a size of 0 or above 16384, or a bad PCF kernel.
+  // Renders one frame with the technique of settings.shadows (shadow_pass.h). Throws Error(InvalidArgument)
+  // for a size of 0 or above 16384, or a bad PCF kernel.
   Frame render(const PreviewCamera& camera, const FrameSettings& settings);
+  // The same frame with a technique of the caller's (settings.shadows then only names it for --compare).
+  Frame render(const PreviewCamera& camera, const FrameSettings& settings, ShadowPass& technique);
 
   // Renders tiny frames untimed, so that shader compilation on first use stays out of later pass times (with
   // the shadow-map programs when `like` uses them).
@@ -46,9 +51,8 @@ public:
   size_t shadowDataBytes() const;
 
 private:
-  template <class Timed>
-  void renderShadowMaps(Frame& f, const FrameSettings& settings, unsigned visibility, unsigned offsets, unsigned lists,
-                        Timed&& timed);
+  void checkFrame(const PreviewCamera& camera, const FrameSettings& settings) const;
+  class FramePasses;
   struct State;
   std::unique_ptr<State> state_;
 };

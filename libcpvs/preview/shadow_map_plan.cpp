@@ -54,7 +54,7 @@ LightReceivers merged(const std::vector<LightReceivers>& parts, double reach) {
 ShadowMapPlan planShadowMaps(const ShadowMapScene& scene, const Frame& frame, const FrameSettings& settings,
                              bool clustered) {
   const std::vector<LightShadow>& lights = *scene.lights;
-  const uint32_t m = settings.shadowMapSize;
+  const uint32_t m = settings.shadowMaps.size;
   ShadowMapPlan plan;
   // Records: every file light with its views at the map size, then every cluster's cube.
   std::vector<std::vector<LightView>> recordViews;
@@ -105,7 +105,7 @@ ShadowMapPlan planShadowMaps(const ShadowMapScene& scene, const Frame& frame, co
   const auto recordLight = [&](uint32_t record) -> const Light& {
     return record < lights.size() ? lights[record].light() : scene.clusters->lights[record - lights.size()];
   };
-  if (settings.casterCulling == CasterCulling::VoxelGrid) {
+  if (settings.shadowMaps.casterCulling == CasterCulling::VoxelGrid) {
     std::vector<uint32_t> records;
     for (const auto& entry : usersOfRecord) records.push_back(entry.first);
     parallelFor(records.size(), [&](size_t i) {
@@ -115,12 +115,12 @@ ShadowMapPlan planShadowMaps(const ShadowMapScene& scene, const Frame& frame, co
   }
   parallelFor(plan.views.size(), [&](size_t i) {
     MapView& mv = plan.views[i];
-    switch (settings.casterCulling) {
+    switch (settings.shadowMaps.casterCulling) {
       case CasterCulling::None: mv.drawAll = true; break;
       case CasterCulling::Frustum: mv.triangles = frustumCull(*scene.triangles, mv.mapView, nullptr); break;
       case CasterCulling::VoxelGrid: mv.triangles = frustumCull(*scene.triangles, mv.mapView, &gridCasters[mv.shadowLight]); break;
       case CasterCulling::ReceiverMask:
-        mv.triangles = receiverMaskCull(*scene.triangles, mv.mapView, recordReceivers[mv.shadowLight], settings.maskVariant);
+        mv.triangles = receiverMaskCull(*scene.triangles, mv.mapView, recordReceivers[mv.shadowLight], settings.shadowMaps.maskVariant);
         break;
     }
   }, 1);

@@ -10,6 +10,7 @@
 //     multiplicity of the nearest back layer counted, then a fullscreen pass consumes the nearer event
 //     (ties: back first) into the other ping-pong state.
 //  4. resolve pass: integer enter and exit slices, read back once.
+#include "libcpvs/base/named_values.h"
 #include "libcpvs/raster/depth_renderer.h"
 
 #include <algorithm>
@@ -27,23 +28,20 @@
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/raster/cpu_depth_renderer.h"
-#include "libcpvs/raster/gl_context.h"
-#include "libcpvs/raster/gl_program.h"
+#include "libcpvs/gl/gl_context.h"
+#include "libcpvs/gl/gl_program.h"
 #include "libcpvs/raster/gpu_masks.h"
 #include "libcpvs/raster/triangle_setup.h"
 
 namespace cpvs {
 
-RasterBackend parseRasterBackend(const std::string& name) {
-  if (name == "osmesa") return RasterBackend::OSMesa;
-  if (name == "egl") return RasterBackend::EGL;
-  if (name == "cpu") return RasterBackend::Cpu;
-  throw Error(ErrorCategory::InvalidArgument, "unknown raster backend '" + name + "' (expected cpu, osmesa or egl)");
-}
+namespace {
+constexpr Named<RasterBackend> kBackends[] = {{RasterBackend::Cpu, "cpu"}, {RasterBackend::OSMesa, "osmesa"},
+                                              {RasterBackend::EGL, "egl"}};
+}  // namespace
 
-const char* rasterBackendName(RasterBackend backend) {
-  return backend == RasterBackend::EGL ? "egl" : backend == RasterBackend::Cpu ? "cpu" : "osmesa";
-}
+RasterBackend parseRasterBackend(const std::string& name) { return parseNamed(kBackends, name, "raster backend"); }
+const char* rasterBackendName(RasterBackend backend) { return nameOf(kBackends, backend); }
 
 namespace {
 

@@ -6,6 +6,7 @@
 #include <xxhash.h>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/named_values.h"
 
 namespace cpvs {
 
@@ -37,12 +38,13 @@ uint64_t CoverageMask::hash() const {
   return digest;
 }
 
+namespace {
+constexpr Named<TransparentPolicy> kTransparentPolicies[] = {
+    {TransparentPolicy::Clip, "clip"}, {TransparentPolicy::Opaque, "opaque"}, {TransparentPolicy::None, "none"}};
+}  // namespace
+
 TransparentPolicy parseTransparentPolicy(const std::string& name) {
-  if (name == "clip") return TransparentPolicy::Clip;
-  if (name == "opaque") return TransparentPolicy::Opaque;
-  if (name == "none") return TransparentPolicy::None;
-  throw Error(ErrorCategory::InvalidArgument,
-              "unknown transparent policy '" + name + "' (expected clip, opaque or none)");
+  return parseNamed(kTransparentPolicies, name, "transparent policy");
 }
 
 CasterAlpha casterAlpha(AlphaMode mode, float cutoff, TransparentPolicy policy, bool alphaTest) {

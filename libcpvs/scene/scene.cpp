@@ -4,6 +4,7 @@
 #include <cctype>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/named_values.h"
 #include "libcpvs/scene/ground_sheet.h"
 
 namespace cpvs {
@@ -71,13 +72,12 @@ bool nameMatches(const std::string& meshName, const std::string& wanted) {
 
 }  // namespace
 
-GroundSheets parseGroundSheets(const std::string& name) {
-  if (name == "auto") return GroundSheets::Auto;
-  if (name == "off") return GroundSheets::Off;
-  throw Error(ErrorCategory::InvalidArgument, "unknown ground mode '" + name + "' (expected auto or off)");
-}
+namespace {
+constexpr Named<GroundSheets> kGroundModes[] = {{GroundSheets::Auto, "auto"}, {GroundSheets::Off, "off"}};
+}  // namespace
 
-const char* groundSheetsName(GroundSheets ground) { return ground == GroundSheets::Off ? "off" : "auto"; }
+GroundSheets parseGroundSheets(const std::string& name) { return parseNamed(kGroundModes, name, "ground mode"); }
+const char* groundSheetsName(GroundSheets ground) { return nameOf(kGroundModes, ground); }
 
 namespace {
 

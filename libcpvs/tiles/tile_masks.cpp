@@ -6,23 +6,20 @@
 #include <string>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/named_values.h"
 #include "libcpvs/base/parallel.h"
 
 namespace cpvs {
 
-UndefinedMode parseUndefinedMode(const std::string& name) {
-  if (name == "kampe") return UndefinedMode::Kampe;
-  if (name == "sintorn") return UndefinedMode::Sintorn;
-  if (name == "none") return UndefinedMode::None;
-  throw Error(ErrorCategory::InvalidArgument, "undefined-voxel mode '" + name + "': expected kampe, sintorn or none");
-}
+namespace {
+constexpr Named<UndefinedMode> kUndefinedModes[] = {
+    {UndefinedMode::Kampe, "kampe"}, {UndefinedMode::Sintorn, "sintorn"}, {UndefinedMode::None, "none"}};
+}  // namespace
 
-const char* undefinedModeName(UndefinedMode mode) {
-  // Indexed by the enum's value (0, 1, 2 in declaration order).
-  static constexpr const char* kNames[] = {"kampe", "sintorn", "none"};
-  const size_t i = size_t(mode);
-  return i < std::size(kNames) ? kNames[i] : "?";
+UndefinedMode parseUndefinedMode(const std::string& name) {
+  return parseNamed(kUndefinedModes, name, "undefined-voxel mode");
 }
+const char* undefinedModeName(UndefinedMode mode) { return nameOf(kUndefinedModes, mode); }
 
 uint64_t TileChains::maskAt(uint32_t tile, uint32_t slice) const {
   const auto begin = start.begin() + first[tile], end = start.begin() + first[tile + 1];

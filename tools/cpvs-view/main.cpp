@@ -27,10 +27,12 @@
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/cpvs-view/preview_window.h"
+#include "tools/cpvs-view/view_report.h"
 
 namespace {
 
 using namespace cpvs;
+using cpvs::tools::ViewReport;
 using json = nlohmann::ordered_json;
 
 struct Options {
@@ -59,19 +61,6 @@ void parseSize(const std::string& text, uint32_t& w, uint32_t& h) {
     throw Error(ErrorCategory::InvalidArgument, "--size '" + text + "': expected WIDTHxHEIGHT, each 1..16384");
   w = a;
   h = b;
-}
-
-json cameraJson(const PreviewCamera& c) {
-  return {{"eye", {c.eye.x, c.eye.y, c.eye.z}},
-          {"target", {c.target.x, c.target.y, c.target.z}},
-          {"up", {c.up.x, c.up.y, c.up.z}},
-          {"fov_degrees", c.yfov * 180.0 / M_PI}};
-}
-
-json passesJson(const Frame& f) {
-  json passes = json::object();
-  for (const PassTime& p : f.passes) passes[p.pass] = p.milliseconds;
-  return passes;
 }
 
 // The cameras of a --path file: [{"eye": [x, y, z], "target": [x, y, z], "up": [x, y, z]?, "fov": degrees?}, ...].
@@ -138,11 +127,99 @@ void writeImage(const std::string& path, const Frame& frame, const std::vector<g
   out.commit();
 }
 
-int run(int argc, char** argv) {
-  Options o;
-  CLI::App app{"cpvs-view: render a baked .cpvs on its scene (headless, OpenGL 4.5 through OSMesa or EGL): G-buffer,\n"
-               "tile light lists, CPVS shadows walked on the GPU with KxK PCF, KHR_lights_punctual shading. The\n"
-               "lights are the file's; the scene gives the geometry and the materials' base colours."};
+// The frame settings the options ask for (each value checked, the flag named in the error).
+FrameSettings frameSettingsOf(const Options& o) {
+  FrameSettings settings;
+  tools::forFlag("--size", [&] { parseSize(o.size, settings.width, settings.height); });
+  settings.pcfKernel = o.pcf;
+  if (const Outcome k = checkPcfKernel(o.pcf); !k) throw Error(ErrorCategory::InvalidArgument, "--pcf: " + k.message());
+  settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
+  settings.shadowMaps.casterCulling = tools::forFlag("--caster-culling", [&] { return parseCasterCulling(o.casterCulling); });
+  settings.shadowMaps.maskVariant = tools::forFlag("--mask-variant", [&] { return parseReceiverMaskVariant(o.maskVariant); });
+  if (o.shadowMapSize < 8 || o.shadowMapSize > 8192)
+    throw Error(ErrorCategory::InvalidArgument, "--shadow-map-size: 8..8192 texels");
+  if (o.clusters < 1 || o.clusters > 100000) throw Error(ErrorCategory::InvalidArgument, "--clusters: 1..100000");
+  settings.shadowMaps.size = o.shadowMapSize;
+  settings.shadowMaps.clusters = o.clusters;
+  settings.compareWithRays = o.compare || o.overlay == "difference";
+  return settings;
+}
+
+// The combinations of outputs, cameras and exposure the options may not ask for.
+void checkOutputs(const Options& o) {
+  const bool animated = !o.path.empty() || o.orbit > 0;
+  if (animated && o.frames.empty()) throw Error(ErrorCategory::InvalidArgument, "--path / --orbit need --frames DIR");
+  if (!animated && !o.window && o.output.empty())
+    throw Error(ErrorCategory::InvalidArgument, "-o OUT.png or OUT.exr is required (or --window)");
+  if (o.window && animated) throw Error(ErrorCategory::InvalidArgument, "--window excludes --path / --orbit");
+  if (!o.screenshot.empty() && !o.window) throw Error(ErrorCategory::InvalidArgument, "--screenshot needs --window");
+  if (!o.path.empty() && o.orbit > 0) throw Error(ErrorCategory::InvalidArgument, "--path and --orbit exclude each other");
+  if (o.orbit < 0 || o.orbit > 100000) throw Error(ErrorCategory::InvalidArgument, "--orbit: N must be in 1..100000");
+  if (!o.output.empty()) {
+    const std::string ext = std::filesystem::path(o.output).extension().string();
+    if (ext != ".png" && ext != ".exr" && ext != ".PNG" && ext != ".EXR")
+      throw Error(ErrorCategory::InvalidArgument, "-o '" + o.output + "': the name must end in .png or .exr");
+  }
+  if (!o.cameraName.empty() && (!o.eye.empty() || !o.target.empty()))
+    throw Error(ErrorCategory::InvalidArgument, "--camera excludes --eye / --target");
+  if (o.eye.empty() != o.target.empty()) throw Error(ErrorCategory::InvalidArgument, "--eye and --target go together");
+  if (o.fov != 0 && !(o.fov > 0 && o.fov < 180)) throw Error(ErrorCategory::InvalidArgument, "--fov: degrees in (0, 180)");
+  if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
+  if (!(o.exposureScale >= 0 && o.exposureScale <= 1e30))
+    throw Error(ErrorCategory::InvalidArgument, "--exposure-scale: a positive multiplier");
+  if (o.window && !tools::previewWindowBuilt())
+    throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
+}
+
+// The camera: a glTF camera, the command line's, or a default framing.
+PreviewCamera chooseCamera(const Options& o, const Scene& scene, double aspect) {
+  const Bounds bounds = sceneBounds(scene);
+  const glm::dvec3 up = o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
+  PreviewCamera camera;
+  if (!o.cameraName.empty()) {
+    const Camera* found = nullptr;
+    std::string names;
+    for (const Camera& c : scene.cameras) {
+      if (c.name == o.cameraName) found = &c;
+      names += (names.empty() ? "" : ", ") + c.name;
+    }
+    if (!found)
+      throw Error(ErrorCategory::InvalidArgument, "--camera '" + o.cameraName + "': the scene's cameras are " +
+                                                      (names.empty() ? "none" : names));
+    camera = cameraFromScene(*found);
+  } else if (!o.eye.empty()) {
+    camera.eye = vec3Of("--eye", o.eye);
+    camera.target = vec3Of("--target", o.target);
+    camera.up = up;
+  } else {
+    camera = defaultCamera(bounds, aspect, up);
+  }
+  if (o.fov > 0) camera.yfov = o.fov * M_PI / 180.0;
+  tools::forFlag("--eye/--target/--up/--fov", [&] { checkCamera(camera); });
+  return camera;
+}
+
+std::string framePath(const std::string& folder, size_t i) {
+  const std::string n = std::to_string(i);
+  return (std::filesystem::path(folder) / ("frame_" + std::string(4 - std::min<size_t>(4, n.size()), '0') + n + ".png")).string();
+}
+
+void printFrameLine(const std::string& image, const Frame& frame, const FrameSettings& settings, size_t lights,
+                    const ViewReport& report) {
+  std::string line;
+  for (const PassTime& p : frame.passes) {
+    char item[64];
+    std::snprintf(item, sizeof item, "%s%s %.1f ms", line.empty() ? "" : ", ", p.pass.c_str(), p.milliseconds);
+    line += item;
+  }
+  std::fprintf(stderr, "cpvs-view: %s (%ux%u, %zu lights, %.1f per tile): %s\n", image.c_str(), settings.width,
+               settings.height, lights, report.lastLists().meanLightsPerTile, line.c_str());
+  if (settings.compareWithRays)
+    std::fprintf(stderr, "cpvs-view: against Embree rays: %.4f%% wrong pixels, RMSE %.4f\n",
+                 report.lastErrors().wrongPixelPercent(), report.lastErrors().rmse);
+}
+
+void addOptions(CLI::App& app, Options& o) {
   tools::addStandardFlags(app, "cpvs-view");
   app.add_option("scene", o.scene, "The glTF scene the file was baked from (.gltf / .glb)")->required();
   app.add_option("cpvs", o.file, "The baked shadows (.cpvs)")->required();
@@ -182,45 +259,21 @@ int run(int argc, char** argv) {
                                                  "them.\n") + tools::previewWindowKeys());
   app.add_option("--screenshot", o.screenshot, "With --window: write the window's pixels (PNG) after the first frame and close");
   app.add_flag("-q,--quiet", o.quiet, "No summary on stderr");
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  CLI::App app{"cpvs-view: render a baked .cpvs on its scene (headless, OpenGL 4.5 through OSMesa or EGL): G-buffer,\n"
+               "tile light lists, CPVS shadows walked on the GPU with KxK PCF, KHR_lights_punctual shading. The\n"
+               "lights are the file's; the scene gives the geometry and the materials' base colours."};
+  addOptions(app, o);
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
 
-  FrameSettings settings;
-  tools::forFlag("--size", [&] { parseSize(o.size, settings.width, settings.height); });
-  settings.pcfKernel = o.pcf;
-  if (const Outcome k = checkPcfKernel(o.pcf); !k) throw Error(ErrorCategory::InvalidArgument, "--pcf: " + k.message());
-  settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
-  settings.casterCulling = tools::forFlag("--caster-culling", [&] { return parseCasterCulling(o.casterCulling); });
-  settings.maskVariant = tools::forFlag("--mask-variant", [&] { return parseReceiverMaskVariant(o.maskVariant); });
-  if (o.shadowMapSize < 8 || o.shadowMapSize > 8192)
-    throw Error(ErrorCategory::InvalidArgument, "--shadow-map-size: 8..8192 texels");
-  if (o.clusters < 1 || o.clusters > 100000) throw Error(ErrorCategory::InvalidArgument, "--clusters: 1..100000");
-  settings.shadowMapSize = o.shadowMapSize;
-  settings.clusters = o.clusters;
+  const FrameSettings settings = frameSettingsOf(o);
   const Overlay overlay = tools::forFlag("--overlay", [&] { return parseOverlay(o.overlay); });
-  settings.compareWithRays = o.compare || overlay == Overlay::Difference;
   const RasterBackend backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   const bool animated = !o.path.empty() || o.orbit > 0;
-  if (animated && o.frames.empty()) throw Error(ErrorCategory::InvalidArgument, "--path / --orbit need --frames DIR");
-  if (!animated && !o.window && o.output.empty())
-    throw Error(ErrorCategory::InvalidArgument, "-o OUT.png or OUT.exr is required (or --window)");
-  if (o.window && animated) throw Error(ErrorCategory::InvalidArgument, "--window excludes --path / --orbit");
-  if (!o.screenshot.empty() && !o.window) throw Error(ErrorCategory::InvalidArgument, "--screenshot needs --window");
-  if (!o.path.empty() && o.orbit > 0) throw Error(ErrorCategory::InvalidArgument, "--path and --orbit exclude each other");
-  if (o.orbit < 0 || o.orbit > 100000) throw Error(ErrorCategory::InvalidArgument, "--orbit: N must be in 1..100000");
-  if (!o.output.empty()) {
-    const std::string ext = std::filesystem::path(o.output).extension().string();
-    if (ext != ".png" && ext != ".exr" && ext != ".PNG" && ext != ".EXR")
-      throw Error(ErrorCategory::InvalidArgument, "-o '" + o.output + "': the name must end in .png or .exr");
-  }
-  if (!o.cameraName.empty() && (!o.eye.empty() || !o.target.empty()))
-    throw Error(ErrorCategory::InvalidArgument, "--camera excludes --eye / --target");
-  if (o.eye.empty() != o.target.empty()) throw Error(ErrorCategory::InvalidArgument, "--eye and --target go together");
-  if (o.fov != 0 && !(o.fov > 0 && o.fov < 180)) throw Error(ErrorCategory::InvalidArgument, "--fov: degrees in (0, 180)");
-  if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
-  if (!(o.exposureScale >= 0 && o.exposureScale <= 1e30))
-    throw Error(ErrorCategory::InvalidArgument, "--exposure-scale: a positive multiplier");
-  if (o.window && !tools::previewWindowBuilt())
-    throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
+  checkOutputs(o);
   std::unique_ptr<tools::AtomicFile> reportFile;
   if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
   if (!o.output.empty()) tools::AtomicFile probe(o.output);  // fails now, before any work, when it cannot be written
@@ -244,31 +297,7 @@ int run(int argc, char** argv) {
   std::vector<LightShadow> lights;
   for (const CpvsFile::LightEntry& entry : file->lights()) lights.push_back(orThrow(lightShadowOf(entry)));
 
-  // The camera: a glTF camera, the command line's, or a default framing.
-  const Bounds bounds = sceneBounds(scene);
-  const double aspect = double(settings.width) / settings.height;
-  const glm::dvec3 up = o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
-  PreviewCamera camera;
-  if (!o.cameraName.empty()) {
-    const Camera* found = nullptr;
-    std::string names;
-    for (const Camera& c : scene.cameras) {
-      if (c.name == o.cameraName) found = &c;
-      names += (names.empty() ? "" : ", ") + c.name;
-    }
-    if (!found)
-      throw Error(ErrorCategory::InvalidArgument, "--camera '" + o.cameraName + "': the scene's cameras are " +
-                                                      (names.empty() ? "none" : names));
-    camera = cameraFromScene(*found);
-  } else if (!o.eye.empty()) {
-    camera.eye = vec3Of("--eye", o.eye);
-    camera.target = vec3Of("--target", o.target);
-    camera.up = up;
-  } else {
-    camera = defaultCamera(bounds, aspect, up);
-  }
-  if (o.fov > 0) camera.yfov = o.fov * M_PI / 180.0;
-  tools::forFlag("--eye/--target/--up/--fov", [&] { checkCamera(camera); });
+  const PreviewCamera camera = chooseCamera(o, scene, double(settings.width) / settings.height);
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
   if (o.orbit > 0) cameras = orbit(camera, o.orbit);
@@ -291,79 +320,19 @@ int run(int argc, char** argv) {
     return 0;
   }
   renderer.warmUp(settings);
-  json report = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", o.scene}, {"cpvs", o.file},
-                 {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
-                 {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
-                 {"overlay", overlayName(overlay)}, {"lights", renderer.lights().size()},
-                 {"clusters", settings.shadows == ShadowMode::LightCluster ? json(settings.clusters) : json(nullptr)},
-                 {"scene_triangles", renderer.sceneTriangles()},
-                 {"baked_from", {{"checked", check.checked}, {"matches", check.matches}, {"reason", check.reason}}}};
-  json frames = json::array();
-  std::map<std::string, std::pair<double, double>> sums;  // pass -> (sum, max)
+  ViewReport report(o.scene, o.file, renderer, settings, overlay, check);
   double exposure = 0;
   for (size_t i = 0; i < cameras.size(); ++i) {
     const Frame frame = renderer.render(cameras[i], settings);
     if (i == 0)  // one exposure per path
       exposure = o.exposureScale > 0 ? o.exposureScale : autoExposure(frame.radiance) * std::exp2(o.exposure);
-    const std::string image = animated ? (std::filesystem::path(o.frames) / ("frame_" + std::string(4 - std::min<size_t>(4, std::to_string(i).size()), '0') + std::to_string(i) + ".png")).string()
-                                       : o.output;
+    const std::string image = animated ? framePath(o.frames, i) : o.output;
     writeImage(image, frame, frame.radiance, exposure, overlay);
-    const LightListStats lists = lightListStats(frame, renderer.lights().size());
-    json entry = {{"image", image}, {"camera", cameraJson(cameras[i])}, {"passes_ms", passesJson(frame)},
-                  {"gpu_timers", frame.passes.empty() || frame.passes.front().gpuTimer},
-                  {"light_lists", {{"covered_tiles", lists.coveredTiles}, {"mean_lights_per_tile", lists.meanLightsPerTile},
-                                   {"max_lights_per_tile", lists.maxLightsPerTile}, {"pairs_listed", lists.pairsListed},
-                                   {"pairs_culled", lists.pairsCulled}}},
-                  {"uploaded_bytes", {{"once", renderer.staticUploadBytes()}, {"this_frame", frame.uploadedBytes - renderer.staticUploadBytes()}}},
-                  {"exposure", exposure}};
-    if (settings.shadows == ShadowMode::ShadowMap || settings.shadows == ShadowMode::LightCluster) {
-      const ShadowMapFrame& maps = frame.shadowMaps;
-      uint64_t most = 0, sum = 0, lit = 0;
-      for (uint64_t t : maps.trianglesPerLight)
-        if (t) most = std::max(most, t), sum += t, ++lit;
-      entry["shadow_maps"] = {{"caster_culling", casterCullingName(settings.casterCulling)},
-                              {"mask_variant", receiverMaskVariantName(settings.maskVariant)},
-                              {"size", maps.size}, {"maps", maps.views.size()},
-                              {"triangles_drawn", maps.trianglesDrawn()},
-                              {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
-                              {"triangles_per_light_max", most}, {"lights_with_maps", lit},
-                              {"gpu_bytes", maps.bytes}};
-    } else if (settings.shadows == ShadowMode::Gpu || settings.shadows == ShadowMode::Cpu) {
-      // The DAGs and their records, in GPU memory for the GPU walk, in CPU memory (the mapped file) for the CPU's.
-      entry[settings.shadows == ShadowMode::Gpu ? "cpvs_gpu_bytes" : "cpvs_cpu_bytes"] = renderer.shadowDataBytes();
-    }
-    if (settings.compareWithRays) {
-      const RayErrors e = errorsAgainstRays(frame, exposure);
-      entry["against_rays"] = {{"rmse", e.rmse}, {"wrong_pixels_percent", e.wrongPixelPercent()},
-                               {"wrong_pixels", e.wrongPixels}, {"covered_pixels", e.coveredPixels},
-                               {"wrong_pairs", e.wrongPairs}, {"pairs", e.pairs}};
-    }
-    for (const PassTime& p : frame.passes) {
-      auto& s = sums[p.pass];
-      s.first += p.milliseconds;
-      s.second = std::max(s.second, p.milliseconds);
-    }
-    if (!o.quiet) {
-      std::string line;
-      for (const PassTime& p : frame.passes) {
-        char item[64];
-        std::snprintf(item, sizeof item, "%s%s %.1f ms", line.empty() ? "" : ", ", p.pass.c_str(), p.milliseconds);
-        line += item;
-      }
-      std::fprintf(stderr, "cpvs-view: %s (%ux%u, %zu lights, %.1f per tile): %s\n", image.c_str(), settings.width,
-                   settings.height, renderer.lights().size(), lists.meanLightsPerTile, line.c_str());
-      if (settings.compareWithRays)
-        std::fprintf(stderr, "cpvs-view: against Embree rays: %.4f%% wrong pixels, RMSE %.4f\n",
-                     entry["against_rays"]["wrong_pixels_percent"].get<double>(), entry["against_rays"]["rmse"].get<double>());
-    }
-    frames.push_back(std::move(entry));
+    report.addFrame(image, cameras[i], frame, exposure);
+    if (!o.quiet) printFrameLine(image, frame, settings, renderer.lights().size(), report);
   }
-  report["frames"] = frames;
-  json summary = json::object();
-  for (const auto& [pass, s] : sums) summary[pass] = {{"mean_ms", s.first / double(cameras.size())}, {"max_ms", s.second}};
-  report["summary"] = summary;
   if (reportFile) {
-    reportFile->write(report.dump(2) + "\n");
+    reportFile->write(report.text());
     reportFile->commit();
   }
   return 0;

@@ -1,0 +1,68 @@
+#pragma once
+// A frame's shadow technique: given the G-buffer and the tile light lists, the visibility of every listed
+// (pixel, light) pair. The renderer runs G-buffer -> tile bounds -> light lists -> the technique -> shading and
+// knows no technique by name; each technique is one file (with its shaders), made by makeShadowPass. A new
+// one: its file, and one line in shadow_techniques.cpp (docs/architecture.md).
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "libcpvs/preview/frame.h"
+#include "libcpvs/preview/renderer_resources.h"
+
+namespace cpvs {
+
+// Every (pixel, listed light) pair of a frame grouped by light: the pair indices and the surface points.
+struct PairsOfLight {
+  std::vector<size_t> pairs;
+  std::vector<SurfacePoint> points;
+};
+std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount);
+
+// What the renderer hands a technique for one frame.
+class ShadowPassFrame {
+public:
+  using Timed = std::function<void(const std::string& pass, const std::function<void()>& work)>;
+  ShadowPassFrame(Frame& frame, const FrameSettings& settings, RendererResources& resources, Timed timed)
+      : frame(frame), settings(settings), resources(resources), timed_(std::move(timed)) {}
+
+  Frame& frame;  // G-buffer, lists and sizes filled in; the technique fills visibility (or its GPU buffer)
+  const FrameSettings& settings;
+  RendererResources& resources;
+  // GPU buffers: the tile lists (offsets, lights) and the per-pair visibility the shading pass reads (64
+  // slots per list entry, Frame::pairIndex), and the recorded cells when settings.recordCells.
+  GLuint offsets = 0, lists = 0, visibility = 0, cells = 0;
+
+  // Runs `work` as a pass named `pass`, timed on the GPU where the context's timers measure work (else the
+  // wall clock around glFinish), and records it in the frame.
+  void timed(const std::string& pass, const std::function<void()>& work) { timed_(pass, work); }
+  // The pairs grouped by light (computed once per frame, on first use).
+  const std::vector<PairsOfLight>& pairsByLight();
+  // Binds the G-buffer textures, the lights, views, DAGs, lists and visibility buffers and the frame's sizes
+  // for a program that includes scene_buffers.glsl.
+  void bindSceneBuffers(GLuint program) const;
+
+private:
+  Timed timed_;
+  std::optional<std::vector<PairsOfLight>> pairs_;
+};
+
+class ShadowPass {
+public:
+  virtual ~ShadowPass() = default;
+  // Writes every listed pair's visibility in [0, 1]. Returns true when it is in the GPU buffer
+  // frame.visibility (and copied to Frame::visibility), false when it is in Frame::visibility only (the
+  // renderer uploads it for the shading pass).
+  virtual bool run(ShadowPassFrame& frame) = 0;
+};
+
+// The technique of a shadow mode, its programs linked on `resources`' context (which must be current).
+std::unique_ptr<ShadowPass> makeShadowPass(ShadowMode mode, RendererResources& resources);
+
+// Embree's answer for every listed pair (0 or 1), as the ray-traced technique and --compare use it.
+std::vector<float> rayTracedVisibility(ShadowPassFrame& frame);
+
+}  // namespace cpvs
