@@ -267,7 +267,12 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
   }
   f.radiance = passes.shade(f, shadows, camera, true);
   if (settings.compareWithRays) {
-    f.rayVisibility = settings.shadows == ShadowMode::RayTraced ? f.visibility : rayTracedVisibility(shadows);
+    if (settings.shadows == ShadowMode::RayTraced) {
+      f.rayVisibility = f.visibility;
+    } else {
+      f.rayVisibility.assign(f.visibility.size(), 0.0f);
+      rayTracedVisibility(shadows, f.rayVisibility.data());
+    }
     passes.uploadVisibility(f.rayVisibility);  // the comparison's upload is not counted as the frame's
     f.rayRadiance = passes.shade(f, shadows, camera, false);
     gl::checkError(*r.context, "shading the ray-traced frame");

@@ -62,7 +62,8 @@ public:
 // The technique of a shadow mode, its programs linked on `resources`' context (which must be current).
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowMode mode, RendererResources& resources);
 
-// Embree's answer for every listed pair (0 or 1), as the ray-traced technique and --compare use it.
-std::vector<float> rayTracedVisibility(ShadowPassFrame& frame);
+// Embree's answer for every listed pair (0 or 1) into out[pair index] (Frame::pairIndex; slots of no pair are
+// left as they are), as the ray-traced technique and --compare use it.
+void rayTracedVisibility(ShadowPassFrame& frame, float* out);
 
 }  // namespace cpvs
