@@ -418,6 +418,37 @@ TEST(Preview, AShadowTechniqueIsOneClassBehindShadowPass) {
   EXPECT_NE(halved.milliseconds("shading"), 0.0) << "the renderer's own passes still ran";
 }
 
+// The filtered reference (rays over each pair's PCF footprint) measures what 9 x 9 PCF estimates: the CPU
+// runtime's filtered answers are closer to it than to one hard ray per pair, and more rays bring it closer.
+TEST(Preview, FootprintRaysAreTheReferenceForFilteredLookups) {
+  Baked& b = city();
+  REQUIRE_RENDERER(b);
+  FrameSettings settings;
+  settings.width = 160;
+  settings.height = 96;
+  settings.pcfKernel = 9;
+  settings.shadows = ShadowMode::Cpu;
+  settings.compareWithRays = true;
+  const PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 160.0 / 96.0);
+  double difference[3] = {};
+  int i = 0;
+  for (int raysPerSide : {1, 3, 9}) {
+    settings.compareRaysPerSide = raysPerSide;
+    const Frame f = b.renderer->render(camera, settings);
+    const RayErrors e = errorsAgainstRays(f, 1.0);
+    ASSERT_GT(e.pairs, 1000u);
+    difference[i++] = e.meanAbsoluteDifference;
+    // A filtered reference takes values between 0 and 1; one ray only 0 or 1.
+    bool fractional = false;
+    f.forEachPair([&](uint32_t, uint32_t, size_t, uint32_t, size_t p) {
+      fractional |= f.rayVisibility[p] > 0.0f && f.rayVisibility[p] < 1.0f;
+    });
+    EXPECT_EQ(fractional, raysPerSide > 1) << raysPerSide;
+  }
+  EXPECT_LT(difference[2], 0.75 * difference[0]) << "81 rays " << difference[2] << ", one ray " << difference[0];
+  EXPECT_LT(difference[2], difference[1] * 1.05) << "81 rays " << difference[2] << ", 9 rays " << difference[1];
+}
+
 // A base-colour texture reaches the G-buffer decoded from sRGB, times the material's factor: a quad with a
 // 2 x 2 texture (two sRGB colours) and a factor, seen from above.
 // A 20 m quad with u along +x under `texture` (left half an sRGB colour, right half white), seen from above: the

@@ -48,6 +48,10 @@ struct FrameSettings {
   // Also trace every (pixel, light) pair with Embree and shade that frame: the error figures, and the
   // difference overlay (which turns this on).
   bool compareWithRays = false;
+  // Rays per pair, as s x s: for --shadows raytraced (raysPerSide) and for the --compare reference
+  // (compareRaysPerSide). 1: one hard ray from the surface point; s > 1: s x s rays spread over the pair's
+  // K x K PCF footprint at the lookup's slice (reference/footprint_rays.h), the filtered quantity PCF estimates.
+  int raysPerSide = 1, compareRaysPerSide = 1;
   // GPU shadows: keep each pair's voxel, verdict and count (Frame::cells), for tests.
   bool recordCells = false;
   // Lights switched off (indices into the renderer's lights): in no tile's list, so neither shaded nor looked up.

@@ -197,12 +197,14 @@ RayErrors errorsAgainstRays(const Frame& frame, double exposure) {
   for (const glm::vec4& p : frame.positions) e.coveredPixels += p.w != 0.0f;
   frame.forEachPair([&](uint32_t, uint32_t, size_t i, uint32_t, size_t p) {
     ++e.pairs;
+    e.meanAbsoluteDifference += std::fabs(double(frame.visibility[p]) - double(frame.rayVisibility[p]));
     if ((frame.visibility[p] >= 0.5f) != (frame.rayVisibility[p] >= 0.5f)) {
       ++e.wrongPairs;
       wrong[i] = 1;
     }
   });
   for (uint8_t w : wrong) e.wrongPixels += w;
+  if (e.pairs) e.meanAbsoluteDifference /= double(e.pairs);
   const RgbImage a = toneMapped(frame, frame.radiance, exposure), b = toneMapped(frame, frame.rayRadiance, exposure);
   double sum = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {

@@ -51,6 +51,7 @@ struct RayErrors {
   uint64_t pairs = 0, wrongPairs = 0;
   size_t coveredPixels = 0, wrongPixels = 0;
   double rmse = 0;
+  double meanAbsoluteDifference = 0;  // mean |visibility - reference| over the pairs (filtered against filtered)
   double wrongPixelPercent() const { return coveredPixels ? 100.0 * double(wrongPixels) / double(coveredPixels) : 0.0; }
 };
 RayErrors errorsAgainstRays(const Frame& frame, double exposure);

@@ -267,11 +267,11 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
   }
   f.radiance = passes.shade(f, shadows, camera, true);
   if (settings.compareWithRays) {
-    if (settings.shadows == ShadowMode::RayTraced) {
+    if (settings.shadows == ShadowMode::RayTraced && settings.raysPerSide == settings.compareRaysPerSide) {
       f.rayVisibility = f.visibility;
     } else {
       f.rayVisibility.assign(f.visibility.size(), 0.0f);
-      rayTracedVisibility(shadows, f.rayVisibility.data());
+      rayTracedVisibility(shadows, settings.compareRaysPerSide, f.rayVisibility.data());
     }
     passes.uploadVisibility(f.rayVisibility);  // the comparison's upload is not counted as the frame's
     f.rayRadiance = passes.shade(f, shadows, camera, false);

@@ -62,8 +62,9 @@ public:
 // The technique of a shadow mode, its programs linked on `resources`' context (which must be current).
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowMode mode, RendererResources& resources);
 
-// Embree's answer for every listed pair (0 or 1) into out[pair index] (Frame::pairIndex; slots of no pair are
-// left as they are), as the ray-traced technique and --compare use it.
-void rayTracedVisibility(ShadowPassFrame& frame, float* out);
+// Embree's answer for every listed pair into out[pair index] (Frame::pairIndex; slots of no pair are left as
+// they are), as the ray-traced technique and --compare use it: one hard ray (0 or 1) for raysPerSide 1, else
+// the fraction of raysPerSide^2 rays over the pair's PCF footprint that reach the light.
+void rayTracedVisibility(ShadowPassFrame& frame, int raysPerSide, float* out);
 
 }  // namespace cpvs

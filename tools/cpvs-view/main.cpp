@@ -38,7 +38,7 @@ using json = nlohmann::ordered_json;
 struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
   std::string shadows = "gpu", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
-  uint32_t shadowMapSize = 512, clusters = 10;
+  uint32_t shadowMapSize = 512, clusters = 10, rays = 1, compareRays = 1;
   double fov = 0, exposure = 0, exposureScale = 0;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
@@ -127,6 +127,14 @@ void writeImage(const std::string& path, const Frame& frame, const std::vector<g
   out.commit();
 }
 
+// s for s * s rays per pair (a square, 1 .. 64^2).
+int raysPerSideOf(uint32_t rays) {
+  const uint32_t s = uint32_t(std::lround(std::sqrt(double(rays))));
+  if (rays < 1 || s * s != rays || s > 64)
+    throw Error(ErrorCategory::InvalidArgument, std::to_string(rays) + " rays per pair: 1 or a square s*s up to 4096");
+  return int(s);
+}
+
 // The frame settings the options ask for (each value checked, the flag named in the error).
 FrameSettings frameSettingsOf(const Options& o) {
   FrameSettings settings;
@@ -142,6 +150,8 @@ FrameSettings frameSettingsOf(const Options& o) {
   settings.shadowMaps.size = o.shadowMapSize;
   settings.shadowMaps.clusters = o.clusters;
   settings.compareWithRays = o.compare || o.overlay == "difference";
+  settings.raysPerSide = tools::forFlag("--rays", [&] { return raysPerSideOf(o.rays); });
+  settings.compareRaysPerSide = tools::forFlag("--compare-rays", [&] { return raysPerSideOf(o.compareRays); });
   return settings;
 }
 
@@ -241,7 +251,12 @@ void addOptions(CLI::App& app, Options& o) {
   app.add_option("--shadow-map-size", o.shadowMapSize, "shadowmap / lightcluster: the maps' edge in texels (8..8192; default 512)");
   app.add_option("--clusters", o.clusters, "lightcluster: how many clusters (default 10)");
   app.add_option("--overlay", o.overlay, "none, lights-per-tile, difference (against Embree) or shadow-count");
-  app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE and % wrong pixels in the report");
+  app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE, % wrong pixels and the mean visibility "
+                                       "difference in the report");
+  app.add_option("--rays", o.rays, "raytraced: rays per (pixel, light) pair: 1 (default) one hard ray from the surface "
+                                   "point; a square s*s (e.g. 16, 81) spread over the pair's KxK PCF footprint, the "
+                                   "filtered quantity PCF estimates");
+  app.add_option("--compare-rays", o.compareRays, "--compare's reference: rays per pair as for --rays (default 1)");
   app.add_option("--exposure", o.exposure, "Exposure in stops over the automatic one (default 0)");
   app.add_option("--exposure-scale", o.exposureScale,
                  "A fixed exposure (radiance multiplier) instead of the automatic one, e.g. to compare views");

@@ -45,6 +45,7 @@ ViewReport::ViewReport(const std::string& scene, const std::string& file, const 
   report_ = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", scene}, {"cpvs", file},
              {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
              {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
+             {"rays_per_pair", settings.shadows == ShadowMode::RayTraced ? json(settings.raysPerSide * settings.raysPerSide) : json(nullptr)},
              {"overlay", overlayName(overlay)}, {"lights", renderer.lights().size()},
              {"clusters", settings.shadows == ShadowMode::LightCluster ? json(settings.shadowMaps.clusters) : json(nullptr)},
              {"scene_triangles", renderer.sceneTriangles()},
@@ -73,7 +74,9 @@ void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera,
     const RayErrors& e = lastErrors_;
     entry["against_rays"] = {{"rmse", e.rmse}, {"wrong_pixels_percent", e.wrongPixelPercent()},
                              {"wrong_pixels", e.wrongPixels}, {"covered_pixels", e.coveredPixels},
-                             {"wrong_pairs", e.wrongPairs}, {"pairs", e.pairs}};
+                             {"wrong_pairs", e.wrongPairs}, {"pairs", e.pairs},
+                             {"mean_abs_visibility_difference", e.meanAbsoluteDifference},
+                             {"reference_rays_per_pair", settings_.compareRaysPerSide * settings_.compareRaysPerSide}};
   }
   for (const PassTime& p : frame.passes) {
     auto& s = sums_[p.pass];
