@@ -85,32 +85,36 @@ public:
     });
   }
 
-  // 3. Light lists: count, prefix sum, (the total read back to size the list), fill; then the G-buffer read back.
+  // 3. Light lists: per super-tile (kSuperTile x kSuperTile tiles) the lights its bounds meet, at most every
+  // light; then per tile those of its super-tile's that meet the tile (light_lists.comp): count, prefix sum
+  // (prefix_sum.comp), the total read back to size the list, fill. Then the G-buffer read back.
   void lightLists(Frame& f) {
     const gl::Context& c = *r_.context;
-    const size_t tiles = f.lists.tiles();
+    const size_t tiles = f.lists.tiles(), lights = std::max<size_t>(1, r_.lights.size());
+    const size_t supers = size_t((f.lists.tilesX + kSuperTile - 1) / kSuperTile) * ((f.lists.tilesY + kSuperTile - 1) / kSuperTile);
+    r_.requireStorage(supers * lights * 4, "the light lists of " + std::to_string(supers) + " super-tiles");
+    const GLuint superBounds = buffers_.add(gl::createStorageBuffer(c, nullptr, supers * 32));
+    const GLuint superCounts = buffers_.add(gl::createStorageBuffer(c, nullptr, supers * 4));
+    const GLuint superLights = buffers_.add(gl::createStorageBuffer(c, nullptr, supers * lights * 4));
     const GLuint counts = buffers_.add(gl::createStorageBuffer(c, nullptr, tiles * 4));
     offsets_ = buffers_.add(gl::createStorageBuffer(c, nullptr, (tiles + 1) * 4));
     timed(f, "light_lists", [&] {
-      for (GLuint program : {r_.countProgram, r_.prefixProgram}) {
-        g_.UseProgram(program);
-        setSizes(f, program);
-        g_.Uniform1i(g_.GetUniformLocation(program, "lightCount"), GLint(r_.lights.size()));
-        for (auto [index, buffer] : {std::pair{binding::kTileBounds, tileBounds_}, {binding::kLightReals, r_.lightReals},
-                                       {binding::kLightWords, r_.lightWords}, {binding::kTileCounts, counts}, {binding::kTileOffsets, offsets_}})
-          g_.BindBufferBase(GL_SHADER_STORAGE_BUFFER, index, buffer);
-        g_.DispatchCompute(program == r_.prefixProgram ? 1 : GLuint((tiles + 255) / 256), 1, 1);
-        g_.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
-      }
-      f.lists.offsets.resize(tiles + 1);
-      gl::readStorageBuffer(c, offsets_, f.lists.offsets.data(), f.lists.offsets.size() * 4);
-      lists_ = buffers_.add(gl::createStorageBuffer(c, nullptr, size_t(f.lists.offsets.back()) * 4));
-      g_.UseProgram(r_.fillProgram);
-      setSizes(f, r_.fillProgram);
-      g_.Uniform1i(g_.GetUniformLocation(r_.fillProgram, "lightCount"), GLint(r_.lights.size()));
-      g_.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kTileLights, lists_);
-      g_.DispatchCompute(GLuint((tiles + 255) / 256), 1, 1);
-      g_.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+      g_.UseProgram(r_.superBoundsProgram);
+      setSizes(f, r_.superBoundsProgram);
+      bind({{binding::kTileBounds, tileBounds_}, {binding::kSuperBounds, superBounds}});
+      dispatch(supers, 64);
+      g_.UseProgram(r_.superListProgram);
+      setSizes(f, r_.superListProgram);
+      g_.Uniform1i(g_.GetUniformLocation(r_.superListProgram, "tiles"), GLint(supers));
+      g_.Uniform1i(g_.GetUniformLocation(r_.superListProgram, "lightCount"), GLint(r_.lights.size()));
+      bind({{binding::kTileBounds, superBounds}, {binding::kLightReals, r_.lightReals},
+            {binding::kLightWords, r_.lightWords}, {binding::kTileCounts, superCounts},
+            {binding::kTileLights, superLights}});
+      dispatch(supers, 256);
+      lists_ = tileLists(f, tiles, {r_.countProgram, r_.fillProgram},
+                         {{binding::kTileBounds, tileBounds_}, {binding::kTileCounts, counts},
+                          {binding::kTileOffsets, offsets_}, {binding::kSuperCounts, superCounts},
+                          {binding::kSuperLights, superLights}});
     });
     gl::checkError(c, "building the tile light lists");
     f.lists.lights.resize(f.lists.offsets.back());
@@ -173,6 +177,44 @@ public:
   }
 
 private:
+  using Bindings = std::initializer_list<std::pair<GLuint, GLuint>>;  // (binding, buffer)
+  void bind(Bindings bindings) {
+    for (const auto& [index, buffer] : bindings) g_.BindBufferBase(GL_SHADER_STORAGE_BUFFER, index, buffer);
+  }
+  void dispatch(size_t invocations, size_t groupSize) {
+    g_.DispatchCompute(GLuint((invocations + groupSize - 1) / groupSize), 1, 1);
+    g_.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
+  }
+  // The tiles' lists from their super-tiles' candidates: count, prefix sum, the total read back (into
+  // Frame::lists.offsets) to size the list, fill. Returns the list buffer.
+  GLuint tileLists(Frame& f, size_t cells, std::pair<GLuint, GLuint> countAndFill, Bindings bindings) {
+    const gl::Context& c = *r_.context;
+    GLuint offsets = 0;
+    for (const auto& [index, buffer] : bindings)
+      if (index == binding::kTileOffsets) offsets = buffer;
+    for (GLuint program : {countAndFill.first, r_.prefixProgram}) {
+      g_.UseProgram(program);
+      setSizes(f, program);
+      g_.Uniform1i(g_.GetUniformLocation(program, "tiles"), GLint(cells));
+      g_.Uniform1i(g_.GetUniformLocation(program, "lightCount"), GLint(r_.lights.size()));
+      bind(bindings);
+      bind({{binding::kLightReals, r_.lightReals}, {binding::kLightWords, r_.lightWords}});
+      dispatch(program == r_.prefixProgram ? 1 : cells, program == r_.prefixProgram ? 1 : 256);
+    }
+    std::vector<uint32_t>& out = f.lists.offsets;
+    out.resize(cells + 1);
+    gl::readStorageBuffer(c, offsets, out.data(), out.size() * 4);
+    const GLuint lights = buffers_.add(gl::createStorageBuffer(c, nullptr, size_t(out.back()) * 4));
+    g_.UseProgram(countAndFill.second);
+    setSizes(f, countAndFill.second);
+    g_.Uniform1i(g_.GetUniformLocation(countAndFill.second, "tiles"), GLint(cells));
+    g_.Uniform1i(g_.GetUniformLocation(countAndFill.second, "lightCount"), GLint(r_.lights.size()));
+    bind(bindings);
+    bind({{binding::kLightReals, r_.lightReals}, {binding::kLightWords, r_.lightWords}, {binding::kTileLights, lights}});
+    dispatch(cells, 256);
+    return lights;
+  }
+
   void setSizes(const Frame& f, GLuint program) {
     g_.Uniform2i(g_.GetUniformLocation(program, "imageSize_"), GLint(f.width), GLint(f.height));
     g_.Uniform2i(g_.GetUniformLocation(program, "tileCount"), GLint(f.lists.tilesX), GLint(f.lists.tilesY));

@@ -39,7 +39,7 @@ void resampleIntoLayer(const Texture& t, uint8_t* layer, uint32_t edge, size_t i
 }  // namespace
 
 std::string computeSource(std::initializer_list<const char*> parts) {
-  std::string s = "#version 450\n";
+  std::string s = "#version 450\n#define CPVS_SUPER_TILE " + std::to_string(kSuperTile) + "u\n";
   for (const char* p : parts) s += p;
   return s;
 }
@@ -83,6 +83,12 @@ void RendererResources::linkPrograms() {
       c, {{GL_COMPUTE_SHADER, computeSource({glsl::lookup_records_glsl, glsl::light_cull_glsl, glsl::light_lists_comp})}},
       "light list");
   prefixProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::prefix_sum_comp})}}, "prefix sum");
+  superBoundsProgram =
+      gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::super_bounds_comp})}}, "super-tile bounds");
+  const char* superTiles = "#define SUPER_TILES\n#define CPVS_SPHERE_SCALE 2.0LF\n";
+  superListProgram = gl::linkProgram(
+      c, {{GL_COMPUTE_SHADER, computeSource({superTiles, glsl::lookup_records_glsl, glsl::light_cull_glsl,
+                                             glsl::light_lists_comp})}}, "super-tile light list");
   shadingProgram = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n", glsl::lookup_records_glsl,
                                              glsl::scene_buffers_glsl, glsl::shading_comp})}}, "shading");

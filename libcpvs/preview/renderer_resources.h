@@ -24,11 +24,14 @@ namespace binding {
 enum : GLuint {
   kTileBounds = 0, kLightReals = 1, kLightWords = 2, kTileCounts = 3, kTileOffsets = 4, kTileLights = 5,
   kViewReals = 6, kViewWords = 7, kDagNodes = 8, kDagLeaves = 9, kVisibility = 10, kCells = 11, kRadiance = 12,
-  kStats = 13, kMaskHeaders = 14, kMaskBytes = 15,
+  kStats = 13, kMaskHeaders = 14, kMaskBytes = 15, kSuperCounts = 16, kSuperLights = 17, kSuperBounds = 18,
 };
 }  // namespace binding
 
-// "#version 450\n" and the parts, in order: a compute shader's source.
+// Screen tiles per super-tile side in the light lists' first level (light_lists.comp, super_bounds.comp).
+inline constexpr uint32_t kSuperTile = 8;
+
+// "#version 450\n" and the parts, in order: a compute shader's source (with CPVS_SUPER_TILE defined).
 std::string computeSource(std::initializer_list<const char*> parts);
 
 // GL buffers made for one frame (or one technique's frame), deleted together.
@@ -81,6 +84,8 @@ public:
 
   GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
          shadingProgram = 0;
+  // The light lists' first level: super-tiles of 8 x 8 tiles, their bounds, their lights (light_lists.comp).
+  GLuint superBoundsProgram = 0, superListProgram = 0;
   // The triangles as the G-buffer draws them (one vertex per corner), and their world corners in that order
   // with whether each casts (the per-frame shadow maps draw from the same array).
   GLuint vertexArray = 0, vertexBuffer = 0;

@@ -4,6 +4,9 @@
 // Conservative: in doubles, with the sphere enlarged by a relative 1e-6, so rounding never drops a light a
 // pixel of the tile is in (tests/preview_test.cpp checks every pixel). bruteForceLightLists
 // (libcpvs/preview/light_lists.cpp) is the same test in C++, operation for operation.
+#ifndef CPVS_SPHERE_SCALE
+#define CPVS_SPHERE_SCALE 1.0LF  // light_lists.comp doubles it for super-tiles
+#endif
 bool cpvsLightMeetsBox(uint type, dvec3 position, dvec3 direction, double range, double cosOuter, double sinOuter,
                        dvec3 lo, dvec3 hi) {
   if (type == 0u) return true;
@@ -13,8 +16,8 @@ bool cpvsLightMeetsBox(uint type, dvec3 position, dvec3 direction, double range,
   if (type == 2u || cosOuter <= 0.0LF) return true;
   precise dvec3 centre = 0.5LF * (lo + hi);
   precise dvec3 size = hi - lo;
-  precise double radius = 0.5LF * sqrt((size.x * size.x + size.y * size.y) + size.z * size.z) * 1.000001LF +
-                          1e-9LF * ((abs(centre.x) + abs(centre.y)) + abs(centre.z) + 1.0LF);
+  precise double radius = (0.5LF * sqrt((size.x * size.x + size.y * size.y) + size.z * size.z) * 1.000001LF +
+                           1e-9LF * ((abs(centre.x) + abs(centre.y)) + abs(centre.z) + 1.0LF)) * CPVS_SPHERE_SCALE;
   precise dvec3 toCentre = centre - position;
   precise double along = (toCentre.x * direction.x + toCentre.y * direction.y) + toCentre.z * direction.z;
   precise double length2 = (toCentre.x * toCentre.x + toCentre.y * toCentre.y) + toCentre.z * toCentre.z;
