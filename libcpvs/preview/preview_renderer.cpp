@@ -97,6 +97,9 @@ public:
     const GLuint superCounts = buffers_.add(gl::createStorageBuffer(c, nullptr, supers * 4));
     const GLuint superLights = buffers_.add(gl::createStorageBuffer(c, nullptr, supers * lights * 4));
     const GLuint counts = buffers_.add(gl::createStorageBuffer(c, nullptr, tiles * 4));
+    const size_t wordsPerTile = (lights + 31) / 32;
+    r_.requireStorage(tiles * wordsPerTile * 4, "the light lists of " + std::to_string(tiles) + " tiles");
+    const GLuint tileBits = buffers_.add(gl::createStorageBuffer(c, nullptr, tiles * wordsPerTile * 4));
     offsets_ = buffers_.add(gl::createStorageBuffer(c, nullptr, (tiles + 1) * 4));
     timed(f, "light_lists", [&] {
       g_.UseProgram(r_.superBoundsProgram);
@@ -114,7 +117,8 @@ public:
       lists_ = tileLists(f, tiles, {r_.countProgram, r_.fillProgram},
                          {{binding::kTileBounds, tileBounds_}, {binding::kTileCounts, counts},
                           {binding::kTileOffsets, offsets_}, {binding::kSuperCounts, superCounts},
-                          {binding::kSuperLights, superLights}});
+                          {binding::kSuperLights, superLights}, {binding::kTileBits, tileBits}},
+                         GLint(wordsPerTile));
     });
     gl::checkError(c, "building the tile light lists");
     f.lists.lights.resize(f.lists.offsets.back());
@@ -187,7 +191,8 @@ private:
   }
   // The tiles' lists from their super-tiles' candidates: count, prefix sum, the total read back (into
   // Frame::lists.offsets) to size the list, fill. Returns the list buffer.
-  GLuint tileLists(Frame& f, size_t cells, std::pair<GLuint, GLuint> countAndFill, Bindings bindings) {
+  GLuint tileLists(Frame& f, size_t cells, std::pair<GLuint, GLuint> countAndFill, Bindings bindings,
+                   GLint wordsPerTile) {
     const gl::Context& c = *r_.context;
     GLuint offsets = 0;
     for (const auto& [index, buffer] : bindings)
@@ -197,6 +202,7 @@ private:
       setSizes(f, program);
       g_.Uniform1i(g_.GetUniformLocation(program, "tiles"), GLint(cells));
       g_.Uniform1i(g_.GetUniformLocation(program, "lightCount"), GLint(r_.lights.size()));
+      g_.Uniform1i(g_.GetUniformLocation(program, "wordsPerTile"), wordsPerTile);
       bind(bindings);
       bind({{binding::kLightReals, r_.lightReals}, {binding::kLightWords, r_.lightWords}});
       dispatch(program == r_.prefixProgram ? 1 : cells, program == r_.prefixProgram ? 1 : 256);
@@ -209,6 +215,7 @@ private:
     setSizes(f, countAndFill.second);
     g_.Uniform1i(g_.GetUniformLocation(countAndFill.second, "tiles"), GLint(cells));
     g_.Uniform1i(g_.GetUniformLocation(countAndFill.second, "lightCount"), GLint(r_.lights.size()));
+    g_.Uniform1i(g_.GetUniformLocation(countAndFill.second, "wordsPerTile"), wordsPerTile);
     bind(bindings);
     bind({{binding::kLightReals, r_.lightReals}, {binding::kLightWords, r_.lightWords}, {binding::kTileLights, lights}});
     dispatch(cells, 256);

@@ -25,6 +25,7 @@ enum : GLuint {
   kTileBounds = 0, kLightReals = 1, kLightWords = 2, kTileCounts = 3, kTileOffsets = 4, kTileLights = 5,
   kViewReals = 6, kViewWords = 7, kDagNodes = 8, kDagLeaves = 9, kVisibility = 10, kCells = 11, kRadiance = 12,
   kStats = 13, kMaskHeaders = 14, kMaskBytes = 15, kSuperCounts = 16, kSuperLights = 17, kSuperBounds = 18,
+  kTileBits = 19,
 };
 }  // namespace binding
 

@@ -16,7 +16,11 @@ layout(std430, binding = 5) writeonly buffer TileLights { uint tileLights[]; };
 #ifndef SUPER_TILES
 layout(std430, binding = 16) readonly buffer SuperCounts { uint superCounts[]; };
 layout(std430, binding = 17) readonly buffer SuperLights { uint superLights[]; };
+// Per tile, a bit per candidate of its super-tile: set by the count pass where the light meets the tile, read by
+// the fill pass, which so tests nothing again.
+layout(std430, binding = 19) buffer TileBits { uint tileBits[]; };
 uniform ivec2 tileCount;
+uniform int wordsPerTile;
 #endif
 uniform int tiles;
 uniform int lightCount;
@@ -44,20 +48,34 @@ void main() {
     uint super = (tile / uint(tileCount.x)) / CPVS_SUPER_TILE * supersX + (tile % uint(tileCount.x)) / CPVS_SUPER_TILE;
     uint first = super * uint(lightCount), last = first + superCounts[super];
 #endif
-    for (uint k = first; k < last; ++k) {
-#ifdef SUPER_TILES
-      uint light = k;
-#else
-      uint light = superLights[k];
-#endif
-      if (!meets(light, lo, hi)) continue;
 #if defined(SUPER_TILES)
+    for (uint light = first; light < last; ++light) {
+      if (!meets(light, lo, hi)) continue;
       tileLights[tile * uint(lightCount) + count] = light;
-#elif !defined(COUNT_PASS)
-      tileLights[tileOffsets[tile] + count] = light;
-#endif
       ++count;
     }
+#elif defined(COUNT_PASS)
+    uint bits = tile * uint(wordsPerTile), word = 0u;
+    for (uint k = first; k < last; ++k) {
+      uint i = k - first;
+      if (meets(superLights[k], lo, hi)) {
+        word |= 1u << (i & 31u);
+        ++count;
+      }
+      if ((i & 31u) == 31u || k + 1u == last) {
+        tileBits[bits + i / 32u] = word;
+        word = 0u;
+      }
+    }
+#else
+    uint bits = tile * uint(wordsPerTile);
+    for (uint k = first; k < last; ++k) {
+      uint i = k - first;
+      if (((tileBits[bits + i / 32u] >> (i & 31u)) & 1u) == 0u) continue;
+      tileLights[tileOffsets[tile] + count] = superLights[k];
+      ++count;
+    }
+#endif
   }
 #if defined(COUNT_PASS) || defined(SUPER_TILES)
   tileCounts[tile] = count;
