@@ -17,31 +17,23 @@ void rayTracedVisibility(ShadowPassFrame& p, int raysPerSide, float* out) {
   const ShadowReference& reference = p.resources.rays();
   const auto& byLight = p.pairsByLight();
   const std::vector<LightShadow>& lights = p.resources.lights;
-  tbb::task_arena arena(int(std::max(1u, p.resources.threadCount())));
   LookupOptions footprint;
   footprint.pcfKernel = p.settings.pcfKernel;
   footprint.biasMargin = p.settings.biasMargin;
+  if (raysPerSide > 1) {  // footprints: batches of a light's points, so that one light spreads over the threads
+    forEachPointBatch(byLight, 1024, p.resources.threadCount(), out,
+                      [&](uint32_t l, size_t first, size_t count, float* answers) {
+                        footprintVisibility(reference, lights[l], std::span(byLight[l].points).subspan(first, count),
+                                            footprint, raysPerSide, std::span(answers, count));
+                      });
+    return;
+  }
+  tbb::task_arena arena(int(std::max(1u, p.resources.threadCount())));
   arena.execute([&] {
-    if (raysPerSide <= 1) {
-      parallelFor(byLight.size(), [&](size_t l) {
-        std::vector<uint8_t> answers;
-        reference.visibilityPackets(lights[l].light(), byLight[l].points, answers);
-        for (size_t i = 0; i < answers.size(); ++i) out[byLight[l].pairs[i]] = float(answers[i]);
-      }, 1);
-      return;
-    }
-    // Footprints: batches of a light's points, so that a light with many pairs spreads over the threads.
-    constexpr size_t kBatch = 1024;
-    std::vector<std::pair<uint32_t, size_t>> batches;  // (light, first point)
-    for (uint32_t l = 0; l < byLight.size(); ++l)
-      for (size_t first = 0; first < byLight[l].points.size(); first += kBatch) batches.emplace_back(l, first);
-    parallelFor(batches.size(), [&](size_t b) {
-      const auto [l, first] = batches[b];
-      const size_t count = std::min(kBatch, byLight[l].points.size() - first);
-      float answers[kBatch];
-      footprintVisibility(reference, lights[l], std::span(byLight[l].points).subspan(first, count), footprint,
-                          raysPerSide, std::span(answers, count));
-      for (size_t i = 0; i < count; ++i) out[byLight[l].pairs[first + i]] = answers[i];
+    parallelFor(byLight.size(), [&](size_t l) {
+      std::vector<uint8_t> answers;
+      reference.visibilityPackets(lights[l].light(), byLight[l].points, answers);
+      for (size_t i = 0; i < answers.size(); ++i) out[byLight[l].pairs[i]] = float(answers[i]);
     }, 1);
   });
 }
@@ -53,18 +45,12 @@ public:
   bool run(ShadowPassFrame& p) override {
     p.pairsByLight();
     p.resources.rays();  // the BVH is built once, outside the timing
-    const size_t slots = size_t(p.frame.lists.offsets.back()) * 64;
-    if (answers_.size() < slots) answers_.resize(slots);
-    std::fill_n(answers_.begin(), slots, 0.0f);
-    Stopwatch clock;
-    rayTracedVisibility(p, p.settings.raysPerSide, answers_.data());
-    p.frame.passes.push_back({"shadows", clock.ms(), false});
-    p.frame.visibility.assign(answers_.begin(), answers_.begin() + ptrdiff_t(slots));
+    answers_.timed(p.frame, [&](float* visibility) { rayTracedVisibility(p, p.settings.raysPerSide, visibility); });
     return false;
   }
 
 private:
-  std::vector<float> answers_;
+  CpuAnswers answers_;
 };
 
 }  // namespace

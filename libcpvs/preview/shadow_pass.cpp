@@ -1,5 +1,12 @@
 #include "libcpvs/preview/shadow_pass.h"
 
+#include <algorithm>
+
+#include <tbb/task_arena.h>
+
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
+
 namespace cpvs {
 
 std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
@@ -9,6 +16,34 @@ std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
     byLight[light].points.push_back({glm::dvec3(glm::vec3(f.positions[i])), glm::dvec3(glm::vec3(f.normals[i]))});
   });
   return byLight;
+}
+
+void forEachPointBatch(const std::vector<PairsOfLight>& byLight, size_t batch, unsigned threads, float* out,
+                       const std::function<void(uint32_t light, size_t first, size_t count, float* answers)>& fn) {
+  std::vector<std::pair<uint32_t, size_t>> batches;  // (light, first point)
+  for (uint32_t l = 0; l < byLight.size(); ++l)
+    for (size_t first = 0; first < byLight[l].points.size(); first += batch) batches.emplace_back(l, first);
+  tbb::task_arena arena(int(std::max(1u, threads)));
+  arena.execute([&] {
+    parallelFor(batches.size(), [&](size_t b) {
+      const auto [l, first] = batches[b];
+      const size_t count = std::min(batch, byLight[l].points.size() - first);
+      thread_local std::vector<float> answers;
+      answers.resize(batch);
+      fn(l, first, count, answers.data());
+      for (size_t i = 0; i < count; ++i) out[byLight[l].pairs[first + i]] = answers[i];
+    }, 1);
+  });
+}
+
+void CpuAnswers::timed(Frame& f, const std::function<void(float* answers)>& work) {
+  const size_t slots = size_t(f.lists.offsets.back()) * 64;
+  if (answers_.size() < slots) answers_.resize(slots);
+  std::fill_n(answers_.begin(), slots, 0.0f);
+  Stopwatch clock;
+  work(answers_.data());
+  f.passes.push_back({"shadows", clock.ms(), false});
+  f.visibility.assign(answers_.begin(), answers_.begin() + ptrdiff_t(slots));
 }
 
 const std::vector<PairsOfLight>& ShadowPassFrame::pairsByLight() {

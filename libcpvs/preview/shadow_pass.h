@@ -22,6 +22,24 @@ struct PairsOfLight {
 };
 std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount);
 
+// The CPU-side techniques' loop: a light's points in batches of at most `batch`, all lights' batches spread over
+// `threads` threads; fn(light, first, count) answers points [first, first + count) of that light into
+// `answers` (room for `batch`), which are then scattered to out[pair index].
+void forEachPointBatch(const std::vector<PairsOfLight>& byLight, size_t batch, unsigned threads, float* out,
+                       const std::function<void(uint32_t light, size_t first, size_t count, float* answers)>& fn);
+
+// CPU-side answers kept between frames: zeroed for a frame's pairs before the timed work (a fresh buffer would
+// put a page fault per 4 KiB into the time: tens of ms per 1080p frame on a VM, not the technique's work, just
+// as the GPU technique's buffer is made untimed), then copied into Frame::visibility.
+class CpuAnswers {
+public:
+  // Runs work(answers) timed as the frame's "shadows" pass (wall clock).
+  void timed(Frame& frame, const std::function<void(float* answers)>& work);
+
+private:
+  std::vector<float> answers_;
+};
+
 // What the renderer hands a technique for one frame.
 class ShadowPassFrame {
 public:
