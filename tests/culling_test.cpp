@@ -152,6 +152,35 @@ TEST(Culling, ConservativeCullingChangesNoLookupAndDrawsFewerTriangles) {
 }
 
 // The GPU's lookups of the maps it drew equal eval/shadow_map.h's CPU lookup of the read-back maps.
+// The maps' work counters: every texel a map holds took at least one fragment that passed the depth test, so
+// the fragments a layer counts are at least its written texels; frustum culling drops only triangles outside
+// a map's view, which make no fragment, so it counts the same fragments as drawing everything; every layer is
+// cleared once.
+TEST(Culling, MapWorkCountersBoundTheMapsAndFollowTheCulling) {
+  City& c = city();
+  if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+  const PreviewCamera camera = cameras(c).front();
+  const Frame all = render(c, camera, ShadowMode::ShadowMap, CasterCulling::None);
+  const Frame frustum = render(c, camera, ShadowMode::ShadowMap, CasterCulling::Frustum);
+  const ShadowMapFrame& maps = all.shadowMaps;
+  const size_t layers = maps.views.size(), texels = size_t(maps.size) * maps.size;
+  ASSERT_GT(layers, 0u);
+  ASSERT_EQ(maps.fragments.size(), layers);
+  EXPECT_EQ(maps.texelsCleared, uint64_t(layers) * texels);
+  EXPECT_GT(maps.drawCalls, 0u);
+  EXPECT_LE(maps.drawCalls, layers);
+  uint64_t written = 0;
+  for (size_t layer = 0; layer < layers; ++layer) {
+    uint64_t layerWritten = 0;
+    for (size_t t = 0; t < texels; ++t) layerWritten += maps.texels[layer * texels + t] < ShadowMap16::kFar;
+    EXPECT_GE(maps.fragments[layer], layerWritten) << "layer " << layer;
+    written += layerWritten;
+  }
+  EXPECT_GT(written, 0u);
+  EXPECT_EQ(frustum.shadowMaps.fragmentsDrawn(), maps.fragmentsDrawn());
+  EXPECT_LT(frustum.shadowMaps.trianglesDrawn(), maps.trianglesDrawn());
+}
+
 TEST(Culling, GpuShadowMapLookupsEqualTheCpuRule) {
   City& c = city();
   if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;

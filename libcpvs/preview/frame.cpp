@@ -25,6 +25,12 @@ uint64_t ShadowMapFrame::trianglesDrawn() const {
   return total;
 }
 
+uint64_t ShadowMapFrame::fragmentsDrawn() const {
+  uint64_t total = 0;
+  for (uint64_t n : fragments) total += n;
+  return total;
+}
+
 double Frame::milliseconds(const std::string& pass) const {
   for (const PassTime& p : passes)
     if (p.pass == pass) return p.milliseconds;

@@ -67,6 +67,12 @@ struct ShadowMapFrame {
   std::vector<uint64_t> triangles;          // per layer: triangles drawn
   std::vector<uint64_t> trianglesPerLight;  // per file light: triangles drawn into the maps its lookups read
   uint64_t bytes = 0;                       // GPU memory of the maps and the index lists
+  // The work the maps cost, in units a GPU's time follows (not llvmpipe's): fragments that passed the depth
+  // test while drawing them (GL_SAMPLES_PASSED, per layer and in all), texels cleared, draw calls.
+  std::vector<uint64_t> fragments;          // per layer
+  uint64_t texelsCleared = 0;
+  uint32_t drawCalls = 0;
+  uint64_t fragmentsDrawn() const;
   std::vector<uint16_t> texels;             // ShadowMapSettings::keepMaps: per layer M * M 16-bit depths, row-major
   uint64_t trianglesDrawn() const;
 };

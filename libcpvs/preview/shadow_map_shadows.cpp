@@ -129,6 +129,9 @@ private:
     RendererResources& r = p.resources;
     const gl::Functions& g = r.gl();
     const uint32_t m = p.settings.shadowMaps.size, layers = uint32_t(plan.views.size());
+    std::vector<GLuint> queries(std::max(1u, layers));
+    g.GenQueries(GLsizei(queries.size()), queries.data());
+    std::vector<uint8_t> drawn(layers, 0);
     p.timed("shadow_maps", [&] {
       g.BindFramebuffer(GL_FRAMEBUFFER, mapFramebuffer_);
       const GLenum none = GL_NONE;
@@ -159,14 +162,28 @@ private:
         g.Uniform1i(uniform("linearDepth"), vm.linear ? 1 : 0);
         g.Uniform1f(uniform("nearDepth"), float(vm.near));
         g.Uniform1f(uniform("sliceScale"), float(vm.sScale));
+        g.BeginQuery(GL_SAMPLES_PASSED, queries[layer]);
         if (mv.drawAll)
           g.DrawArrays(GL_TRIANGLES, 0, r.vertexCount);
         else
           g.DrawElements(GL_TRIANGLES, GLsizei(mv.triangles.size() * 3), GL_UNSIGNED_INT,
                          reinterpret_cast<const void*>(firstIndex[layer] * 4));
+        g.EndQuery(GL_SAMPLES_PASSED);
+        drawn[layer] = 1;
       }
     });
     g.BindVertexArray(0);
+    ShadowMapFrame& counters = p.frame.shadowMaps;
+    counters.fragments.assign(layers, 0);
+    for (uint32_t layer = 0; layer < layers; ++layer) {
+      if (!drawn[layer]) continue;
+      GLuint samples = 0;
+      g.GetQueryObjectuiv(queries[layer], GL_QUERY_RESULT, &samples);
+      counters.fragments[layer] = samples;
+      ++counters.drawCalls;
+    }
+    counters.texelsCleared = uint64_t(layers) * m * m;
+    g.DeleteQueries(GLsizei(queries.size()), queries.data());
     gl::checkError(*r.context, "rendering " + std::to_string(layers) + " shadow maps");
   }
 

@@ -34,7 +34,9 @@ json shadowMapsJson(const ShadowMapFrame& maps, const ShadowMapSettings& setting
           {"triangles_drawn", maps.trianglesDrawn()},
           {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
           {"triangles_per_light_max", most}, {"lights_with_maps", lit},
-          {"gpu_bytes", maps.bytes}};
+          {"gpu_bytes", maps.bytes},
+          {"fragments", maps.fragmentsDrawn()}, {"texels_cleared", maps.texelsCleared},
+          {"draw_calls", maps.drawCalls}};
 }
 
 }  // namespace
