@@ -86,8 +86,9 @@ public:
   }
 
   // 3. Light lists: per super-tile (kSuperTile x kSuperTile tiles) the lights its bounds meet, at most every
-  // light; then per tile those of its super-tile's that meet the tile (light_lists.comp): count, prefix sum
-  // (prefix_sum.comp), the total read back to size the list, fill. Then the G-buffer read back.
+  // light; then per tile those of its super-tile's that meet the tile (light_lists.comp): count (marking each
+  // candidate that meets it in the tile's bits), prefix sum (prefix_sum.comp), the total read back to size the
+  // list, fill from the bits. Then the G-buffer read back.
   void lightLists(Frame& f) {
     const gl::Context& c = *r_.context;
     const size_t tiles = f.lists.tiles(), lights = std::max<size_t>(1, r_.lights.size());
