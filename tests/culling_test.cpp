@@ -17,6 +17,7 @@
 #include "libcpvs/preview/camera.h"
 #include "libcpvs/preview/caster_culling.h"
 #include "libcpvs/preview/light_clusters.h"
+#include "libcpvs/preview/many_psm_plan.h"
 #include "libcpvs/preview/preview_renderer.h"
 #include "libcpvs/runtime/file_shadows.h"
 #include "support/test_support.h"
@@ -93,7 +94,7 @@ std::vector<PreviewCamera> cameras(const City& c) {
 }
 
 Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCulling culling,
-             ReceiverMaskVariant variant = ReceiverMaskVariant::Fragments, uint32_t clusters = 2) {
+             ReceiverMaskVariant variant = ReceiverMaskVariant::Fragments, uint32_t clusters = 2, uint32_t size = 256) {
   FrameSettings settings;
   settings.width = 192;
   settings.height = 128;
@@ -101,8 +102,20 @@ Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCullin
   settings.shadows = mode;
   settings.shadowMaps.casterCulling = culling;
   settings.shadowMaps.maskVariant = variant;
-  settings.shadowMaps.size = 256;
+  settings.shadowMaps.size = size;
   settings.shadowMaps.clusters = clusters;
+  settings.shadowMaps.keepMaps = true;
+  return c.renderer->render(camera, settings);
+}
+
+Frame renderManyPsm(City& c, const PreviewCamera& camera, uint32_t size, uint32_t minSize) {
+  FrameSettings settings;
+  settings.width = 192;
+  settings.height = 128;
+  settings.pcfKernel = 5;
+  settings.shadows = ShadowMode::ManyPsm;
+  settings.shadowMaps.size = size;
+  settings.shadowMaps.minSize = minSize;
   settings.shadowMaps.keepMaps = true;
   return c.renderer->render(camera, settings);
 }
@@ -179,6 +192,20 @@ TEST(Culling, MapWorkCountersBoundTheMapsAndFollowTheCulling) {
   EXPECT_GT(written, 0u);
   EXPECT_EQ(frustum.shadowMaps.fragmentsDrawn(), maps.fragmentsDrawn());
   EXPECT_LT(frustum.shadowMaps.trianglesDrawn(), maps.trianglesDrawn());
+  // The lookups' bytes: 4 per texel read, at most K^2 texels per listed pair, none for a pair whose verdict
+  // needs no map (lit or zero); CPVS counts its DAG reads.
+  size_t pairs = 0;
+  all.forEachPair([&](uint32_t, uint32_t, size_t, uint32_t, size_t) { ++pairs; });
+  ASSERT_TRUE(all.lookupBytesCounted);
+  EXPECT_GT(all.lookupBytes, 0u);
+  EXPECT_EQ(all.lookupBytes % 4, 0u);
+  EXPECT_LE(all.lookupBytes, uint64_t(pairs) * 25 * 4);
+  EXPECT_EQ(frustum.lookupBytes, all.lookupBytes);
+  const Frame cpvs = render(c, camera, ShadowMode::Gpu, CasterCulling::None);
+  ASSERT_TRUE(cpvs.lookupBytesCounted);
+  EXPECT_GT(cpvs.lookupBytes, 0u);
+  std::printf("[ lookups  ] %zu pairs: the maps' lookups read %llu bytes, CPVS's %llu\n", pairs,
+              (unsigned long long)all.lookupBytes, (unsigned long long)cpvs.lookupBytes);
 }
 
 TEST(Culling, GpuShadowMapLookupsEqualTheCpuRule) {
@@ -235,6 +262,102 @@ TEST(Culling, LightClusterDrawsOneCubePerCluster) {
   std::printf("[ clusters ] %zu maps instead of %zu; %zu of %zu lookups differ from the per-light maps\n",
               clustered.shadowMaps.views.size(), perLight.shadowMaps.views.size(), differing, perLight.visibility.size());
   EXPECT_GT(differing, 0u) << "one map for many lights must be an approximation";
+}
+
+// ManyPSMs with every map at the largest size, where that size splats no node as a point (the floating blocks
+// at 256^2; the city's facade details need 2048^2): its atlas then holds the per-light maps of frustum culling
+// texel for texel (the traversal keeps every triangle that reaches a map, and a map as large as the layer is
+// drawn with the per-light map's bits), so every lookup is theirs too.
+TEST(Culling, ManyPsmEqualsThePerLightMapsWhereNoNodeIsSplatted) {
+  struct Case {
+    City* scene;
+    uint32_t size;
+    size_t cameras;
+  };
+  for (const Case& k : {Case{&floating(), 256, 2}, Case{&city(), 2048, 1}}) {
+    City& c = *k.scene;
+    if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+    for (size_t i = 0; i < k.cameras; ++i) {
+      const PreviewCamera camera = cameras(c)[i];
+      const Frame perLight = render(c, camera, ShadowMode::ShadowMap, CasterCulling::Frustum,
+                                    ReceiverMaskVariant::Fragments, 2, k.size);
+      const Frame many = renderManyPsm(c, camera, k.size, k.size);
+      const ShadowMapFrame& a = perLight.shadowMaps;
+      const ShadowMapFrame& b = many.shadowMaps;
+      ASSERT_EQ(b.points, 0u) << "nodes were splatted as points: choose a larger size";
+      ASSERT_EQ(b.views.size(), a.views.size());
+      ASSERT_EQ(b.texels.size(), a.texels.size());
+      for (size_t m = 0; m < b.views.size(); ++m) {
+        ASSERT_EQ(b.shadowLight[m], a.shadowLight[m]) << "map " << m;
+        ASSERT_EQ(b.views[m].resolution, k.size) << "map " << m;
+      }
+      size_t differing = 0, written = 0;
+      for (size_t t = 0; t < a.texels.size(); ++t) {
+        differing += a.texels[t] != b.texels[t];
+        written += a.texels[t] < ShadowMap16::kFar;
+      }
+      EXPECT_EQ(differing, 0u) << "texels of " << a.texels.size() << " (" << written << " written)";
+      EXPECT_GT(written, 1000u);
+      EXPECT_EQ(many.visibility, perLight.visibility);
+      EXPECT_EQ(many.lookupBytes, perLight.lookupBytes) << "the same lookups read the same texels";
+      EXPECT_GT(b.nodesVisited, 0u);
+      EXPECT_EQ(b.drawCalls, 2u);
+      EXPECT_GE(b.fragmentsDrawn(), written);
+      std::printf("[ manypsm  ] %zu maps of %u^2 in %u layers: %llu nodes visited, %llu triangles (frustum culling: "
+                  "%llu), %zu of %zu texels differ\n", b.views.size(), k.size, b.atlasLayers, (unsigned long long)b.nodesVisited,
+                  (unsigned long long)b.trianglesDrawn(), (unsigned long long)a.trianglesDrawn(), differing, a.texels.size());
+    }
+  }
+}
+
+// With small maps ManyPSMs splats nodes as points, and only nodes at most a texel wide: each splatted node's
+// box, its eight corners projected exactly (double) into its map, spans at most one texel either way. Each
+// map has the resolution its light's distance asks for, and the atlas cells of a layer never overlap.
+TEST(Culling, ManyPsmSplatsOnlyNodesAtMostATexelWide) {
+  City& c = city();
+  if (!c.unavailable.empty()) GTEST_SKIP() << c.unavailable;
+  const PreviewCamera camera = cameras(c).front();
+  const Frame many = renderManyPsm(c, camera, 64, 8);
+  const ShadowMapFrame& maps = many.shadowMaps;
+  ASSERT_GT(maps.points, 0u);
+  ASSERT_EQ(maps.pointBoxes.size(), maps.points);
+  double widest = 0;
+  for (size_t i = 0; i < maps.pointBoxes.size(); ++i) {
+    const LightView& view = maps.views[maps.pointMaps[i]];
+    const auto& [lo, hi] = maps.pointBoxes[i];
+    glm::dvec2 uvLo(1e300), uvHi(-1e300);
+    for (int corner = 0; corner < 8; ++corner) {
+      const glm::dvec3 p(corner & 1 ? hi.x : lo.x, corner & 2 ? hi.y : lo.y, corner & 4 ? hi.z : lo.z);
+      const GridPoint g = toGrid(view, p);
+      ASSERT_TRUE(g.inFront) << "point " << i << " reaches behind its light";
+      uvLo = glm::min(uvLo, glm::dvec2(g.uvs));
+      uvHi = glm::max(uvHi, glm::dvec2(g.uvs));
+    }
+    widest = std::max({widest, uvHi.x - uvLo.x, uvHi.y - uvLo.y});
+  }
+  EXPECT_LE(widest, 1.0);
+  uint64_t perMap = 0;
+  for (uint64_t n : maps.pointsPerMap) perMap += n;
+  EXPECT_EQ(perMap, maps.points);
+  ShadowMapSettings settings;
+  settings.size = 64;
+  settings.minSize = 8;
+  std::vector<std::vector<glm::uvec4>> cells(maps.atlasLayers);
+  for (size_t m = 0; m < maps.views.size(); ++m) {
+    const Light& light = c.renderer->lights()[maps.shadowLight[m]].light();
+    EXPECT_EQ(maps.views[m].resolution, manyPsmResolution(light, many.eye, settings)) << light.name;
+    const glm::uvec3 place = maps.atlasPlaces[m];
+    const uint32_t res = maps.views[m].resolution;
+    ASSERT_LT(place.x, maps.atlasLayers);
+    EXPECT_LE(place.y + res, maps.size);
+    EXPECT_LE(place.z + res, maps.size);
+    for (const glm::uvec4& other : cells[place.x])
+      EXPECT_TRUE(place.y + res <= other.x || other.x + other.z <= place.y || place.z + res <= other.y ||
+                  other.y + other.z <= place.z) << "map " << m << " overlaps another";
+    cells[place.x].push_back({place.y, place.z, res, 0});
+  }
+  std::printf("[ manypsm  ] 64^2 maps (8^2 at the least): %llu points, widest %.3f texels, %llu point fragments\n",
+              (unsigned long long)maps.points, widest, (unsigned long long)(maps.fragments.size() > 1 ? maps.fragments[1] : 0));
 }
 
 TEST(Culling, ClustersMergeTheNearestLightsFirst) {

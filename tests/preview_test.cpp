@@ -232,6 +232,7 @@ TEST(Preview, RecordLayoutEqualsTheShadersDefines) {
       {"CPVS_LIGHT_WORDS", kLightWords}, {"CPVS_VIEW_FLAGS", kViewFlags}, {"CPVS_VIEW_NODE_BASE", kViewNodeBase},
       {"CPVS_VIEW_LEAF_BASE", kViewLeafBase}, {"CPVS_VIEW_ROOT_CODE", kViewRootCode},
       {"CPVS_VIEW_RESOLUTION", kViewResolution}, {"CPVS_VIEW_LAYER", kViewLayer},
+      {"CPVS_VIEW_ATLAS_X", kViewAtlasX}, {"CPVS_VIEW_ATLAS_Y", kViewAtlasY},
       {"CPVS_VIEW_CHILD_BASE", kViewChildBase}, {"CPVS_VIEW_WORDS", kViewWords}};
   for (const auto& [name, value] : expected) {
     ASSERT_TRUE(defines.count(name)) << name << " is not defined in lookup_records.glsl";
@@ -357,7 +358,7 @@ TEST(PreviewImages, EveryShadowModeMatchesItsReference) {
   for (Baked* b : {&tiny(), &city()}) {
     REQUIRE_RENDERER(*b);
     for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::Cpu, ShadowMode::RayTraced, ShadowMode::None,
-                            ShadowMode::ShadowMap, ShadowMode::LightCluster})
+                            ShadowMode::ShadowMap, ShadowMode::LightCluster, ShadowMode::ManyPsm})
       compareWithReference(renderImage(*b, mode, Overlay::None), b->name + "_" + shadowModeName(mode));
   }
 }
@@ -641,6 +642,18 @@ TEST(Preview, CpvsAgreesWithEmbreeOnMostPixels) {
 }
 
 // ---- the tool -------------------------------------------------------------------------------------------
+
+// --help names every shadow technique, and each name --shadows takes is one of them.
+TEST(PreviewTool, HelpListsEveryShadowTechnique) {
+  const test::ToolResult help = runTool(toolPath("cpvs-view") + " --help");
+  ASSERT_EQ(help.exitCode, 0) << help.output;
+  for (ShadowMode mode : {ShadowMode::Gpu, ShadowMode::Cpu, ShadowMode::RayTraced, ShadowMode::None, ShadowMode::ShadowMap,
+                          ShadowMode::LightCluster, ShadowMode::ManyPsm}) {
+    EXPECT_NE(help.output.find(shadowModeName(mode)), std::string::npos) << shadowModeName(mode);
+    EXPECT_EQ(parseShadowMode(shadowModeName(mode)), mode);
+  }
+  EXPECT_NE(help.output.find("--min-shadow-map-size"), std::string::npos);
+}
 
 TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
   const std::string dir = test::tempDir() + "/preview_tool";

@@ -98,7 +98,11 @@ namespace cpvs::gl {
   X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                                            \
   X(PFNGLTEXIMAGE3DPROC, TexImage3D)                                                  \
   X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, FramebufferTextureLayer)                        \
-  X(PFNGLGENERATEMIPMAPPROC, GenerateMipmap)
+  X(PFNGLGENERATEMIPMAPPROC, GenerateMipmap)                                          \
+  X(PFNGLDISPATCHCOMPUTEINDIRECTPROC, DispatchComputeIndirect)                        \
+  X(PFNGLDRAWARRAYSINDIRECTPROC, DrawArraysIndirect)                                  \
+  X(PFNGLFRAMEBUFFERTEXTUREPROC, FramebufferTexture)                                  \
+  X(PFNGLUNIFORM1UIPROC, Uniform1ui)
 
 // Where a context comes from: Mesa's software OSMesa, or EGL (a GPU, or Mesa's surfaceless platform).
 enum class Platform { OSMesa, EGL };

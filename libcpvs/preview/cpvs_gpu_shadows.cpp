@@ -12,11 +12,12 @@ namespace {
 class CpvsGpuShadows final : public ShadowPass {
 public:
   explicit CpvsGpuShadows(const gl::Context& c) {
+    const std::string counters = GpuWorkCounters::glsl(1);
     for (bool record : {false, true})
       (record ? recording_ : plain_) = gl::linkProgram(
           c, {{GL_COMPUTE_SHADER, computeSource({record ? "#define RECORD_CELLS\n" : "",
                                                  "layout(local_size_x = 8, local_size_y = 8) in;\n",
-                                                 glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
+                                                 counters.c_str(), glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
                                                  glsl::lookup_cell_glsl, glsl::dag_walk_glsl_h,
                                                  glsl::cpvs_shadows_comp})}},
           record ? "CPVS shadow (recording)" : "CPVS shadow");
@@ -27,10 +28,12 @@ public:
     const gl::Functions& g = c.gl();
     Frame& f = p.frame;
     const GLuint program = p.settings.recordCells ? recording_ : plain_;
+    GpuWorkCounters work(c, 1);
     p.timed("shadows", [&] {
       g.UseProgram(program);
       p.bindSceneBuffers(program);
       if (p.cells) g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kCells, p.cells);
+      work.bind();
       g.Uniform1i(g.GetUniformLocation(program, "pcfKernel"), p.settings.pcfKernel);
       g.Uniform1d(g.GetUniformLocation(program, "biasMargin"), p.settings.biasMargin);
       g.DispatchCompute(f.lists.tilesX, f.lists.tilesY, 1);
@@ -40,6 +43,8 @@ public:
     const size_t pairSlots = size_t(f.lists.offsets.back()) * 64;
     f.visibility.resize(pairSlots);
     gl::readStorageBuffer(c, p.visibility, f.visibility.data(), pairSlots * 4);
+    f.lookupBytes = work.read()[0];  // DAG node units and leaves
+    f.lookupBytesCounted = true;
     if (p.cells) {
       f.cells.resize(pairSlots);
       gl::readStorageBuffer(c, p.cells, f.cells.data(), pairSlots * 16);

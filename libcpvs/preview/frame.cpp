@@ -7,7 +7,8 @@ namespace cpvs {
 namespace {
 constexpr Named<ShadowMode> kShadowModes[] = {{ShadowMode::Gpu, "gpu"},        {ShadowMode::Cpu, "cpu"},
                                               {ShadowMode::RayTraced, "raytraced"}, {ShadowMode::None, "none"},
-                                              {ShadowMode::ShadowMap, "shadowmap"}, {ShadowMode::LightCluster, "lightcluster"}};
+                                              {ShadowMode::ShadowMap, "shadowmap"}, {ShadowMode::LightCluster, "lightcluster"},
+                                              {ShadowMode::ManyPsm, "manypsm"}};
 constexpr Named<Overlay> kOverlays[] = {{Overlay::None, "none"},
                                         {Overlay::LightsPerTile, "lights-per-tile"},
                                         {Overlay::Difference, "difference"},

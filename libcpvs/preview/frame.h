@@ -17,10 +17,11 @@
 namespace cpvs {
 
 // Gpu, Cpu, RayTraced: CPVS walked on the GPU, the CPU runtime, Embree rays. ShadowMap, LightCluster: the
-// per-frame techniques CPVS replaces (the culling demo, docs/culling-demo.md). None: no shadows.
-enum class ShadowMode : uint8_t { Gpu, Cpu, RayTraced, None, ShadowMap, LightCluster };
+// per-frame techniques CPVS replaces (the culling demo, docs/culling-demo.md), and ManyPsm: every light
+// view's map in one go by a level-by-level traversal of a scene tree into an atlas. None: no shadows.
+enum class ShadowMode : uint8_t { Gpu, Cpu, RayTraced, None, ShadowMap, LightCluster, ManyPsm };
 enum class Overlay : uint8_t { None, LightsPerTile, Difference, ShadowCount };
-// Parse "gpu" / "cpu" / "raytraced" / "none" / "shadowmap" / "lightcluster" and "none" / "lights-per-tile" / "difference" / "shadow-count";
+// Parse "gpu" / "cpu" / "raytraced" / "none" / "shadowmap" / "lightcluster" / "manypsm" and "none" / "lights-per-tile" / "difference" / "shadow-count";
 // throw Error(InvalidArgument) listing the choices.
 ShadowMode parseShadowMode(const std::string& name);
 const char* shadowModeName(ShadowMode mode);
@@ -31,9 +32,11 @@ inline constexpr uint32_t kTileSize = 8;
 
 // The per-frame shadow-map techniques' own settings (ShadowMap, LightCluster): the maps' edge M (the light's
 // views at M texels, eval/shadow_map.h's 16-bit depth and lookup rule), the caster culling, and for
-// LightCluster the number of clusters.
+// LightCluster the number of clusters. ManyPsm: `size` is the largest map (and the atlas layers' edge), minSize
+// the smallest, each light's by its distance to the camera (many_psm_plan.h).
 struct ShadowMapSettings {
   uint32_t size = 512;
+  uint32_t minSize = 16;
   CasterCulling casterCulling = CasterCulling::None;
   ReceiverMaskVariant maskVariant = ReceiverMaskVariant::Fragments;
   uint32_t clusters = 10;
@@ -59,21 +62,32 @@ struct FrameSettings {
   ShadowMapSettings shadowMaps;  // ShadowMap and LightCluster only
 };
 
-// The maps a ShadowMap / LightCluster frame drew, one layer each.
+// The maps a ShadowMap / LightCluster / ManyPsm frame drew: one per layer, or (ManyPsm) one per atlas cell.
 struct ShadowMapFrame {
-  uint32_t size = 0;                        // M
-  std::vector<uint32_t> shadowLight;        // per layer: the light record (a file light, or a cluster after them)
-  std::vector<LightView> views;             // per layer: its view at M
-  std::vector<uint64_t> triangles;          // per layer: triangles drawn
+  uint32_t size = 0;                        // M (ManyPsm: the largest, the atlas layers' edge)
+  std::vector<uint32_t> shadowLight;        // per map: the light record (a file light, or a cluster after them)
+  std::vector<LightView> views;             // per map: its view at its resolution (M but for ManyPsm)
+  std::vector<uint64_t> triangles;          // per map: triangles drawn
   std::vector<uint64_t> trianglesPerLight;  // per file light: triangles drawn into the maps its lookups read
   uint64_t bytes = 0;                       // GPU memory of the maps and the index lists
   // The work the maps cost, in units a GPU's time follows (not llvmpipe's): fragments that passed the depth
   // test while drawing them (GL_SAMPLES_PASSED, per layer and in all), texels cleared, draw calls.
-  std::vector<uint64_t> fragments;          // per layer
+  std::vector<uint64_t> fragments;          // per layer (ManyPsm: per draw, the triangles' and the points')
   uint64_t texelsCleared = 0;
   uint32_t drawCalls = 0;
   uint64_t fragmentsDrawn() const;
-  std::vector<uint16_t> texels;             // ShadowMapSettings::keepMaps: per layer M * M 16-bit depths, row-major
+  // ManyPsm: the traversal's work: compute dispatches, (node, view) items visited and points splatted, in all
+  // and per map; each map's place in the atlas; the atlas's layers.
+  uint32_t dispatches = 0;
+  uint64_t nodesVisited = 0, points = 0;
+  std::vector<uint64_t> nodesPerMap, pointsPerMap;
+  std::vector<glm::uvec3> atlasPlaces;      // layer, x, y
+  uint32_t atlasLayers = 0;
+  // ManyPsm with keepMaps: every splatted node's box (lo, hi) and the map it went to.
+  std::vector<std::pair<glm::vec3, glm::vec3>> pointBoxes;
+  std::vector<uint32_t> pointMaps;
+  // ShadowMapSettings::keepMaps: per map its resolution^2 16-bit depths, row-major, one map after the other.
+  std::vector<uint16_t> texels;
   uint64_t trianglesDrawn() const;
 };
 
@@ -111,6 +125,11 @@ struct Frame {
   std::vector<glm::uvec2> stats;     // per pixel: lights listed, lights reaching it that shadow it
   std::vector<PassTime> passes;
   ShadowMapFrame shadowMaps;
+  glm::dvec3 eye{0.0};  // the camera's position (ManyPsm sizes its maps by it)
+  // Bytes the shadow lookups read (CPVS: DAG node units and leaves; the map modes: map texels), where the
+  // technique counts them (the GPU ones).
+  uint64_t lookupBytes = 0;
+  bool lookupBytesCounted = false;
   size_t uploadedBytes = 0;  // lights, views, DAGs and geometry (once per renderer) plus this frame's uploads
 
   size_t pixel(uint32_t x, uint32_t y) const { return size_t(y) * width + x; }

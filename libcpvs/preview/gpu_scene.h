@@ -40,7 +40,8 @@ inline constexpr uint32_t kLightPosition = 0, kLightDirection = 3, kLightRange =
 inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightDisabled = 3, kLightFaceView = 4,
                           kLightShadowLight = 10;
 inline constexpr uint32_t kViewFlags = 0, kViewNodeBase = 1, kViewLeafBase = 2, kViewRootCode = 3,
-                          kViewResolution = 4, kViewLayer = 5, kViewChildBase = 8;
+                          kViewResolution = 4, kViewLayer = 5, kViewAtlasX = 6, kViewAtlasY = 7,
+                          kViewChildBase = 8;
 inline constexpr uint32_t kFlagOrthographic = 1, kFlagLinear = 2, kFlagEmpty = 4;
 }  // namespace gpu_layout
 

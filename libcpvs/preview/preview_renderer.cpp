@@ -307,6 +307,7 @@ Frame PreviewRenderer::render(const PreviewCamera& requested, const FrameSetting
 
   FramePasses passes(r, settings);
   Frame f = passes.start();
+  f.eye = camera.eye;
   passes.gbuffer(f, camera);
   passes.tileBounds(f);
   passes.lightLists(f);

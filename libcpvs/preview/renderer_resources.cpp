@@ -19,7 +19,6 @@ namespace cpvs {
 
 namespace {
 
-constexpr GLsizei kVertexFloats = 17;
 // Base-colour textures share one sRGB array: each resampled to this edge at most (the largest texture's own
 // size when smaller), mipmapped.
 constexpr uint32_t kTextureEdge = 1024;
@@ -104,6 +103,7 @@ void RendererResources::uploadTriangles(const Scene& s) {
     const bool textured = mesh.baseColorTexture >= 0 && mesh.uvs.size() == mesh.positions.size();
     const bool masked = mesh.coverageMask >= 0 && mesh.maskUvs.size() == mesh.positions.size();
     const bool casts = mesh.castsShadows && instance.castsShadows;  // the shadow maps leave the others out
+    castingTrianglesOfInstance.emplace_back();
     for (size_t t = 0; t < mesh.triangleCount(); ++t) {
       glm::dvec3 p[3];
       for (int k = 0; k < 3; ++k)
@@ -115,6 +115,7 @@ void RendererResources::uploadTriangles(const Scene& s) {
       for (int k = 0; k < 3; ++k) {
         const glm::vec3 q(p[k]);
         casterTriangles.corners.push_back(q);
+        if (k == 0 && casts) castingTrianglesOfInstance.back().push_back(uint32_t(triangles));
         const glm::vec2 uv = textured ? mesh.uvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
         const glm::vec2 maskUv = masked ? mesh.maskUvs[mesh.indices[3 * t + k]] : glm::vec2(0.0f);
         vertices.insert(vertices.end(), {q.x, q.y, q.z, n.x, n.y, n.z, mesh.baseColor.r, mesh.baseColor.g,
@@ -131,7 +132,7 @@ void RendererResources::uploadTriangles(const Scene& s) {
   g.GenBuffers(1, &vertexBuffer);
   g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer);
   g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STATIC_DRAW);
-  constexpr GLsizei stride = kVertexFloats * sizeof(float);
+  constexpr GLsizei stride = GLsizei(kVertexFloats * sizeof(float));
   g.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
   g.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(3 * sizeof(float)));
   g.VertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(6 * sizeof(float)));

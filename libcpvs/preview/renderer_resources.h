@@ -25,9 +25,15 @@ enum : GLuint {
   kTileBounds = 0, kLightReals = 1, kLightWords = 2, kTileCounts = 3, kTileOffsets = 4, kTileLights = 5,
   kViewReals = 6, kViewWords = 7, kDagNodes = 8, kDagLeaves = 9, kVisibility = 10, kCells = 11, kRadiance = 12,
   kStats = 13, kMaskHeaders = 14, kMaskBytes = 15, kSuperCounts = 16, kSuperLights = 17, kSuperBounds = 18,
-  kTileBits = 19,
+  kTileBits = 19, kWorkCounters = 30,
+  // ManyPSMs' traversal and splats (many_psm_traverse.comp, many_psm_splat.vert).
+  kPsmNodes = 20, kPsmViews = 21, kPsmItemsIn = 22, kPsmItemsOut = 23, kPsmCounters = 24, kPsmTriangles = 25,
+  kPsmPoints = 26, kPsmLeafTriangles = 27, kPsmViewCounters = 28, kPsmIndirect = 29, kPsmVertices = 31,
 };
 }  // namespace binding
+
+// Floats per vertex of RendererResources::vertexBuffer (renderer_resources.cpp's uploadTriangles says which).
+inline constexpr uint32_t kVertexFloats = 17;
 
 // Screen tiles per super-tile side in the light lists' first level (light_lists.comp, super_bounds.comp).
 inline constexpr uint32_t kSuperTile = 8;
@@ -92,6 +98,9 @@ public:
   GLuint vertexArray = 0, vertexBuffer = 0;
   GLsizei vertexCount = 0;
   CasterTriangles casterTriangles;
+  // Per instance (in Scene::instances order, cut-away meshes left out), the triangles it drew that cast:
+  // ManyPSMs' scene tree keeps each instance a subtree of its own.
+  std::vector<std::vector<uint32_t>> castingTrianglesOfInstance;
   GLuint baseColorArray = 0;              // one layer per Scene::textures entry (a 1-layer white array when none)
   GLuint maskHeaders = 0, maskBytes = 0;  // the coverage masks gbuffer.frag cuts with (kMaskHeaders, kMaskBytes)
   GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;

@@ -13,6 +13,7 @@
 #include "libcpvs/gl/gl_program.h"
 #include "libcpvs/preview/glsl_sources.h"
 #include "libcpvs/preview/light_clusters.h"
+#include "libcpvs/preview/shadow_map_array.h"
 #include "libcpvs/preview/shadow_map_plan.h"
 #include "libcpvs/preview/shadow_pass.h"
 #include "libcpvs/raster/gpu_masks.h"
@@ -27,14 +28,11 @@ public:
   ShadowMapShadows(RendererResources& r, bool clustered) : clustered_(clustered) {
     const gl::Context& c = *r.context;
     const std::string version = "#version 450\n";
-    depthProgram_ = gl::linkProgram(c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_depth_vert},
-                                        {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl +
-                                                                 glsl::shadow_map_depth_frag}}, "shadow-map depth");
-    lookupProgram_ = gl::linkProgram(
-        c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n",
-                                               glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
-                                               glsl::lookup_cell_glsl, glsl::shadow_map_lookups_comp})}},
-        "shadow-map lookup");
+    depthProgram_ = gl::linkProgram(
+        c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_clip_glsl + glsl::shadow_map_depth_vert},
+            {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl + glsl::shadow_map_depth_frag}},
+        "shadow-map depth");
+    lookupProgram_ = linkMapLookupProgram(c);
   }
 
   bool run(ShadowPassFrame& p) override {
@@ -44,17 +42,18 @@ public:
     const ShadowMapPlan plan = planFrame(p);
     FrameBuffers buffers(*p.resources.context);
     std::vector<size_t> firstIndex;
-    const GpuRecords records = upload(p, plan, buffers, firstIndex);
+    const MapRecordBuffers records = upload(p, plan, buffers, firstIndex);
     drawMaps(p, plan, firstIndex);
-    if (maps.keepMaps) readMaps(p, uint32_t(plan.views.size()));
-    lookUp(p, records);
+    if (maps.keepMaps) {
+      std::vector<MapPlace> places;
+      for (uint32_t layer = 0; layer < plan.views.size(); ++layer) places.push_back({layer, 0, 0, maps.size});
+      p.frame.shadowMaps.texels = maps_.read(*p.resources.context, places);
+    }
+    lookUpMaps(p, lookupProgram_, maps_, records);
     return true;
   }
 
 private:
-  struct GpuRecords {
-    GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0;
-  };
 
   // The clusters and their cubes for one count and size (LightCluster), the voxel grid (on first use), then the
   // frame's plan.
@@ -88,16 +87,12 @@ private:
   }
 
   // The records the lookups read and the index lists of the culled views; the frame's map figures.
-  GpuRecords upload(ShadowPassFrame& p, const ShadowMapPlan& plan, FrameBuffers& buffers, std::vector<size_t>& firstIndex) {
+  MapRecordBuffers upload(ShadowPassFrame& p, const ShadowMapPlan& plan, FrameBuffers& buffers, std::vector<size_t>& firstIndex) {
     RendererResources& r = p.resources;
     const gl::Context& c = *r.context;
     const gl::Functions& g = c.gl();
     const uint32_t m = p.settings.shadowMaps.size, layers = uint32_t(plan.views.size());
-    GpuRecords out;
-    out.lightReals = buffers.add(gl::createStorageBuffer(c, plan.records.lightReals.data(), plan.records.lightReals.size() * 8));
-    out.lightWords = buffers.add(gl::createStorageBuffer(c, plan.records.lightWords.data(), plan.records.lightWords.size() * 4));
-    out.viewReals = buffers.add(gl::createStorageBuffer(c, plan.records.viewReals.data(), plan.records.viewReals.size() * 8));
-    out.viewWords = buffers.add(gl::createStorageBuffer(c, plan.records.viewWords.data(), plan.records.viewWords.size() * 4));
+    const MapRecordBuffers out = uploadMapRecords(c, plan.records, buffers);
     std::vector<uint32_t> indices;
     firstIndex.assign(layers, 0);
     for (uint32_t layer = 0; layer < layers; ++layer) {
@@ -110,7 +105,7 @@ private:
     g.BindVertexArray(r.vertexArray);
     g.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, elements);
     g.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(std::max<size_t>(indices.size(), 1) * 4), indices.data(), GL_STATIC_DRAW);
-    ensureMapArray(c, m, layers);
+    maps_.ensure(c, m, layers);
     Frame& f = p.frame;
     f.uploadedBytes += plan.records.bytes() + indices.size() * 4;
     f.shadowMaps.size = m;
@@ -133,7 +128,7 @@ private:
     g.GenQueries(GLsizei(queries.size()), queries.data());
     std::vector<uint8_t> drawn(layers, 0);
     p.timed("shadow_maps", [&] {
-      g.BindFramebuffer(GL_FRAMEBUFFER, mapFramebuffer_);
+      g.BindFramebuffer(GL_FRAMEBUFFER, maps_.framebuffer());
       const GLenum none = GL_NONE;
       g.DrawBuffers(1, &none);
       g.ReadBuffer(GL_NONE);
@@ -150,7 +145,7 @@ private:
       const GLfloat far = float(ShadowMap16::kFar) / 65536.0f;
       for (uint32_t layer = 0; layer < layers; ++layer) {
         const MapView& mv = plan.views[layer];
-        g.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, mapArray_, 0, GLint(layer));
+        g.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, maps_.texture(), 0, GLint(layer));
         g.ClearBufferfv(GL_DEPTH, 0, &far);
         if (mv.mapView.empty || (!mv.drawAll && mv.triangles.empty())) continue;
         const ViewMapping vm(mv.mapView);
@@ -187,78 +182,13 @@ private:
     gl::checkError(*r.context, "rendering " + std::to_string(layers) + " shadow maps");
   }
 
-  void readMaps(ShadowPassFrame& p, uint32_t layers) {
-    const gl::Functions& g = p.resources.gl();
-    const uint32_t m = p.settings.shadowMaps.size;
-    std::vector<float> depth(size_t(m) * m);
-    std::vector<uint16_t>& texels = p.frame.shadowMaps.texels;
-    texels.resize(size_t(layers) * m * m);
-    g.BindFramebuffer(GL_FRAMEBUFFER, mapFramebuffer_);
-    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-    for (uint32_t layer = 0; layer < layers; ++layer) {
-      g.FramebufferTextureLayer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, mapArray_, 0, GLint(layer));
-      g.ReadPixels(0, 0, GLsizei(m), GLsizei(m), GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
-      for (size_t i = 0; i < depth.size(); ++i)
-        texels[size_t(layer) * m * m + i] = uint16_t(std::lround(double(depth[i]) * 65536.0));
-    }
-    gl::checkError(*p.resources.context, "reading back the shadow maps");
-  }
-
-  void lookUp(ShadowPassFrame& p, const GpuRecords& records) {
-    RendererResources& r = p.resources;
-    const gl::Functions& g = r.gl();
-    Frame& f = p.frame;
-    p.timed("shadows", [&] {
-      g.UseProgram(lookupProgram_);
-      const GLuint program = lookupProgram_;
-      g.Uniform2i(g.GetUniformLocation(program, "imageSize_"), GLint(f.width), GLint(f.height));
-      g.Uniform2i(g.GetUniformLocation(program, "tileCount"), GLint(f.lists.tilesX), GLint(f.lists.tilesY));
-      g.Uniform1i(g.GetUniformLocation(program, "pcfKernel"), p.settings.pcfKernel);
-      g.Uniform1d(g.GetUniformLocation(program, "biasMargin"), p.settings.biasMargin);
-      g.ActiveTexture(GL_TEXTURE0);
-      g.BindTexture(GL_TEXTURE_2D, r.targets[0]);
-      g.ActiveTexture(GL_TEXTURE1);
-      g.BindTexture(GL_TEXTURE_2D, r.targets[1]);
-      g.ActiveTexture(GL_TEXTURE3);
-      g.BindTexture(GL_TEXTURE_2D_ARRAY, mapArray_);
-      for (auto [index, buffer] : {std::pair{binding::kLightReals, records.lightReals}, {binding::kLightWords, records.lightWords},
-                                     {binding::kTileOffsets, p.offsets}, {binding::kTileLights, p.lists}, {binding::kViewReals, records.viewReals},
-                                     {binding::kViewWords, records.viewWords}, {binding::kDagNodes, r.dagNodes},
-                                     {binding::kDagLeaves, r.dagLeaves}, {binding::kVisibility, p.visibility}})
-        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, index, buffer);
-      g.DispatchCompute(f.lists.tilesX, f.lists.tilesY, 1);
-      g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT);
-    });
-    gl::checkError(*r.context, "looking up the shadow maps");
-    f.visibility.resize(size_t(f.lists.offsets.back()) * 64);
-    gl::readStorageBuffer(*r.context, p.visibility, f.visibility.data(), f.visibility.size() * 4);
-  }
-
-  // A depth texture array of at least `layers` layers of size x size.
-  void ensureMapArray(const gl::Context& c, uint32_t size, uint32_t layers) {
-    const gl::Functions& g = c.gl();
-    if (mapArray_ && mapSize_ == size && mapLayers_ >= layers) return;
-    if (mapArray_) g.DeleteTextures(1, &mapArray_);
-    if (!mapFramebuffer_) g.GenFramebuffers(1, &mapFramebuffer_);
-    g.GenTextures(1, &mapArray_);
-    g.BindTexture(GL_TEXTURE_2D_ARRAY, mapArray_);
-    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    g.TexParameteri(GL_TEXTURE_2D_ARRAY, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    g.TexImage3D(GL_TEXTURE_2D_ARRAY, 0, GL_DEPTH_COMPONENT32F, GLsizei(size), GLsizei(size), GLsizei(std::max(1u, layers)),
-                 0, GL_DEPTH_COMPONENT, GL_FLOAT, nullptr);
-    gl::checkError(c, "allocating " + std::to_string(layers) + " shadow maps of " + std::to_string(size) + "^2");
-    mapSize_ = size;
-    mapLayers_ = std::max(1u, layers);
-  }
-
   const bool clustered_;
   GLuint depthProgram_ = 0, lookupProgram_ = 0;
   std::unique_ptr<CasterGrid> grid_;
   uint32_t clusterCount_ = 0, clusterSize_ = 0;
   LightClusters clusters_;
   std::vector<std::vector<LightView>> clusterViews_;
-  GLuint mapArray_ = 0, mapFramebuffer_ = 0;
-  uint32_t mapSize_ = 0, mapLayers_ = 0;
+  ShadowMapArray maps_;
 };
 
 }  // namespace

@@ -6,8 +6,31 @@
 
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/stopwatch.h"
+#include "libcpvs/gl/gl_program.h"
+#include "libcpvs/preview/glsl_sources.h"
 
 namespace cpvs {
+
+GpuWorkCounters::GpuWorkCounters(const gl::Context& context, uint32_t count) : context_(context), count_(count) {
+  const std::vector<uint32_t> zeros(2 * size_t(count), 0);
+  buffer_ = gl::createStorageBuffer(context, zeros.data(), zeros.size() * 4);
+}
+
+GpuWorkCounters::~GpuWorkCounters() { context_.gl().DeleteBuffers(1, &buffer_); }
+
+void GpuWorkCounters::bind() const { context_.gl().BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kWorkCounters, buffer_); }
+
+std::vector<uint64_t> GpuWorkCounters::read() const {
+  std::vector<uint32_t> words(2 * size_t(count_));
+  gl::readStorageBuffer(context_, buffer_, words.data(), words.size() * 4);
+  std::vector<uint64_t> out(count_);
+  for (size_t i = 0; i < count_; ++i) out[i] = uint64_t(words[2 * i]) | uint64_t(words[2 * i + 1]) << 32;
+  return out;
+}
+
+std::string GpuWorkCounters::glsl(uint32_t count) {
+  return "#define CPVS_WORK_COUNTERS " + std::to_string(count) + "\n" + glsl::work_counters_glsl;
+}
 
 std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
   std::vector<PairsOfLight> byLight(lightCount);

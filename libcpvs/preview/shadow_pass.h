@@ -40,6 +40,25 @@ private:
   std::vector<float> answers_;
 };
 
+// The 64-bit work counters of work_counters.glsl (one storage buffer at binding::kWorkCounters, zeroed when
+// made): `count` of them, read back after the pass.
+class GpuWorkCounters {
+public:
+  GpuWorkCounters(const gl::Context& context, uint32_t count);
+  ~GpuWorkCounters();
+  GpuWorkCounters(const GpuWorkCounters&) = delete;
+  GpuWorkCounters& operator=(const GpuWorkCounters&) = delete;
+  void bind() const;
+  std::vector<uint64_t> read() const;
+  // "#define CPVS_WORK_COUNTERS n\n" and work_counters.glsl, for a program's source.
+  static std::string glsl(uint32_t count);
+
+private:
+  const gl::Context& context_;
+  uint32_t count_;
+  GLuint buffer_ = 0;
+};
+
 // What the renderer hands a technique for one frame.
 class ShadowPassFrame {
 public:

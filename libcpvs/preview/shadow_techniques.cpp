@@ -9,6 +9,7 @@ std::unique_ptr<ShadowPass> makeCpuRuntimeShadows(RendererResources& resources);
 std::unique_ptr<ShadowPass> makeRayTracedShadows(RendererResources& resources);
 std::unique_ptr<ShadowPass> makeNoShadows(RendererResources& resources);
 std::unique_ptr<ShadowPass> makeShadowMapShadows(RendererResources& resources, bool clustered);
+std::unique_ptr<ShadowPass> makeManyPsmShadows(RendererResources& resources);
 
 std::unique_ptr<ShadowPass> makeShadowPass(ShadowMode mode, RendererResources& resources) {
   switch (mode) {
@@ -18,6 +19,7 @@ std::unique_ptr<ShadowPass> makeShadowPass(ShadowMode mode, RendererResources& r
     case ShadowMode::None: return makeNoShadows(resources);
     case ShadowMode::ShadowMap: return makeShadowMapShadows(resources, false);
     case ShadowMode::LightCluster: return makeShadowMapShadows(resources, true);
+    case ShadowMode::ManyPsm: return makeManyPsmShadows(resources);
   }
   throw Error(ErrorCategory::InvalidArgument, "unknown shadow mode");
 }

@@ -45,6 +45,8 @@
 #define CPVS_VIEW_ROOT_CODE 3u
 #define CPVS_VIEW_RESOLUTION 4u
 #define CPVS_VIEW_LAYER 5u       // cpvs-view's shadow-map modes: the view's layer in the map array
+#define CPVS_VIEW_ATLAS_X 6u     // and its texel origin in that layer (ManyPSMs' atlas; 0 for a map per layer)
+#define CPVS_VIEW_ATLAS_Y 7u
 #define CPVS_VIEW_CHILD_BASE 8u  // 32 values: DagView::childBase
 #define CPVS_VIEW_WORDS 40u      // per view
 

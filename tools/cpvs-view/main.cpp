@@ -38,7 +38,7 @@ using json = nlohmann::ordered_json;
 struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
   std::string shadows = "gpu", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
-  uint32_t shadowMapSize = 512, clusters = 10, rays = 1, compareRays = 1;
+  uint32_t shadowMapSize = 512, minShadowMapSize = 16, clusters = 10, rays = 1, compareRays = 1;
   double fov = 0, exposure = 0, exposureScale = 0;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
@@ -147,7 +147,10 @@ FrameSettings frameSettingsOf(const Options& o) {
   if (o.shadowMapSize < 8 || o.shadowMapSize > 8192)
     throw Error(ErrorCategory::InvalidArgument, "--shadow-map-size: 8..8192 texels");
   if (o.clusters < 1 || o.clusters > 100000) throw Error(ErrorCategory::InvalidArgument, "--clusters: 1..100000");
+  if (o.minShadowMapSize < 1 || o.minShadowMapSize > o.shadowMapSize)
+    throw Error(ErrorCategory::InvalidArgument, "--min-shadow-map-size: 1..--shadow-map-size texels");
   settings.shadowMaps.size = o.shadowMapSize;
+  settings.shadowMaps.minSize = o.minShadowMapSize;
   settings.shadowMaps.clusters = o.clusters;
   settings.compareWithRays = o.compare || o.overlay == "difference";
   settings.raysPerSide = tools::forFlag("--rays", [&] { return raysPerSideOf(o.rays); });
@@ -244,11 +247,16 @@ void addOptions(CLI::App& app, Options& o) {
   app.add_option("--shadows", o.shadows, "gpu (CPVS walked in a compute shader; default), cpu (the CPU runtime's batch "
                                          "lookups), raytraced (Embree shadow rays), none, or a per-frame technique "
                                          "CPVS replaces: shadowmap (a map per light view, drawn every frame) or "
-                                         "lightcluster (a cube map per cluster of lights)");
+                                         "lightcluster (a cube map per cluster of lights) or manypsm (ManyPSMs: every "
+                                         "light view's map in one go by a level-by-level BVH traversal into an atlas, "
+                                         "sized by distance; point splats make it approximate)");
   app.add_option("--caster-culling", o.casterCulling, "shadowmap / lightcluster: none, frustum, voxel-grid (Selgrad et al. "
                                                       "2016) or receiver-mask (Bittner et al. 2011); default none");
   app.add_option("--mask-variant", o.maskVariant, "receiver-mask: frag (every covered pixel; default) or bvol (8x8 tile boxes)");
-  app.add_option("--shadow-map-size", o.shadowMapSize, "shadowmap / lightcluster: the maps' edge in texels (8..8192; default 512)");
+  app.add_option("--shadow-map-size", o.shadowMapSize, "shadowmap / lightcluster: the maps' edge in texels (8..8192; "
+                                                      "default 512); manypsm: the largest (a power of two)");
+  app.add_option("--min-shadow-map-size", o.minShadowMapSize, "manypsm: the smallest map, for lights far from the camera "
+                                                              "(a power of two; default 16)");
   app.add_option("--clusters", o.clusters, "lightcluster: how many clusters (default 10)");
   app.add_option("--overlay", o.overlay, "none, lights-per-tile, difference (against Embree) or shadow-count");
   app.add_flag("--compare", o.compare, "Also render the ray-traced frame: RMSE, % wrong pixels and the mean visibility "

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "libcpvs/version.h"
 
@@ -24,19 +25,35 @@ json passesJson(const Frame& f) {
   return passes;
 }
 
-json shadowMapsJson(const ShadowMapFrame& maps, const ShadowMapSettings& settings) {
+json shadowMapsJson(const ShadowMapFrame& maps, const ShadowMapSettings& settings, ShadowMode mode) {
   uint64_t most = 0, sum = 0, lit = 0;
   for (uint64_t t : maps.trianglesPerLight)
     if (t) most = std::max(most, t), sum += t, ++lit;
-  return {{"caster_culling", casterCullingName(settings.casterCulling)},
-          {"mask_variant", receiverMaskVariantName(settings.maskVariant)},
-          {"size", maps.size}, {"maps", maps.views.size()},
-          {"triangles_drawn", maps.trianglesDrawn()},
-          {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
-          {"triangles_per_light_max", most}, {"lights_with_maps", lit},
-          {"gpu_bytes", maps.bytes},
-          {"fragments", maps.fragmentsDrawn()}, {"texels_cleared", maps.texelsCleared},
-          {"draw_calls", maps.drawCalls}};
+  json out = {{"caster_culling", mode == ShadowMode::ManyPsm ? "bvh traversal" : casterCullingName(settings.casterCulling)},
+              {"mask_variant", receiverMaskVariantName(settings.maskVariant)},
+              {"size", maps.size}, {"maps", maps.views.size()},
+              {"triangles_drawn", maps.trianglesDrawn()},
+              {"triangles_per_light_mean", lit ? double(sum) / double(lit) : 0.0},
+              {"triangles_per_light_max", most}, {"lights_with_maps", lit},
+              {"gpu_bytes", maps.bytes},
+              {"fragments", maps.fragmentsDrawn()}, {"texels_cleared", maps.texelsCleared},
+              {"draw_calls", maps.drawCalls}};
+  if (mode == ShadowMode::ManyPsm) {
+    std::map<uint32_t, uint64_t> perResolution;
+    for (const LightView& v : maps.views) ++perResolution[v.resolution];
+    json levels = json::array();
+    for (const auto& [resolution, count] : perResolution) levels.push_back({{"resolution", resolution}, {"maps", count}});
+    out["min_size"] = settings.minSize;
+    out["atlas_levels"] = levels;
+    out["atlas_layers"] = maps.atlasLayers;
+    out["dispatches"] = maps.dispatches;
+    out["nodes_visited"] = maps.nodesVisited;
+    out["points"] = maps.points;
+    out["triangle_fragments"] = maps.fragments.empty() ? 0 : maps.fragments[0];
+    out["point_fragments"] = maps.fragments.size() < 2 ? 0 : maps.fragments[1];
+    out["nodes_per_light_mean"] = lit ? double(maps.nodesVisited) / double(lit) : 0.0;
+  }
+  return out;
 }
 
 }  // namespace
@@ -66,11 +83,12 @@ void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera,
                                     {"this_frame", frame.uploadedBytes - renderer_.staticUploadBytes()}}},
                 {"exposure", exposure}};
   const ShadowMode mode = settings_.shadows;
-  if (mode == ShadowMode::ShadowMap || mode == ShadowMode::LightCluster)
-    entry["shadow_maps"] = shadowMapsJson(frame.shadowMaps, settings_.shadowMaps);
+  if (mode == ShadowMode::ShadowMap || mode == ShadowMode::LightCluster || mode == ShadowMode::ManyPsm)
+    entry["shadow_maps"] = shadowMapsJson(frame.shadowMaps, settings_.shadowMaps, mode);
   else if (mode == ShadowMode::Gpu || mode == ShadowMode::Cpu)
     // The DAGs and their records, in GPU memory for the GPU walk, in CPU memory (the mapped file) for the CPU's.
     entry[mode == ShadowMode::Gpu ? "cpvs_gpu_bytes" : "cpvs_cpu_bytes"] = renderer_.shadowDataBytes();
+  entry["lookup_bytes"] = frame.lookupBytesCounted ? json(frame.lookupBytes) : json(nullptr);
   if (settings_.compareWithRays) {
     lastErrors_ = errorsAgainstRays(frame, exposure);
     const RayErrors& e = lastErrors_;

@@ -1,10 +1,12 @@
 // Shadow pass: per pixel, per light of its tile's list, the CPVS lookup with K x K PCF (lookup_cell.glsl's
 // voxel, dag_walk.glsl.h's count), as LightShadow::visibility answers it. One work group per tile.
+// Counts the DAG bytes its walks read (work counter 0: node units and leaves, not the records or G-buffer).
 // With RECORD_CELLS, every pair's verdict, voxel and count go to `cells` too (tests compare them with the CPU's).
 layout(std430, binding = 11) writeonly buffer Cells { ivec4 cells[]; };  // (x, y, z, verdict | count << 2)
 uniform int pcfKernel;
 uniform double biasMargin;
 void main() {
+  beginGroupWork();
   uint tile = gl_WorkGroupID.y * uint(tileCount.x) + gl_WorkGroupID.x;
   uint local = gl_LocalInvocationID.y * 8u + gl_LocalInvocationID.x;
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -40,4 +42,6 @@ void main() {
     cells[pairIndex(tile, slot, local)] = record;
 #endif
   }
+  countWork(0u, gDagBytesRead);
+  endGroupWork();
 }

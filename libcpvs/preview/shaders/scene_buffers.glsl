@@ -15,6 +15,7 @@ uniform ivec2 imageSize_;
 uniform ivec2 tileCount;
 
 uint gLight = 0u, gView = 0u;
+uint gDagBytesRead = 0u;  // by this invocation's DAG walks: 2 per node unit, 8 per leaf (the work counters)
 double cpvsLightReal(uint i) { return lightReals[gLight * CPVS_LIGHT_REALS + i]; }
 uint cpvsLightWord(uint i) { return lightWords[gLight * CPVS_LIGHT_WORDS + i]; }
 uint cpvsLightType() { return cpvsLightWord(CPVS_LIGHT_TYPE); }
@@ -27,9 +28,13 @@ uint cpvsViewWord(uint i) { return viewWords[gView * CPVS_VIEW_WORDS + i]; }
 uint cpvsMappingFlags() { return cpvsViewWord(CPVS_VIEW_FLAGS); }
 uint cpvsNodeUnit(uint i) {
   uint unit = cpvsViewWord(CPVS_VIEW_NODE_BASE) + i;
+  gDagBytesRead += 2u;
   return (dagNodes[unit >> 1u] >> ((unit & 1u) * 16u)) & 0xFFFFu;
 }
-uvec2 cpvsLeaf(uint i) { return dagLeaves[cpvsViewWord(CPVS_VIEW_LEAF_BASE) + i]; }
+uvec2 cpvsLeaf(uint i) {
+  gDagBytesRead += 8u;
+  return dagLeaves[cpvsViewWord(CPVS_VIEW_LEAF_BASE) + i];
+}
 uint cpvsResolution() { return cpvsViewWord(CPVS_VIEW_RESOLUTION); }
 uint cpvsRootCode() { return cpvsViewWord(CPVS_VIEW_ROOT_CODE); }
 uint cpvsChildBase(uint log2Edge) { return cpvsViewWord(CPVS_VIEW_CHILD_BASE + log2Edge); }

@@ -2,10 +2,13 @@
 // rule: lookup_cell.glsl's voxel and bias in the map's resolution M, then the K x K texels' 16-bit depths
 // against the biased point's (texels outside the map lit). A light's shadow comes from the views of the light
 // record CPVS_LIGHT_SHADOW_LIGHT names: its own, or (LightCluster) its cluster's cube at the cluster's centre.
-layout(binding = 3) uniform sampler2DArray shadowMaps;  // q / 65536 per texel, one layer per rendered view
+// A view's map is the resolution^2 texels from (CPVS_VIEW_ATLAS_X, CPVS_VIEW_ATLAS_Y) of its layer (the
+// origin for a map per layer; ManyPSMs packs several into one). Counts the texels it reads (work counter 0).
+layout(binding = 3) uniform sampler2DArray shadowMaps;  // q / 65536 per texel
 uniform int pcfKernel;
 uniform double biasMargin;
 void main() {
+  beginGroupWork();
   uint tile = gl_WorkGroupID.y * uint(tileCount.x) + gl_WorkGroupID.x;
   uint local = gl_LocalInvocationID.y * 8u + gl_LocalInvocationID.x;
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -34,15 +37,19 @@ void main() {
             double scaled = floor(slice * 65536.0LF / double(m));
             uint q = scaled > 0.0LF ? uint(min(scaled, 65535.0LF)) : 0u;  // quantizeSlice
             int layer = int(cpvsViewWord(CPVS_VIEW_LAYER));
+            ivec2 origin = ivec2(cpvsViewWord(CPVS_VIEW_ATLAS_X), cpvsViewWord(CPVS_VIEW_ATLAS_Y));
+            uint read = 0u;
             int r = pcfKernel / 2;
             uint lit = 0u;
             for (int dy = -r; dy <= r; ++dy)
               for (int dx = -r; dx <= r; ++dx) {
                 ivec2 t = cell.voxel.xy + ivec2(dx, dy);
                 bool outside = t.x < 0 || t.y < 0 || t.x >= m || t.y >= m;
-                uint stored = outside ? 65535u : uint(texelFetch(shadowMaps, ivec3(t, layer), 0).r * 65536.0);
+                uint stored = outside ? 65535u : uint(texelFetch(shadowMaps, ivec3(origin + t, layer), 0).r * 65536.0);
                 lit += (outside || q <= stored) ? 1u : 0u;
+                read += outside ? 0u : 1u;
               }
+            countWork(0u, read);
             double k = double(pcfKernel);
             answer = float(double(lit) / (k * k));
           }
@@ -51,4 +58,5 @@ void main() {
     }
     visibility[pairIndex(tile, slot, local)] = answer;
   }
+  endGroupWork();
 }
