@@ -474,6 +474,27 @@ TEST(Scenegen, CitySpotsCarryDownwardSpotLights) {
   EXPECT_EQ(seen.size(), 40u);
 }
 
+// --point-lights: the same city and places, point lights (ManyPSMs' scene: 120 lights, 720 views) whose range
+// reaches the ground below them.
+TEST(Scenegen, CitySpotsCanCarryPointLightsInstead) {
+  const std::string dir = tempDir();
+  ASSERT_TRUE(generate("city-spots --triangles 20000 --lights 12 --seed 5 -o " + dir + "/spots.glb"));
+  ASSERT_TRUE(generate("city-spots --triangles 20000 --lights 12 --seed 5 --point-lights -o " + dir + "/points.glb"));
+  const gltf::Model spots = load(dir + "/spots.glb"), points = load(dir + "/points.glb");
+  ASSERT_EQ(points.lights.size(), 12u);
+  ASSERT_EQ(points.nodes.size(), spots.nodes.size());
+  EXPECT_EQ(points.meshes.size(), spots.meshes.size());
+  for (size_t i = 0; i < points.nodes.size(); ++i) {
+    const int index = lightOf(points.nodes[i]);
+    if (index < 0) continue;
+    const gltf::Light& light = points.lights[static_cast<std::size_t>(index)];
+    EXPECT_EQ(light.type, "point") << light.name;
+    EXPECT_EQ(points.nodes[i].translation, spots.nodes[i].translation) << light.name;
+    EXPECT_GT(light.range, points.nodes[i].translation[1]) << light.name << " does not reach the ground";
+  }
+  EXPECT_EQ(runTool(generator() + " city --point-lights -o " + dir + "/no.glb").exitCode, 1);
+}
+
 TEST(Scenegen, LightQuaternionTurnsMinusZIntoTheDirection) {
   // Independent of the generator's own arithmetic: the quaternion written for the sun must satisfy
   // glm's convention (w, x, y, z) and glTF's (x, y, z, w) order; checked above through expectSun. Here:

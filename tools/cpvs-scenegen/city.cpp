@@ -462,6 +462,12 @@ void addSpots(GenScene& scene, const CityOptions& o, const Layout& y) {
     l.outerConeAngle = outer;
     l.innerConeAngle = outer * rng.uniform(0.6, 0.85);
     l.range = 1.3 * h / detCos(std::min(tilt + outer, 1.3));  // reaches the ground across the cone
+    if (o.pointLights) {  // the same place and draws of the generator (so the same city), no cone
+      l.name = "point_" + std::to_string(i);
+      l.type = GenLight::Type::Point;
+      l.outerConeAngle = l.innerConeAngle = 0.0;
+      l.range = 1.5 * h;  // the ground within about a block around the light
+    }
     GenNode n;
     n.name = l.name;
     n.light = static_cast<int>(scene.lights.size());

@@ -60,7 +60,7 @@ Quat rotationFromMinusZ(const glm::dvec3& direction);
 Quat rotationAboutY(double angle);
 
 struct GenLight {
-  enum class Type { Directional, Spot };
+  enum class Type { Directional, Spot, Point };
   std::string name;
   Type type = Type::Directional;
   glm::dvec3 color{1.0, 1.0, 1.0};

@@ -11,6 +11,7 @@ struct CityOptions {
   std::uint64_t targetTriangles = 100000;
   bool open = false;  // open-city: single-sided walls, no caps, ground as one sheet
   int spotLights = 0;  // > 0: city-spots (these spots and no sun); 0: one directional sun
+  bool pointLights = false;  // city-spots: point lights at the spots' places instead
 };
 
 // What the city generator chose to approximate the triangle budget.

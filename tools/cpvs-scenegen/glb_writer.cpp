@@ -212,6 +212,8 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
       json j = {{"name", l.name}, {"color", vec3(l.color)}, {"intensity", l.intensity}};
       if (l.type == GenLight::Type::Directional) {
         j["type"] = "directional";
+      } else if (l.type == GenLight::Type::Point) {
+        j["type"] = "point";
       } else {
         j["type"] = "spot";
         j["spot"] = {{"innerConeAngle", l.innerConeAngle}, {"outerConeAngle", l.outerConeAngle}};

@@ -100,6 +100,7 @@ struct Request {
   std::uint64_t triangles = 100000, seed = 1;
   int lights = 165;
   bool gpuInstancing = false;
+  bool pointLights = false;
 };
 
 int run(const Request& r) {
@@ -126,6 +127,7 @@ int run(const Request& r) {
     o.targetTriangles = triangles;
     o.open = kind == "open-city";
     o.spotLights = kind == "city-spots" ? r.lights : 0;
+    o.pointLights = r.pointLights;
     CityInfo info;
     scene = generateCity(o, &info);
     layout = ", " + std::to_string(info.blocksPerSide) + "x" + std::to_string(info.blocksPerSide) + " blocks of " +
@@ -148,6 +150,7 @@ int run(const Request& r) {
   }
   if (kind == "city-spots" || kind == "foliage") extras["lights"] = r.lights;
   if (r.gpuInstancing) extras["gpuInstancing"] = true;
+  if (r.pointLights) extras["pointLights"] = true;
   const std::string bytes = writeGlb(scene, kGenerator, extras);
   writeAtomically(output, bytes);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -190,6 +193,9 @@ int main(int argc, char** argv) {
   CLI::Option* instancingOption = app.add_flag(
       "--gpu-instancing", r.gpuInstancing,
       "city, open-city, city-spots: place the meshes through EXT_mesh_gpu_instancing (one node per mesh)");
+  CLI::Option* pointsOption = app.add_flag(
+      "--point-lights", r.pointLights,
+      "city-spots: point lights (six views each) at the spots' places instead of spots (e.g. --lights 120: 720 views)");
   app.set_version_flag("--version", kGenerator);
   app.footer(
       "Exit codes: 0 ok, 1 usage error, 3 output cannot be written, 4 runtime failure (e.g. out of memory).\n"
@@ -199,6 +205,8 @@ int main(int argc, char** argv) {
     const bool city = r.kind == "city" || r.kind == "open-city" || r.kind == "city-spots";
     if (lightsOption->count() > 0 && r.kind != "city-spots" && r.kind != "foliage")
       throw CLI::ValidationError("--lights", "only applies to the city-spots and foliage scenes");
+    if (pointsOption->count() > 0 && r.kind != "city-spots")
+      throw CLI::ValidationError("--point-lights", "only applies to the city-spots scene");
     if (instancingOption->count() > 0 && !city)
       throw CLI::ValidationError("--gpu-instancing", "only applies to the city, open-city and city-spots scenes");
     if (r.kind == "alpha-test" && (trianglesOption->count() > 0 || seedOption->count() > 0))
