@@ -204,6 +204,20 @@ TEST(Culling, MapWorkCountersBoundTheMapsAndFollowTheCulling) {
   const Frame cpvs = render(c, camera, ShadowMode::Gpu, CasterCulling::None);
   ASSERT_TRUE(cpvs.lookupBytesCounted);
   EXPECT_GT(cpvs.lookupBytes, 0u);
+  // Per light: the frame's bytes split by the light each lookup was for; a light no tile lists read nothing.
+  std::vector<uint8_t> listed(c.renderer->lights().size(), 0);
+  for (uint32_t l : all.lists.lights) listed[l] = 1;
+  for (const Frame* f : {&all, &cpvs}) {
+    ASSERT_EQ(f->lookupBytesPerLight.size(), listed.size());
+    uint64_t sum = 0;
+    for (size_t l = 0; l < listed.size(); ++l) {
+      sum += f->lookupBytesPerLight[l];
+      if (!listed[l]) {
+        EXPECT_EQ(f->lookupBytesPerLight[l], 0u) << "light " << l;
+      }
+    }
+    EXPECT_EQ(sum, f->lookupBytes);
+  }
   std::printf("[ lookups  ] %zu pairs: the maps' lookups read %llu bytes, CPVS's %llu\n", pairs,
               (unsigned long long)all.lookupBytes, (unsigned long long)cpvs.lookupBytes);
 }

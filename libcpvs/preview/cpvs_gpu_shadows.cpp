@@ -11,8 +11,8 @@ namespace {
 
 class CpvsGpuShadows final : public ShadowPass {
 public:
-  explicit CpvsGpuShadows(const gl::Context& c) {
-    const std::string counters = GpuWorkCounters::glsl(1);
+  CpvsGpuShadows(const gl::Context& c, size_t lights) : counters_(GpuWorkCounters::forLookups(lights)) {
+    const std::string counters = GpuWorkCounters::glsl(counters_);
     for (bool record : {false, true})
       (record ? recording_ : plain_) = gl::linkProgram(
           c, {{GL_COMPUTE_SHADER, computeSource({record ? "#define RECORD_CELLS\n" : "",
@@ -28,7 +28,7 @@ public:
     const gl::Functions& g = c.gl();
     Frame& f = p.frame;
     const GLuint program = p.settings.recordCells ? recording_ : plain_;
-    GpuWorkCounters work(c, 1);
+    GpuWorkCounters work(c, counters_);
     p.timed("shadows", [&] {
       g.UseProgram(program);
       p.bindSceneBuffers(program);
@@ -43,8 +43,7 @@ public:
     const size_t pairSlots = size_t(f.lists.offsets.back()) * 64;
     f.visibility.resize(pairSlots);
     gl::readStorageBuffer(c, p.visibility, f.visibility.data(), pairSlots * 4);
-    f.lookupBytes = work.read()[0];  // DAG node units and leaves
-    f.lookupBytesCounted = true;
+    GpuWorkCounters::toFrame(work.read(), f);  // DAG node units and leaves
     if (p.cells) {
       f.cells.resize(pairSlots);
       gl::readStorageBuffer(c, p.cells, f.cells.data(), pairSlots * 16);
@@ -53,13 +52,14 @@ public:
   }
 
 private:
+  uint32_t counters_ = 1;
   GLuint plain_ = 0, recording_ = 0;
 };
 
 }  // namespace
 
 std::unique_ptr<ShadowPass> makeCpvsGpuShadows(RendererResources& resources) {
-  return std::make_unique<CpvsGpuShadows>(*resources.context);
+  return std::make_unique<CpvsGpuShadows>(*resources.context, resources.lights.size());
 }
 
 }  // namespace cpvs

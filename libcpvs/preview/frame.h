@@ -129,6 +129,7 @@ struct Frame {
   // Bytes the shadow lookups read (CPVS: DAG node units and leaves; the map modes: map texels), where the
   // technique counts them (the GPU ones).
   uint64_t lookupBytes = 0;
+  std::vector<uint64_t> lookupBytesPerLight;  // per light, where counted (empty beyond 8191 lights)
   bool lookupBytesCounted = false;
   size_t uploadedBytes = 0;  // lights, views, DAGs and geometry (once per renderer) plus this frame's uploads
 

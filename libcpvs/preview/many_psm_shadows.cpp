@@ -61,7 +61,7 @@ public:
                                                              "(a layer per vertex): ") + e.what());
       }
     }
-    lookupProgram_ = linkMapLookupProgram(c);
+    lookupProgram_ = linkMapLookupProgram(c, r.lights.size());
     bvh_ = buildSceneBvh(r.casterTriangles, r.castingTrianglesOfInstance);
     nodes_ = gl::createStorageBuffer(c, bvh_.nodes.data(), bvh_.nodes.size() * sizeof(SceneBvhNode));
     leafTriangles_ = gl::createStorageBuffer(c, bvh_.triangles.data(), bvh_.triangles.size() * 4);
@@ -102,15 +102,36 @@ public:
   }
 
 private:
+  // A frame's GPU lists: the views, the level-0 items (root, view), the counters, two item lists used in turn
+  // by the levels, the emitted triangles and points, and the indirect arguments.
+  struct TraversalBuffers {
+    explicit TraversalBuffers(const gl::Context& c) : owned(c) {}
+    FrameBuffers owned;
+    GLuint views = 0, counters = 0, viewCounters = 0, items[2] = {0, 0}, triangles = 0, points = 0, indirect = 0;
+    uint32_t levels = 0, itemCapacity = 0, drawsAt = 0;  // drawsAt: the draws' arguments, in words
+    std::vector<uint32_t> counts;  // as uploaded: [0] triangles, [1] points, [2 + level] items
+  };
+
   // One traversal and the splats; false (and capacities grown) when a list overflowed.
   bool drawAtlas(ShadowPassFrame& p, const ManyPsmPlan& plan) {
-    RendererResources& r = p.resources;
+    TraversalBuffers b(*p.resources.context);
+    upload(p.resources, plan, b);
+    const uint32_t dispatches = traverse(p, b);
+    uint64_t fragments[2] = {0, 0};
+    splat(p, plan, b.indirect, b.drawsAt, fragments);
+    const gl::Context& c = *p.resources.context;
+    gl::readStorageBuffer(c, b.counters, b.counts.data(), b.counts.size() * 4);
+    if (grewForOverflow(p.resources, b)) return false;
+    report(p, plan, b, dispatches, fragments);
+    return true;
+  }
+
+  void upload(RendererResources& r, const ManyPsmPlan& plan, TraversalBuffers& b) {
     const gl::Context& c = *r.context;
     const gl::Functions& g = c.gl();
-    const uint32_t views = uint32_t(plan.views.size()), levels = std::max(1u, bvh_.levels);
     std::vector<GpuPsmView> gpuViews;
     std::vector<glm::uvec2> roots;
-    for (uint32_t v = 0; v < views; ++v) {
+    for (uint32_t v = 0; v < plan.views.size(); ++v) {
       const AtlasView& av = plan.views[v];
       const ViewMapping vm(av.mapView);
       gpuViews.push_back({glm::mat4(av.mapView.viewFromWorld),
@@ -120,36 +141,42 @@ private:
                           {av.layer, av.x, av.y, av.mapView.resolution}});
       if (!av.mapView.empty && !bvh_.nodes.empty()) roots.push_back({0u, v});
     }
-    const uint32_t itemCapacity = std::max<uint32_t>(capacity_.items, uint32_t(roots.size()));
-    FrameBuffers buffers(c);
-    std::vector<uint32_t> counters(2 + levels + 1, 0);
-    counters[2] = uint32_t(roots.size());
-    const GLuint viewBuffer = buffers.add(gl::createStorageBuffer(c, gpuViews.data(), gpuViews.size() * sizeof(GpuPsmView)));
-    const GLuint counterBuffer = buffers.add(gl::createStorageBuffer(c, counters.data(), counters.size() * 4));
-    const GLuint viewCounters = buffers.add(gl::createStorageBuffer(c, nullptr, size_t(views) * 3 * 4));
-    GLuint items[2] = {buffers.add(gl::createStorageBuffer(c, nullptr, size_t(itemCapacity) * 8)),
-                       buffers.add(gl::createStorageBuffer(c, nullptr, size_t(itemCapacity) * 8))};
-    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, items[0]);
+    b.levels = std::max(1u, bvh_.levels);
+    b.itemCapacity = std::max<uint32_t>(capacity_.items, uint32_t(roots.size()));
+    b.counts.assign(2 + b.levels + 1, 0);
+    b.counts[2] = uint32_t(roots.size());
+    b.drawsAt = 3 * b.levels;
+    const auto buffer = [&](const void* data, size_t bytes) { return b.owned.add(gl::createStorageBuffer(c, data, bytes)); };
+    b.views = buffer(gpuViews.data(), gpuViews.size() * sizeof(GpuPsmView));
+    b.counters = buffer(b.counts.data(), b.counts.size() * 4);
+    b.viewCounters = buffer(nullptr, plan.views.size() * 3 * 4);
+    b.items[0] = buffer(nullptr, size_t(b.itemCapacity) * 8);
+    b.items[1] = buffer(nullptr, size_t(b.itemCapacity) * 8);
+    g.BindBuffer(GL_SHADER_STORAGE_BUFFER, b.items[0]);
     g.BufferSubData(GL_SHADER_STORAGE_BUFFER, 0, GLsizeiptr(roots.size() * 8), roots.data());
-    const GLuint triangleItems = buffers.add(gl::createStorageBuffer(c, nullptr, size_t(capacity_.triangles) * 8));
-    const GLuint pointItems = buffers.add(gl::createStorageBuffer(c, nullptr, size_t(capacity_.points) * 8));
-    const uint32_t drawsAt = 3 * levels;
-    const GLuint indirect = buffers.add(gl::createStorageBuffer(c, nullptr, (size_t(drawsAt) + 8) * 4));
-    for (auto [index, buffer] : {std::pair{binding::kPsmNodes, nodes_}, {binding::kPsmViews, viewBuffer},
-                                 {binding::kPsmCounters, counterBuffer}, {binding::kPsmTriangles, triangleItems},
-                                 {binding::kPsmPoints, pointItems}, {binding::kPsmLeafTriangles, leafTriangles_},
-                                 {binding::kPsmViewCounters, viewCounters}, {binding::kPsmIndirect, indirect},
-                                 {binding::kPsmVertices, r.vertexBuffer}})
-      g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, index, buffer);
+    b.triangles = buffer(nullptr, size_t(capacity_.triangles) * 8);
+    b.points = buffer(nullptr, size_t(capacity_.points) * 8);
+    b.indirect = buffer(nullptr, (size_t(b.drawsAt) + 8) * 4);
+    for (auto [index, name] : {std::pair{binding::kPsmNodes, nodes_}, {binding::kPsmViews, b.views},
+                               {binding::kPsmCounters, b.counters}, {binding::kPsmTriangles, b.triangles},
+                               {binding::kPsmPoints, b.points}, {binding::kPsmLeafTriangles, leafTriangles_},
+                               {binding::kPsmViewCounters, b.viewCounters}, {binding::kPsmIndirect, b.indirect},
+                               {binding::kPsmVertices, r.vertexBuffer}})
+      g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, index, name);
+  }
+
+  // The levels, each sized on the GPU by the one before; then the draws' sizes. Returns the dispatches.
+  uint32_t traverse(ShadowPassFrame& p, const TraversalBuffers& b) {
+    const gl::Functions& g = p.resources.gl();
     const auto capacities = [&](GLuint program) {
-      g.Uniform1ui(g.GetUniformLocation(program, "itemCapacity"), itemCapacity);
+      g.Uniform1ui(g.GetUniformLocation(program, "itemCapacity"), b.itemCapacity);
       g.Uniform1ui(g.GetUniformLocation(program, "triangleCapacity"), capacity_.triangles);
       g.Uniform1ui(g.GetUniformLocation(program, "pointCapacity"), capacity_.points);
     };
     uint32_t dispatches = 0;
     p.timed("traversal", [&] {
-      g.BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, indirect);
-      for (uint32_t level = 0; level < levels; ++level) {
+      g.BindBuffer(GL_DISPATCH_INDIRECT_BUFFER, b.indirect);
+      for (uint32_t level = 0; level < b.levels; ++level) {
         g.UseProgram(dispatchArgsProgram_);
         capacities(dispatchArgsProgram_);
         g.Uniform1ui(g.GetUniformLocation(dispatchArgsProgram_, "level"), level);
@@ -158,43 +185,51 @@ private:
         g.UseProgram(traverseProgram_);
         capacities(traverseProgram_);
         g.Uniform1ui(g.GetUniformLocation(traverseProgram_, "level"), level);
-        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kPsmItemsIn, items[level % 2]);
-        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kPsmItemsOut, items[(level + 1) % 2]);
+        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kPsmItemsIn, b.items[level % 2]);
+        g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kPsmItemsOut, b.items[(level + 1) % 2]);
         g.DispatchComputeIndirect(GLintptr(3 * level * 4));
         g.MemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
         dispatches += 2;
       }
       g.UseProgram(drawArgsProgram_);
       capacities(drawArgsProgram_);
-      g.Uniform1ui(g.GetUniformLocation(drawArgsProgram_, "drawsAt"), drawsAt);
+      g.Uniform1ui(g.GetUniformLocation(drawArgsProgram_, "drawsAt"), b.drawsAt);
       g.DispatchCompute(1, 1, 1);
       g.MemoryBarrier(GL_COMMAND_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
       ++dispatches;
     });
-    gl::checkError(c, "traversing the scene tree for " + std::to_string(views) + " views");
-    uint64_t fragments[2] = {0, 0};
-    splat(p, plan, indirect, drawsAt, fragments);
-    // The counts, and whether every list had room.
-    gl::readStorageBuffer(c, counterBuffer, counters.data(), counters.size() * 4);
+    gl::checkError(*p.resources.context, "traversing the scene tree");
+    return dispatches;
+  }
+
+  // Whether a list overflowed; if so, room for twice what it counted.
+  bool grewForOverflow(RendererResources& r, const TraversalBuffers& b) {
+    const std::vector<uint32_t>& n = b.counts;
     uint32_t mostItems = 0;
-    for (uint32_t level = 0; level < levels; ++level) mostItems = std::max(mostItems, counters[2 + level + 1]);
-    const bool fits = mostItems <= itemCapacity && counters[0] <= capacity_.triangles && counters[1] <= capacity_.points;
-    if (!fits) {
-      capacity_.items = std::max(capacity_.items, std::bit_ceil(mostItems + 1) * 2);
-      capacity_.triangles = std::max(capacity_.triangles, std::bit_ceil(counters[0] + 1) * 2);
-      capacity_.points = std::max(capacity_.points, std::bit_ceil(counters[1] + 1) * 2);
-      const size_t most = std::max({size_t(capacity_.items), size_t(capacity_.triangles), size_t(capacity_.points)}) * 8;
-      r.requireStorage(most, "ManyPSMs' item lists");
-      return false;
-    }
-    std::vector<uint32_t> perView(size_t(views) * 3);
-    gl::readStorageBuffer(c, viewCounters, perView.data(), perView.size() * 4);
+    for (uint32_t level = 0; level < b.levels; ++level) mostItems = std::max(mostItems, n[2 + level + 1]);
+    if (mostItems <= b.itemCapacity && n[0] <= capacity_.triangles && n[1] <= capacity_.points) return false;
+    capacity_.items = std::max(capacity_.items, std::bit_ceil(mostItems + 1) * 2);
+    capacity_.triangles = std::max(capacity_.triangles, std::bit_ceil(n[0] + 1) * 2);
+    capacity_.points = std::max(capacity_.points, std::bit_ceil(n[1] + 1) * 2);
+    r.requireStorage(std::max({size_t(capacity_.items), size_t(capacity_.triangles), size_t(capacity_.points)}) * 8,
+                     "ManyPSMs' item lists");
+    return true;
+  }
+
+  // The frame's maps and work counters (and, for tests, every splatted node's box).
+  void report(ShadowPassFrame& p, const ManyPsmPlan& plan, const TraversalBuffers& b, uint32_t dispatches,
+              const uint64_t fragments[2]) {
+    RendererResources& r = p.resources;
+    const gl::Context& c = *r.context;
+    const size_t views = plan.views.size();
+    std::vector<uint32_t> perView(views * 3);
+    gl::readStorageBuffer(c, b.viewCounters, perView.data(), perView.size() * 4);
     ShadowMapFrame& out = p.frame.shadowMaps;
     out = ShadowMapFrame{};
     out.size = plan.layerSize;
     out.atlasLayers = plan.layers;
     out.trianglesPerLight.assign(r.lights.size(), 0);
-    for (uint32_t v = 0; v < views; ++v) {
+    for (size_t v = 0; v < views; ++v) {
       const AtlasView& av = plan.views[v];
       out.shadowLight.push_back(av.light);
       out.views.push_back(av.mapView);
@@ -205,22 +240,20 @@ private:
       out.trianglesPerLight[av.light] += perView[3 * v + 1];
       out.nodesVisited += perView[3 * v];
     }
-    out.points = counters[1];
+    out.points = b.counts[1];
     out.fragments = {fragments[0], fragments[1]};
     out.texelsCleared = uint64_t(plan.layers) * plan.layerSize * plan.layerSize;
     out.drawCalls = 2;
     out.dispatches = dispatches;
-    out.bytes = uint64_t(plan.layers) * plan.layerSize * plan.layerSize * 4 + bvh_.bytes() +
-                (uint64_t(itemCapacity) * 2 + capacity_.triangles + capacity_.points) * 8;
-    if (p.settings.shadowMaps.keepMaps && counters[1] > 0) {
-      std::vector<glm::uvec2> splatted(counters[1]);
-      gl::readStorageBuffer(c, pointItems, splatted.data(), splatted.size() * 8);
+    out.bytes = out.texelsCleared * 4 + bvh_.bytes() + (uint64_t(b.itemCapacity) * 2 + capacity_.triangles + capacity_.points) * 8;
+    if (p.settings.shadowMaps.keepMaps && b.counts[1] > 0) {
+      std::vector<glm::uvec2> splatted(b.counts[1]);
+      gl::readStorageBuffer(c, b.points, splatted.data(), splatted.size() * 8);
       for (const glm::uvec2& item : splatted) {
         out.pointBoxes.emplace_back(bvh_.nodes[item.x].lo, bvh_.nodes[item.x].hi);
         out.pointMaps.push_back(item.y);
       }
     }
-    return true;
   }
 
   // The atlas: every layer cleared, then one draw of every emitted triangle and one of every point.
@@ -268,8 +301,8 @@ private:
     gl::checkError(*r.context, "splatting ManyPSMs' atlas");
   }
 
-  GLuint traverseProgram_ = 0, dispatchArgsProgram_ = 0, drawArgsProgram_ = 0, triangleProgram_ = 0, pointProgram_ = 0,
-         lookupProgram_ = 0;
+  GLuint traverseProgram_ = 0, dispatchArgsProgram_ = 0, drawArgsProgram_ = 0, triangleProgram_ = 0, pointProgram_ = 0;
+  MapLookupProgram lookupProgram_;
   SceneBvh bvh_;
   GLuint nodes_ = 0, leafTriangles_ = 0;
   Capacities capacity_;

@@ -52,20 +52,25 @@ MapRecordBuffers uploadMapRecords(const gl::Context& c, const GpuSceneRecords& r
   return out;
 }
 
-GLuint linkMapLookupProgram(const gl::Context& c) {
-  const std::string counters = GpuWorkCounters::glsl(1);
-  return gl::linkProgram(
+MapLookupProgram linkMapLookupProgram(const gl::Context& c, size_t lights) {
+  MapLookupProgram out;
+  out.counters = GpuWorkCounters::forLookups(lights);
+  const std::string counters = GpuWorkCounters::glsl(out.counters);
+  out.program = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n", counters.c_str(),
                                              glsl::lookup_records_glsl, glsl::scene_buffers_glsl, glsl::lookup_cell_glsl,
                                              glsl::shadow_map_lookups_comp})}},
       "shadow-map lookup");
+  return out;
 }
 
-void lookUpMaps(ShadowPassFrame& p, GLuint program, const ShadowMapArray& maps, const MapRecordBuffers& records) {
+void lookUpMaps(ShadowPassFrame& p, const MapLookupProgram& lookups, const ShadowMapArray& maps,
+                const MapRecordBuffers& records) {
   RendererResources& r = p.resources;
   const gl::Functions& g = r.gl();
   Frame& f = p.frame;
-  GpuWorkCounters work(*r.context, 1);
+  const GLuint program = lookups.program;
+  GpuWorkCounters work(*r.context, lookups.counters);
   p.timed("shadows", [&] {
     g.UseProgram(program);
     g.Uniform2i(g.GetUniformLocation(program, "imageSize_"), GLint(f.width), GLint(f.height));
@@ -90,8 +95,7 @@ void lookUpMaps(ShadowPassFrame& p, GLuint program, const ShadowMapArray& maps, 
   gl::checkError(*r.context, "looking up the shadow maps");
   f.visibility.resize(size_t(f.lists.offsets.back()) * 64);
   gl::readStorageBuffer(*r.context, p.visibility, f.visibility.data(), f.visibility.size() * 4);
-  f.lookupBytes = work.read()[0] * 4;  // 32-bit texels
-  f.lookupBytesCounted = true;
+  GpuWorkCounters::toFrame(work.read(), f);
 }
 
 }  // namespace cpvs

@@ -34,10 +34,16 @@ struct MapRecordBuffers {
 };
 MapRecordBuffers uploadMapRecords(const gl::Context& context, const GpuSceneRecords& records, FrameBuffers& buffers);
 
-GLuint linkMapLookupProgram(const gl::Context& context);
+// The lookup pass's program, counting GpuWorkCounters::forLookups(lights) sums.
+struct MapLookupProgram {
+  GLuint program = 0;
+  uint32_t counters = 1;
+};
+MapLookupProgram linkMapLookupProgram(const gl::Context& context, size_t lights);
 
 // The lookups (timed "shadows"): every listed pair's visibility into Frame::visibility, and the bytes of map
-// texels they read into Frame::lookupBytes.
-void lookUpMaps(ShadowPassFrame& p, GLuint program, const ShadowMapArray& maps, const MapRecordBuffers& records);
+// texels they read into Frame::lookupBytes (and per light).
+void lookUpMaps(ShadowPassFrame& p, const MapLookupProgram& lookups, const ShadowMapArray& maps,
+                const MapRecordBuffers& records);
 
 }  // namespace cpvs

@@ -32,7 +32,7 @@ public:
         c, {{GL_VERTEX_SHADER, version + glsl::shadow_map_clip_glsl + glsl::shadow_map_depth_vert},
             {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl + glsl::shadow_map_depth_frag}},
         "shadow-map depth");
-    lookupProgram_ = linkMapLookupProgram(c);
+    lookupProgram_ = linkMapLookupProgram(c, r.lights.size());
   }
 
   bool run(ShadowPassFrame& p) override {
@@ -183,7 +183,8 @@ private:
   }
 
   const bool clustered_;
-  GLuint depthProgram_ = 0, lookupProgram_ = 0;
+  GLuint depthProgram_ = 0;
+  MapLookupProgram lookupProgram_;
   std::unique_ptr<CasterGrid> grid_;
   uint32_t clusterCount_ = 0, clusterSize_ = 0;
   LightClusters clusters_;

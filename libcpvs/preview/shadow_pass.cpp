@@ -32,6 +32,12 @@ std::string GpuWorkCounters::glsl(uint32_t count) {
   return "#define CPVS_WORK_COUNTERS " + std::to_string(count) + "\n" + glsl::work_counters_glsl;
 }
 
+void GpuWorkCounters::toFrame(const std::vector<uint64_t>& values, Frame& frame) {
+  frame.lookupBytes = values.at(0);
+  frame.lookupBytesPerLight.assign(values.begin() + 1, values.end());
+  frame.lookupBytesCounted = true;
+}
+
 std::vector<PairsOfLight> pairsByLight(const Frame& f, size_t lightCount) {
   std::vector<PairsOfLight> byLight(lightCount);
   f.forEachPair([&](uint32_t, uint32_t, size_t i, uint32_t light, size_t pair) {

@@ -52,6 +52,11 @@ public:
   std::vector<uint64_t> read() const;
   // "#define CPVS_WORK_COUNTERS n\n" and work_counters.glsl, for a program's source.
   static std::string glsl(uint32_t count);
+  // The lookups' counters: the frame's bytes read, then one per light where the workgroup's shared memory
+  // holds them (up to 8191 lights), else the frame's alone.
+  static uint32_t forLookups(size_t lights) { return lights + 1 <= 8192 ? uint32_t(lights + 1) : 1u; }
+  // Frame::lookupBytes (and per light, where counted) from read()'s values.
+  static void toFrame(const std::vector<uint64_t>& values, Frame& frame);
 
 private:
   const gl::Context& context_;

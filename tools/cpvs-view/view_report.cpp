@@ -89,6 +89,13 @@ void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera,
     // The DAGs and their records, in GPU memory for the GPU walk, in CPU memory (the mapped file) for the CPU's.
     entry[mode == ShadowMode::Gpu ? "cpvs_gpu_bytes" : "cpvs_cpu_bytes"] = renderer_.shadowDataBytes();
   entry["lookup_bytes"] = frame.lookupBytesCounted ? json(frame.lookupBytes) : json(nullptr);
+  if (!frame.lookupBytesPerLight.empty()) {
+    uint64_t most = 0, lit = 0;
+    for (uint64_t b : frame.lookupBytesPerLight)
+      if (b) most = std::max(most, b), ++lit;
+    entry["lookup_bytes_per_light"] = {{"mean", lit ? double(frame.lookupBytes) / double(lit) : 0.0}, {"max", most},
+                                       {"lights_read", lit}};
+  }
   if (settings_.compareWithRays) {
     lastErrors_ = errorsAgainstRays(frame, exposure);
     const RayErrors& e = lastErrors_;

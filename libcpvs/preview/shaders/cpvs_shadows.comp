@@ -1,6 +1,7 @@
 // Shadow pass: per pixel, per light of its tile's list, the CPVS lookup with K x K PCF (lookup_cell.glsl's
 // voxel, dag_walk.glsl.h's count), as LightShadow::visibility answers it. One work group per tile.
-// Counts the DAG bytes its walks read (work counter 0: node units and leaves, not the records or G-buffer).
+// Counts the DAG bytes its walks read (work counter 0; 1 + light: per light; node units and leaves, not the
+// records or the G-buffer).
 // With RECORD_CELLS, every pair's verdict, voxel and count go to `cells` too (tests compare them with the CPU's).
 layout(std430, binding = 11) writeonly buffer Cells { ivec4 cells[]; };  // (x, y, z, verdict | count << 2)
 uniform int pcfKernel;
@@ -20,6 +21,7 @@ void main() {
   for (uint slot = 0u; slot < count; ++slot) {
     float answer = 0.0;
     ivec4 record = ivec4(0);
+    uint bytesBefore = gDagBytesRead;
     if (covered) {
       gLight = tileLights[tileOffsets[tile] + slot];
       int view = cpvsSelectView(p);
@@ -38,6 +40,7 @@ void main() {
       }
     }
     visibility[pairIndex(tile, slot, local)] = answer;
+    countWork(1u + tileLights[tileOffsets[tile] + slot], gDagBytesRead - bytesBefore);
 #ifdef RECORD_CELLS
     cells[pairIndex(tile, slot, local)] = record;
 #endif

@@ -3,7 +3,8 @@
 // against the biased point's (texels outside the map lit). A light's shadow comes from the views of the light
 // record CPVS_LIGHT_SHADOW_LIGHT names: its own, or (LightCluster) its cluster's cube at the cluster's centre.
 // A view's map is the resolution^2 texels from (CPVS_VIEW_ATLAS_X, CPVS_VIEW_ATLAS_Y) of its layer (the
-// origin for a map per layer; ManyPSMs packs several into one). Counts the texels it reads (work counter 0).
+// origin for a map per layer; ManyPSMs packs several into one). Counts the bytes of the texels it reads (work
+// counter 0; 1 + light: per light).
 layout(binding = 3) uniform sampler2DArray shadowMaps;  // q / 65536 per texel
 uniform int pcfKernel;
 uniform double biasMargin;
@@ -49,7 +50,8 @@ void main() {
                 lit += (outside || q <= stored) ? 1u : 0u;
                 read += outside ? 0u : 1u;
               }
-            countWork(0u, read);
+            countWork(0u, 4u * read);  // 32-bit texels
+            countWork(1u + tileLights[tileOffsets[tile] + slot], 4u * read);
             double k = double(pcfKernel);
             answer = float(double(lit) / (k * k));
           }
