@@ -495,6 +495,32 @@ TEST(Scenegen, CitySpotsCanCarryPointLightsInstead) {
   EXPECT_EQ(runTool(generator() + " city --point-lights -o " + dir + "/no.glb").exitCode, 1);
 }
 
+// --ground-tiles: the same buildings, the ground slab as N x N placements of one closed tile covering the
+// same square (so caster culling can leave out ground that a map does not need).
+TEST(Scenegen, GroundTilesCoverTheSlabsSquare) {
+  const std::string dir = tempDir();
+  ASSERT_TRUE(generate("city --triangles 20000 -o " + dir + "/plain.glb"));
+  ASSERT_TRUE(generate("city --triangles 20000 --ground-tiles 4 -o " + dir + "/tiled.glb"));
+  const gltf::Model plain = load(dir + "/plain.glb"), tiled = load(dir + "/tiled.glb");
+  ASSERT_EQ(tiled.meshes.size(), plain.meshes.size());
+  EXPECT_EQ(tiled.meshes[0].name, "ground_tile");
+  EXPECT_TRUE(topology(meshTriangles(tiled, tiled.meshes[0])).closed);
+  size_t tiles = 0;
+  double lo = 1e9, hi = -1e9;
+  for (const gltf::Node& node : tiled.nodes) {
+    if (node.mesh != 0) continue;
+    ++tiles;
+    ASSERT_EQ(node.translation.size(), 3u);
+    lo = std::min(lo, node.translation[0]);
+    hi = std::max(hi, node.translation[0]);
+  }
+  EXPECT_EQ(tiles, 16u);
+  EXPECT_DOUBLE_EQ(lo, -520.0 + 130.0);  // tile centres: the slab's 1040 in four
+  EXPECT_DOUBLE_EQ(hi, 520.0 - 130.0);
+  EXPECT_EQ(tiled.nodes.size(), plain.nodes.size() + 15);
+  EXPECT_EQ(runTool(generator() + " landscape --ground-tiles 4 -o " + dir + "/no.glb").exitCode, 1);
+}
+
 TEST(Scenegen, LightQuaternionTurnsMinusZIntoTheDirection) {
   // Independent of the generator's own arithmetic: the quaternion written for the sun must satisfy
   // glm's convention (w, x, y, z) and glTF's (x, y, z, w) order; checked above through expectSun. Here:

@@ -523,8 +523,20 @@ GenScene generateCity(const CityOptions& o, CityInfo* info) {
   CityBuild city = buildCity(o, y, d, false);
 
   GenScene scene;
-  scene.meshes.push_back(city.ground.take("ground"));
-  scene.nodes.push_back(GenNode{"ground", 0, -1, glm::dvec3(0.0), Quat{}, {}});
+  if (o.groundTiles > 1 && !o.open) {
+    // The same slab as N x N closed tiles, one mesh placed N^2 times.
+    const double half = kGroundHalf / o.groundTiles;
+    MeshBuilder tile(false, false);
+    tile.box({-half, -2.0, -half}, {half, 0.0, half});
+    scene.meshes.push_back(tile.take("ground_tile"));
+    for (int i = 0; i < o.groundTiles * o.groundTiles; ++i) {
+      const glm::dvec3 at(-kGroundHalf + half * (2 * (i % o.groundTiles) + 1), 0.0, -kGroundHalf + half * (2 * (i / o.groundTiles) + 1));
+      scene.nodes.push_back(GenNode{"ground." + std::to_string(i), 0, -1, at, Quat{}, {}});
+    }
+  } else {
+    scene.meshes.push_back(city.ground.take("ground"));
+    scene.nodes.push_back(GenNode{"ground", 0, -1, glm::dvec3(0.0), Quat{}, {}});
+  }
   for (std::size_t i = 0; i < city.districts.size(); ++i) {
     if (city.districts[i].triangles() == 0) continue;
     const int dx = static_cast<int>(i) % y.districtsPerSide, dz = static_cast<int>(i) / y.districtsPerSide;

@@ -12,6 +12,7 @@ struct CityOptions {
   bool open = false;  // open-city: single-sided walls, no caps, ground as one sheet
   int spotLights = 0;  // > 0: city-spots (these spots and no sun); 0: one directional sun
   bool pointLights = false;  // city-spots: point lights at the spots' places instead
+  int groundTiles = 1;  // > 1: the ground slab as N x N instanced tiles (caster culling can then drop parts of it)
 };
 
 // What the city generator chose to approximate the triangle budget.

@@ -101,6 +101,7 @@ struct Request {
   int lights = 165;
   bool gpuInstancing = false;
   bool pointLights = false;
+  int groundTiles = 1;
 };
 
 int run(const Request& r) {
@@ -128,6 +129,7 @@ int run(const Request& r) {
     o.open = kind == "open-city";
     o.spotLights = kind == "city-spots" ? r.lights : 0;
     o.pointLights = r.pointLights;
+    o.groundTiles = r.groundTiles;
     CityInfo info;
     scene = generateCity(o, &info);
     layout = ", " + std::to_string(info.blocksPerSide) + "x" + std::to_string(info.blocksPerSide) + " blocks of " +
@@ -151,6 +153,7 @@ int run(const Request& r) {
   if (kind == "city-spots" || kind == "foliage") extras["lights"] = r.lights;
   if (r.gpuInstancing) extras["gpuInstancing"] = true;
   if (r.pointLights) extras["pointLights"] = true;
+  if (r.groundTiles > 1) extras["groundTiles"] = r.groundTiles;
   const std::string bytes = writeGlb(scene, kGenerator, extras);
   writeAtomically(output, bytes);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -196,6 +199,11 @@ int main(int argc, char** argv) {
   CLI::Option* pointsOption = app.add_flag(
       "--point-lights", r.pointLights,
       "city-spots: point lights (six views each) at the spots' places instead of spots (e.g. --lights 120: 720 views)");
+  CLI::Option* tilesOption =
+      app.add_option("--ground-tiles", r.groundTiles,
+                     "city, city-spots: the ground slab as N x N instanced tiles (default 1: one slab; adds 12 N^2 - 12 "
+                     "triangles), so that caster culling can leave out the ground a map does not need")
+          ->check(CLI::Range(1, 256));
   app.set_version_flag("--version", kGenerator);
   app.footer(
       "Exit codes: 0 ok, 1 usage error, 3 output cannot be written, 4 runtime failure (e.g. out of memory).\n"
@@ -205,6 +213,8 @@ int main(int argc, char** argv) {
     const bool city = r.kind == "city" || r.kind == "open-city" || r.kind == "city-spots";
     if (lightsOption->count() > 0 && r.kind != "city-spots" && r.kind != "foliage")
       throw CLI::ValidationError("--lights", "only applies to the city-spots and foliage scenes");
+    if (tilesOption->count() > 0 && r.kind != "city" && r.kind != "city-spots")
+      throw CLI::ValidationError("--ground-tiles", "only applies to the city and city-spots scenes");
     if (pointsOption->count() > 0 && r.kind != "city-spots")
       throw CLI::ValidationError("--point-lights", "only applies to the city-spots scene");
     if (instancingOption->count() > 0 && !city)
