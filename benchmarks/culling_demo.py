@@ -10,7 +10,8 @@ flythrough of benchmarks/viewer.py) with every mode, one cpvs-view process per (
 order rotated frame by frame so that ratios come from one run:
   cpvs (the CPVS walked on the GPU) and cpvs-cpu (the CPU runtime), baked once at --resolution;
   shadowmap with caster culling none, frustum, voxel-grid, receiver-mask (frag) and receiver-mask (bvol);
-  lightcluster with 10 clusters (frustum culled).
+  lightcluster with 10 clusters (frustum culled);
+  manypsm (ManyPSMs: the BVH traversal into an atlas, maps of 16^2 up to --map-size by the camera's distance).
 Every frame is also traced with Embree (--compare) for the error. Then the sun-lit city (cpvs-scenegen city)
 for the receiver masks against frustum culling, and the 165-spot city at three triangle budgets (the
 generator's --triangles) for the frame cost against the scene's size. Writes DOC/benchmark.json, DOC/benchmark.md
@@ -39,10 +40,11 @@ MODES = {
     "shadowmap-receiver-mask-frag": ["--shadows", "shadowmap", "--caster-culling", "receiver-mask", "--mask-variant", "frag"],
     "shadowmap-receiver-mask-bvol": ["--shadows", "shadowmap", "--caster-culling", "receiver-mask", "--mask-variant", "bvol"],
     "lightcluster-10": ["--shadows", "lightcluster", "--clusters", "10", "--caster-culling", "frustum"],
+    "manypsm": ["--shadows", "manypsm"],
 }
 SUN_MODES = ["cpvs", "cpvs-cpu", "shadowmap-none", "shadowmap-frustum", "shadowmap-receiver-mask-frag",
              "shadowmap-receiver-mask-bvol", "shadowmap-voxel-grid"]
-DETAIL_MODES = ["cpvs", "cpvs-cpu", "shadowmap-frustum", "shadowmap-voxel-grid", "lightcluster-10"]
+DETAIL_MODES = ["cpvs", "cpvs-cpu", "shadowmap-frustum", "shadowmap-voxel-grid", "lightcluster-10", "manypsm"]
 DETAIL_TRIANGLES = [50000, 100000, 200000]
 
 
@@ -58,8 +60,9 @@ def loadavg():
 
 
 def shadow_cost(passes):
-    """A frame's shadow cost: culling, map rendering and lookups (CPVS: the lookups alone)."""
-    return sum(passes.get(p, 0.0) for p in ("culling", "shadow_maps", "shadows"))
+    """A frame's shadow cost: culling (ManyPSMs: its plan and traversal), map rendering and lookups (CPVS: the
+    lookups alone)."""
+    return sum(passes.get(p, 0.0) for p in ("culling", "plan", "traversal", "shadow_maps", "shadows"))
 
 
 def render(a, scene, cpvs, camera_file, mode, report, image_dir=None):
@@ -107,7 +110,8 @@ def summarise(frames, modes):
         rows = [f[m] for f in frames]
         s[m] = {"shadow_cost": mean(r["shadow_cost"] for r in rows),
                 "shadow_cost_max": max(r["shadow_cost"] for r in rows),
-                "culling": mean(r["passes"].get("culling", 0) for r in rows),
+                "culling": mean(r["passes"].get("culling", 0) + r["passes"].get("plan", 0) + r["passes"].get("traversal", 0)
+                                for r in rows),
                 "shadow_maps": mean(r["passes"].get("shadow_maps", 0) for r in rows),
                 "lookups": mean(r["passes"].get("shadows", 0) for r in rows),
                 "shading": mean(r["passes"].get("shading", 0) for r in rows),
@@ -234,6 +238,7 @@ def main():
               "spots": {"frames": frames, "summary": summarise(frames, list(MODES)),
                         "ratios": {"voxel-grid over frustum (map rendering)": ratio(frames, "shadowmap-frustum", "shadowmap-voxel-grid", "shadow_maps"),
                                    "lightcluster-10 over per-light maps (shadow cost, both frustum culled)": ratio(frames, "shadowmap-frustum", "lightcluster-10", "shadow_cost"),
+                                   "manypsm over per-light frustum-culled maps (shadow cost)": ratio(frames, "shadowmap-frustum", "manypsm", "shadow_cost"),
                                    "fastest map mode over CPVS on the GPU (shadow cost)": None,
                                    "fastest map mode over CPVS on the CPU (shadow cost)": None}},
               "sun": {"frames": sun_frames, "summary": summarise(sun_frames, SUN_MODES),
@@ -241,7 +246,7 @@ def main():
                                  "receiver-mask bvol over frustum (map rendering)": ratio(sun_frames, "shadowmap-frustum", "shadowmap-receiver-mask-bvol", "shadow_maps")}},
               "detail": detail}
     s = result["spots"]["summary"]
-    map_modes = [m for m in MODES if m.startswith("shadowmap") or m.startswith("lightcluster")]
+    map_modes = [m for m in MODES if m.startswith("shadowmap") or m.startswith("lightcluster") or m == "manypsm"]
     fastest = min(map_modes, key=lambda m: s[m]["shadow_cost"])
     result["spots"]["fastest_map_mode"] = fastest
     result["spots"]["ratios"]["fastest map mode over CPVS on the GPU (shadow cost)"] = ratio(frames, fastest, "cpvs", "shadow_cost")
@@ -266,7 +271,7 @@ def markdown(r):
 
     def table(title, summary, modes):
         out = ["## " + title, "",
-               "| mode | shadow cost | worst frame | culling | map rendering | lookups | shading | maps | triangles per light | shadow data MB (GPU; cpvs-cpu: CPU) | wrong pixels | RMSE |",
+               "| mode | shadow cost | worst frame | culling (ManyPSMs: plan + traversal) | map rendering | lookups | shading | maps | triangles per light | shadow data MB (GPU; cpvs-cpu: CPU) | wrong pixels | RMSE |",
                "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
         for mode in modes:
             v = summary[mode]

@@ -7,11 +7,14 @@ one Embree ray per (pixel, light) pair. These counts do not depend on the machin
 camera.
 
     python3 benchmarks/culling_work.py [--bin build/bin] [--out out/culling-work] [--doc docs/culling-demo]
-                                       [--size 1920x1080] [--map-size 512] [--cameras 0,7] [--only spots,sun,points]
+                                       [--size 1920x1080] [--map-size 512] [--cameras 0,7]
+                                       [--only spots,sun,points,spots-tiled,sun-tiled]
+                                       [--reuse]
 
 Scenes: the generated city with 165 spot lights (cpvs-scenegen city-spots), the sun-lit city (cpvs-scenegen
-city) and the city with 120 point lights (--point-lights: 720 views, the ManyPSMs post's scene size), each
-baked at 1k only for its lights (the map modes draw from the scene). Cameras: benchmarks/viewer.py's
+city) and the city with 120 point lights (--point-lights: 720 views, the ManyPSMs post's scene size), then the
+spot and sun cities again with the ground slab in 32 x 32 tiles (--ground-tiles 32: the settings where the
+culling claims do show), each baked at 1k only for its lights (the map modes draw from the scene). Cameras: benchmarks/viewer.py's
 flythrough (0: the overview; 7: street level). Claims (docs/culling-demo.md): voxel-grid culling draws
 1.5-8.6x fewer than frustum culling (Selgrad et al. 2016); receiver masks 3-10x fewer for a sun (Bittner et al.
 2011); LightCluster with 10 clusters about 4.8x fewer map fragments than a map per light (Wiesenhuetter et al.);
@@ -44,9 +47,33 @@ SPOT_MODES = {
 SPOT_MODES.update(MANYPSM)
 SPOT_MODES.update(CPVS)
 SUN_MODES = {k: v for k, v in SPOT_MODES.items() if not k.startswith("lightcluster")}
+TILED_MODES = {k: v for k, v in SPOT_MODES.items()
+               if k in ("frustum", "voxel-grid", "receiver-mask frag", "receiver-mask bvol", "lightcluster 10 (frustum)")}
 POINT_MODES = {k: v for k, v in SPOT_MODES.items() if k in ("frustum", "lightcluster 10 (frustum)") or k in MANYPSM or k in CPVS}
 COUNTS = ("maps", "triangles_drawn", "fragments", "texels_cleared", "draw_calls", "dispatches", "nodes_visited", "points",
           "atlas_layers", "gpu_bytes")
+
+
+# name -> (file stem, cpvs-scenegen arguments, modes). The tiled scenes are the same cities with the ground
+# slab cut into 32 x 32 tiles of 32.5 units (the voxel grid's cell): a single slab is drawn whole into every map
+# whatever the culling, which is what the papers' scenes did not have.
+SCENES = {
+    "spots": ("city-spots", ["--lights", "165"], SPOT_MODES),
+    "sun": ("city", [], SUN_MODES),
+    "points": ("city-points", ["--lights", "120", "--point-lights"], POINT_MODES),
+    "spots-tiled": ("city-spots-tiled", ["--lights", "165", "--ground-tiles", "TILES"], TILED_MODES),
+    "sun-tiled": ("city-tiled", ["--ground-tiles", "TILES"], {k: v for k, v in TILED_MODES.items() if "cluster" not in k}),
+}
+
+
+def complete(report):
+    """Whether a report from an earlier run of this benchmark holds everything it reads (--reuse)."""
+    try:
+        with open(report) as f:
+            frame = json.load(f)["frames"][0]
+        return "against_rays" in frame and "lookup_bytes" in frame
+    except (OSError, ValueError, KeyError, IndexError):
+        return False
 
 
 def work(a, scene, cpvs, camera, flags, tag):
@@ -54,10 +81,12 @@ def work(a, scene, cpvs, camera, flags, tag):
     with open(path, "w") as f:
         json.dump([camera], f)
     report = os.path.join(a.out, tag + ".json")
+    size = [] if "--shadow-map-size" in flags else ["--shadow-map-size", str(a.map_size)]
     cmd = [os.path.join(a.bin, "cpvs-view"), scene, cpvs, "--path", path, "--frames", os.path.join(a.out, "frames"),
-           "--size", a.size, "--shadow-map-size", str(a.map_size), "--report", report, "-q", "--compare"] + flags
-    print("$ " + " ".join(cmd), flush=True)
-    subprocess.run(cmd, check=True)
+           "--size", a.size, "--report", report, "-q", "--compare"] + size + flags
+    if not (a.reuse and complete(report)):
+        print("$ " + " ".join(cmd), flush=True)
+        subprocess.run(cmd, check=True)
     with open(report) as f:
         report = json.load(f)
     frame = report["frames"][0]
@@ -76,8 +105,10 @@ def work(a, scene, cpvs, camera, flags, tag):
 
 
 def scene_and_bake(a, kind, extra):
+    if "--ground-tiles" in extra:
+        kind += "-%s" % extra[extra.index("--ground-tiles") + 1]
     scene = os.path.join(a.out, kind + ".glb")
-    generator_kind = "city-spots" if kind == "city-points" else kind
+    generator_kind = "city-spots" if kind.startswith("city-spots") or kind == "city-points" else "city"
     subprocess.run([os.path.join(a.bin, "cpvs-scenegen"), generator_kind, "-o", scene] + extra, check=True)
     cpvs = os.path.join(a.out, kind + "-1k.cpvs")
     if not os.path.exists(cpvs):
@@ -123,31 +154,33 @@ def main():
     ap.add_argument("--size", default="1920x1080")
     ap.add_argument("--map-size", type=int, default=512)
     ap.add_argument("--cameras", default="0,7")
-    ap.add_argument("--only", default="spots,sun,points")
+    ap.add_argument("--only", default=",".join(SCENES))
+    ap.add_argument("--ground-tiles", type=int, default=32, help="the tiled scenes' tiles per side")
+    ap.add_argument("--reuse", action="store_true", help="keep the reports already in --out of an interrupted run")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     os.makedirs(a.doc, exist_ok=True)
     cameras = [int(c) for c in a.cameras.split(",")]
     path = flythrough(8)
     result = {"machine": machine_info(), "size": a.size, "map_size": a.map_size, "cameras": cameras,
+              "ground_tiles": a.ground_tiles,
               "commit": subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                                        text=True).stdout.strip(),
               "command": "python3 benchmarks/culling_work.py " + " ".join(sys.argv[1:])}
     only = a.only.split(",")
-    for name, kind, extra, modes in (("spots", "city-spots", ["--lights", "165"], SPOT_MODES),
-                                     ("sun", "city", [], SUN_MODES),
-                                     ("points", "city-points", ["--lights", "120", "--point-lights"], POINT_MODES)):
+    for name, (kind, extra, modes) in SCENES.items():
         if name not in only:
             continue
-        scene, cpvs = scene_and_bake(a, kind, extra)
-        result[name] = {mode: {str(c): work(a, scene, cpvs, path[c], flags, "%s-%s-%d" % (name, mode.replace(" ", "_"), c))
+        scene, cpvs = scene_and_bake(a, kind, [str(a.ground_tiles) if x == "TILES" else x for x in extra])
+        stem = name + ("%d" % a.ground_tiles if name.endswith("tiled") else "")
+        result[name] = {mode: {str(c): work(a, scene, cpvs, path[c], flags, "%s-%s-%d" % (stem, mode.replace(" ", "_"), c))
                                for c in cameras} for mode, flags in modes.items()}
     # A partial run (--only) keeps the other scenes' figures from the last full one.
     previous = os.path.join(a.doc, "work.json")
-    if len(only) < 3 and os.path.exists(previous):
+    if len(only) < len(SCENES) and os.path.exists(previous):
         with open(previous) as f:
             old = json.load(f)
-        for name in ("spots", "sun", "points"):
+        for name in SCENES:
             if name not in result and name in old:
                 result[name] = old[name]
     with open(previous, "w") as f:
@@ -194,6 +227,17 @@ def main():
         lines += [""] + table("The sun-lit city (city, 100k triangles, one sun)", result["sun"], list(result["sun"]), cameras)
         lines += [""] + claims("sun", [("frustum", "receiver-mask frag", keys), ("frustum", "receiver-mask bvol", keys),
                                        ("frustum", "voxel-grid", keys), ("frustum", "CPVS (GPU walk)", ["lookup_bytes"])])
+    if "spots-tiled" in result:
+        lines += [""] + table("165 spot lights, the ground in %d × %d tiles (city-spots --ground-tiles %d)" % ((a.ground_tiles,) * 3),
+                              result["spots-tiled"], list(result["spots-tiled"]), cameras)
+        lines += [""] + claims("spots-tiled", [("frustum", "voxel-grid", keys),
+                                               ("frustum", "lightcluster 10 (frustum)", ["maps", "triangles_drawn", "fragments"])])
+    if "sun-tiled" in result:
+        lines += [""] + table("The sun-lit city, the ground in %d × %d tiles (city --ground-tiles %d)" % ((a.ground_tiles,) * 3),
+                              result["sun-tiled"],
+                              list(result["sun-tiled"]), cameras)
+        lines += [""] + claims("sun-tiled", [("frustum", "receiver-mask frag", keys), ("frustum", "receiver-mask bvol", keys),
+                                             ("frustum", "voxel-grid", keys)])
     if "points" in result:
         lines += [""] + table("120 point lights, 720 views (city-spots --point-lights, 100k triangles)", result["points"],
                               list(result["points"]), cameras)
