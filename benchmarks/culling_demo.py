@@ -153,7 +153,7 @@ def svg(detail, path):
     pw, ph = w - left - right, h - top - bottom
     xs = DETAIL_TRIANGLES
     top_ms = max(detail[str(t)][m]["shadow_cost"] for t in xs for m in DETAIL_MODES) * 1.1 or 1
-    colours = ["#c0392b", "#e67e22", "#2c6aa8", "#27ae60", "#8e44ad"]
+    colours = ["#c0392b", "#e67e22", "#2c6aa8", "#27ae60", "#8e44ad", "#7f8c8d"]
     x_of = lambda t: left + pw * (math.log(t) - math.log(xs[0])) / (math.log(xs[-1]) - math.log(xs[0]))  # noqa: E731
     y_of = lambda v: top + ph - ph * v / top_ms  # noqa: E731
     out = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" font-size="11">' % (w, h),

@@ -66,6 +66,7 @@ public:
     nodes_ = gl::createStorageBuffer(c, bvh_.nodes.data(), bvh_.nodes.size() * sizeof(SceneBvhNode));
     leafTriangles_ = gl::createStorageBuffer(c, bvh_.triangles.data(), bvh_.triangles.size() * 4);
     r.requireStorage(size_t(r.vertexCount) * kVertexFloats * 4, "the scene's vertices for ManyPSMs' splats");
+    c.gl().GenVertexArrays(1, &noAttributes_);
   }
 
   bool run(ShadowPassFrame& p) override {
@@ -276,7 +277,7 @@ private:
       const GLfloat far = float(ShadowMap16::kFar) / 65536.0f;
       g.ClearBufferfv(GL_DEPTH, 0, &far);
       for (GLenum plane = GL_CLIP_DISTANCE0; plane <= GL_CLIP_DISTANCE3; ++plane) g.Enable(plane);
-      g.BindVertexArray(r.vertexArray);  // no attributes read: the splats pull their vertices
+      g.BindVertexArray(noAttributes_);  // the splats pull their vertices (more than the vertex array holds)
       g.BindBuffer(GL_DRAW_INDIRECT_BUFFER, indirect);
       g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kMaskHeaders, r.maskHeaders);
       g.BindBufferBase(GL_SHADER_STORAGE_BUFFER, binding::kMaskBytes, r.maskBytes);
@@ -304,7 +305,7 @@ private:
   GLuint traverseProgram_ = 0, dispatchArgsProgram_ = 0, drawArgsProgram_ = 0, triangleProgram_ = 0, pointProgram_ = 0;
   MapLookupProgram lookupProgram_;
   SceneBvh bvh_;
-  GLuint nodes_ = 0, leafTriangles_ = 0;
+  GLuint nodes_ = 0, leafTriangles_ = 0, noAttributes_ = 0;
   Capacities capacity_;
   ShadowMapArray maps_;
 };
