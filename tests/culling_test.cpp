@@ -93,30 +93,30 @@ std::vector<PreviewCamera> cameras(const City& c) {
   return {defaultCamera(sceneBounds(c.scene), 1.5), street};
 }
 
-Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCulling culling,
-             ReceiverMaskVariant variant = ReceiverMaskVariant::Fragments, uint32_t clusters = 2, uint32_t size = 256) {
+// A small frame with 5 x 5 PCF whose maps are kept for the tests.
+FrameSettings testFrame(ShadowMode mode, uint32_t size) {
   FrameSettings settings;
   settings.width = 192;
   settings.height = 128;
   settings.pcfKernel = 5;
   settings.shadows = mode;
+  settings.shadowMaps.size = size;
+  settings.shadowMaps.keepMaps = true;
+  return settings;
+}
+
+Frame render(City& c, const PreviewCamera& camera, ShadowMode mode, CasterCulling culling,
+             ReceiverMaskVariant variant = ReceiverMaskVariant::Fragments, uint32_t clusters = 2, uint32_t size = 256) {
+  FrameSettings settings = testFrame(mode, size);
   settings.shadowMaps.casterCulling = culling;
   settings.shadowMaps.maskVariant = variant;
-  settings.shadowMaps.size = size;
   settings.shadowMaps.clusters = clusters;
-  settings.shadowMaps.keepMaps = true;
   return c.renderer->render(camera, settings);
 }
 
 Frame renderManyPsm(City& c, const PreviewCamera& camera, uint32_t size, uint32_t minSize) {
-  FrameSettings settings;
-  settings.width = 192;
-  settings.height = 128;
-  settings.pcfKernel = 5;
-  settings.shadows = ShadowMode::ManyPsm;
-  settings.shadowMaps.size = size;
+  FrameSettings settings = testFrame(ShadowMode::ManyPsm, size);
   settings.shadowMaps.minSize = minSize;
-  settings.shadowMaps.keepMaps = true;
   return c.renderer->render(camera, settings);
 }
 

@@ -76,11 +76,11 @@ struct ShadowMapFrame {
   uint64_t texelsCleared = 0;
   uint32_t drawCalls = 0;
   uint64_t fragmentsDrawn() const;
-  // ManyPsm: the traversal's work: compute dispatches, (node, view) items visited and points splatted, in all
-  // and per map; each map's place in the atlas; the atlas's layers.
+  // ManyPsm: the traversal's work: compute dispatches, (node, view) items visited, points splatted (in all and
+  // per map); each map's place in the atlas; the atlas's layers.
   uint32_t dispatches = 0;
   uint64_t nodesVisited = 0, points = 0;
-  std::vector<uint64_t> nodesPerMap, pointsPerMap;
+  std::vector<uint64_t> pointsPerMap;
   std::vector<glm::uvec3> atlasPlaces;      // layer, x, y
   uint32_t atlasLayers = 0;
   // ManyPsm with keepMaps: every splatted node's box (lo, hi) and the map it went to.

@@ -37,8 +37,9 @@ ManyPsmPlan planManyPsms(const std::vector<LightShadow>& lights, const Frame& fr
   for (uint32_t l : frame.lists.lights) listed[l] = 1;
   std::vector<uint32_t> size(lights.size(), settings.size);
   for (uint32_t l = 0; l < lights.size(); ++l) {
-    if (listed[l]) size[l] = manyPsmResolution(lights[l].light(), eye, settings);
-    for (uint32_t v = 0; v < lights[l].views().size() && listed[l]; ++v)
+    if (!listed[l]) continue;
+    size[l] = manyPsmResolution(lights[l].light(), eye, settings);
+    for (uint32_t v = 0; v < lights[l].views().size(); ++v)
       plan.views.push_back({l, v, shadowMapView(lights[l].views()[v], size[l]), 0, 0, 0});
   }
   // Largest first, so that each view starts on a multiple of its own area along a Morton curve through the

@@ -150,7 +150,7 @@ private:
     const auto buffer = [&](const void* data, size_t bytes) { return b.owned.add(gl::createStorageBuffer(c, data, bytes)); };
     b.views = buffer(gpuViews.data(), gpuViews.size() * sizeof(GpuPsmView));
     b.counters = buffer(b.counts.data(), b.counts.size() * 4);
-    b.viewCounters = buffer(nullptr, plan.views.size() * 3 * 4);
+    b.viewCounters = buffer(nullptr, plan.views.size() * 2 * 4);
     b.items[0] = buffer(nullptr, size_t(b.itemCapacity) * 8);
     b.items[1] = buffer(nullptr, size_t(b.itemCapacity) * 8);
     g.BindBuffer(GL_SHADER_STORAGE_BUFFER, b.items[0]);
@@ -223,7 +223,7 @@ private:
     RendererResources& r = p.resources;
     const gl::Context& c = *r.context;
     const size_t views = plan.views.size();
-    std::vector<uint32_t> perView(views * 3);
+    std::vector<uint32_t> perView(views * 2);
     gl::readStorageBuffer(c, b.viewCounters, perView.data(), perView.size() * 4);
     ShadowMapFrame& out = p.frame.shadowMaps;
     out = ShadowMapFrame{};
@@ -235,12 +235,11 @@ private:
       out.shadowLight.push_back(av.light);
       out.views.push_back(av.mapView);
       out.atlasPlaces.push_back({av.layer, av.x, av.y});
-      out.nodesPerMap.push_back(perView[3 * v]);
-      out.triangles.push_back(perView[3 * v + 1]);
-      out.pointsPerMap.push_back(perView[3 * v + 2]);
-      out.trianglesPerLight[av.light] += perView[3 * v + 1];
-      out.nodesVisited += perView[3 * v];
+      out.triangles.push_back(perView[2 * v]);
+      out.pointsPerMap.push_back(perView[2 * v + 1]);
+      out.trianglesPerLight[av.light] += perView[2 * v];
     }
+    for (uint32_t level = 0; level < b.levels; ++level) out.nodesVisited += b.counts[2 + level];  // items processed
     out.points = b.counts[1];
     out.fragments = {fragments[0], fragments[1]};
     out.texelsCleared = uint64_t(plan.layers) * plan.layerSize * plan.layerSize;

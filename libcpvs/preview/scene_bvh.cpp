@@ -34,6 +34,9 @@ public:
   Builder(const CasterTriangles& corners, SceneBvh& out) : corners_(corners), out_(out) {}
 
   void build(const std::vector<std::vector<uint32_t>>& instances) {
+    triangleBoxes_.resize(corners_.count());
+    for (size_t t = 0; t < triangleBoxes_.size(); ++t)
+      for (int k = 0; k < 3; ++k) triangleBoxes_[t].grow({corners_.corners[3 * t + size_t(k)], corners_.corners[3 * t + size_t(k)]});
     for (const std::vector<uint32_t>& triangles : instances) {
       if (triangles.empty()) continue;
       Box box;
@@ -42,7 +45,6 @@ public:
       instanceBoxes_.push_back(box);
     }
     if (instanceBoxes_.empty()) return;
-    out_.instanceRoot.resize(instanceBoxes_.size());
     std::vector<uint32_t> order(instanceBoxes_.size());
     for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
     out_.nodes.emplace_back();
@@ -50,11 +52,7 @@ public:
   }
 
 private:
-  Box triangleBox(uint32_t t) const {
-    Box b;
-    for (int k = 0; k < 3; ++k) b.grow({corners_.corners[3 * size_t(t) + size_t(k)], corners_.corners[3 * size_t(t) + size_t(k)]});
-    return b;
-  }
+  const Box& triangleBox(uint32_t t) const { return triangleBoxes_[t]; }
 
   // Two new nodes side by side; returns the first.
   uint32_t pair() {
@@ -70,7 +68,6 @@ private:
 
   void instanceNode(uint32_t node, uint32_t* instances, size_t count, uint32_t level) {
     if (count == 1) {
-      out_.instanceRoot[instances[0]] = node;
       std::vector<uint32_t> triangles = *instanceTriangles_[instances[0]];
       triangleNode(node, triangles.data(), triangles.size(), level);
       return;
@@ -106,6 +103,7 @@ private:
   SceneBvh& out_;
   std::vector<const std::vector<uint32_t>*> instanceTriangles_;
   std::vector<Box> instanceBoxes_;
+  std::vector<Box> triangleBoxes_;  // every triangle's, made once (the splits compare centres many times)
 };
 
 }  // namespace

@@ -1,8 +1,7 @@
 #pragma once
 // ManyPSMs' scene tree (cpvs-view --shadows manypsm): a bounding volume hierarchy over the triangles that cast,
 // built once per scene and read by the GPU traversal as two storage buffers. Its upper levels split whole
-// instances, so each instance is one subtree (the node instanceRoot names) and the levels below split that
-// instance's triangles: the post's "instances are BVH nodes". Vertices are the renderer's world-space ones, so
+// instances, so each instance is one subtree and the levels below split that instance's triangles: the post's "instances are BVH nodes". Vertices are the renderer's world-space ones, so
 // the maps it draws are the per-light maps' texel for texel; a node carries no transform.
 #include <cstddef>
 #include <cstdint>
@@ -28,7 +27,6 @@ struct SceneBvh {
   static constexpr uint32_t kLeafTriangles = 4;
   std::vector<SceneBvhNode> nodes;    // root at 0 (none when nothing casts)
   std::vector<uint32_t> triangles;    // renderer triangle indices, grouped by leaf
-  std::vector<uint32_t> instanceRoot; // per instance with casting triangles: its subtree's root node
   uint32_t levels = 0;                // the root is level 0; the deepest node is at levels - 1
   size_t bytes() const { return nodes.size() * sizeof(SceneBvhNode) + triangles.size() * 4; }
 };

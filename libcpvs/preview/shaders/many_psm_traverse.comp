@@ -5,7 +5,7 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 22) readonly buffer ItemsIn { uvec2 itemsIn[]; };
 layout(std430, binding = 23) writeonly buffer ItemsOut { uvec2 itemsOut[]; };
 layout(std430, binding = 27) readonly buffer LeafTriangles { uint leafTriangles[]; };
-layout(std430, binding = 28) buffer ViewCounters { uint viewCounters[]; };  // per view: nodes, triangles, points
+layout(std430, binding = 28) buffer ViewCounters { uint viewCounters[]; };  // per view: triangles, points
 uniform uint level;
 uniform uint itemCapacity, triangleCapacity, pointCapacity;
 
@@ -53,7 +53,6 @@ void main() {
   uvec2 item = itemsIn[index];
   PsmNode node = psmNodes[item.x];
   PsmView view = psmViews[item.y];
-  atomicAdd(viewCounters[3u * item.y], 1u);
   vec3 c, e;
   viewBox(node, view, c, e);
   if (culled(view, c, e)) return;
@@ -61,12 +60,12 @@ void main() {
   if (texelsWide(view, c, e) <= 1.0) {
     uint at = atomicAdd(psmCounters[1], 1u);
     if (at < pointCapacity) psmPoints[at] = item;
-    atomicAdd(viewCounters[3u * item.y + 2u], 1u);
+    atomicAdd(viewCounters[2u * item.y + 1u], 1u);
   } else if (count > 0u) {
     uint at = atomicAdd(psmCounters[0], count);
     for (uint k = 0u; k < count; ++k)
       if (at + k < triangleCapacity) psmTriangles[at + k] = uvec2(leafTriangles[first + k], item.y);
-    atomicAdd(viewCounters[3u * item.y + 1u], count);
+    atomicAdd(viewCounters[2u * item.y], count);
   } else {
     uint at = atomicAdd(psmCounters[3u + level], 2u);
     if (at < itemCapacity) itemsOut[at] = uvec2(first, item.y);
