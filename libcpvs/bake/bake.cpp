@@ -332,6 +332,10 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
       DagBuilder builder(view.resolution, regionSize, settings.nodeReuse);
       const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
+      // Uniform tiles may be summarised unless someone wants every texel's slices, or mode none (whose exits are
+      // every texel's e + 1) builds the chains.
+      const bool summarizeTiles =
+          !settings.perTexel && !callbacks.depthRegion && settings.undefinedMode != UndefinedMode::None;
       vr.regions = uint32_t(regions.size());
       // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
       // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
@@ -345,7 +349,9 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         } else {
           const RowSpans inside = crop.inside(view, regions[ri]);
           depth = std::make_shared<DepthRegion>(
-              renderer->render(geometry, view, regions[ri], settings.peel, &stats, crop.active ? &inside : nullptr));
+              renderer->render(geometry, view, regions[ri], settings.peel, &stats, crop.active ? &inside : nullptr,
+                               summarizeTiles));
+          vr.tiles += uint64_t(regions[ri].width / 8) * (regions[ri].height / 8);
           vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);
         }
         vr.depthMs += stats.enterMs;
@@ -353,6 +359,8 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);
         vr.texelsAtPeelCap += stats.texelsAtPeelCap;
         vr.trianglesSubmitted += stats.trianglesSubmitted;
+        vr.uniformTiles += stats.uniformTiles;
+        vr.summarizedTiles += stats.summarizedTiles;
         if (callbacks.depthRegion) {
           const std::lock_guard<std::mutex> lock(run.mutex);
           callbacks.depthRegion(li, vi, view, *depth);

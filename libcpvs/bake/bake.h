@@ -23,6 +23,10 @@ struct BakeSettings {
   bool cropToCone = true;
   UndefinedMode undefinedMode = UndefinedMode::Kampe;
   bool nodeReuse = true;           // Kämpe et al. 2015, §3.2; off only to measure it
+  // Take every tile through the CPU rasteriser's per-texel passes, also where a tile is uniform (one plane in
+  // front, the same order of surfaces behind it at every texel) and its chain follows from planes: the
+  // reference path, same bytes (docs/depth-maps.md, "Uniform tiles"); on only to measure or test it.
+  bool perTexel = false;
   unsigned threads = 2;            // tile chains and DAG building overlap with rendering when > 1
   // The CPU rasteriser: 4-6x faster than llvmpipe on every scene measured (docs/many-lights.md); EGL puts
   // the depth passes on a GPU where there is one.
@@ -55,6 +59,9 @@ struct ViewReport {
   uint64_t texelsAtPeelCap = 0;
   uint64_t texelsOutsideCone = 0;    // left free: outside a spot light's cone (and margin)
   uint64_t tileMasks = 0;            // chain entries over all tiles
+  uint64_t tiles = 0;                // 8x8 tiles rendered (regions outside a spot's cone not counted)
+  uint64_t uniformTiles = 0;         // of those, the tiles whose slices came from planes, not texel by texel
+  uint64_t summarizedTiles = 0;      // of those, the tiles whose chain came from two values (no texel written)
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;
   uint64_t nodesBuilt = 0, nodesReused = 0;

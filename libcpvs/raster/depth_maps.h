@@ -15,11 +15,26 @@ namespace cpvs {
 //           for a closed solid, max(e + 1, slice where the ray leaves the union of closed solids);
 //           x = N where the ray meets nothing.
 // Voxel z is lit when z <= e, shadowed when z >= x, free (either value allowed) when e < z < x.
+//
+// A tile of 8x8 texels the renderer summarised instead of writing its texels (the CPU rasteriser's uniform tiles,
+// docs/depth-maps.md): its enter slices are at most maxEnter and every exit is at least minExit > maxEnter (or
+// the tile sees nothing: both N), which is all its tile chain depends on (tile_masks.cpp).
+struct TileSummary {
+  uint32_t maxEnter = 0, minExit = 0;
+  bool summarized = false;
+};
+
 struct DepthRegion {
   RegionRect rect;
   uint32_t resolution = 0;
   std::vector<uint32_t> enter;
   std::vector<uint32_t> exit;
+  // Per tile (row-major, rect.width / 8 per row), or empty: where summarized, that tile's enter and exit
+  // texels hold nothing meaningful.
+  std::vector<TileSummary> tiles;
+  bool summarized(uint32_t tx, uint32_t ty) const {
+    return !tiles.empty() && tiles[size_t(ty) * (rect.width / 8) + tx].summarized;
+  }
   uint32_t enterAt(uint32_t x, uint32_t y) const { return enter[size_t(y) * rect.width + x]; }
   uint32_t exitAt(uint32_t x, uint32_t y) const { return exit[size_t(y) * rect.width + x]; }
 };

@@ -457,7 +457,8 @@ public:
   std::string description() const override { return context_->description(); }
 
   DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                     const PeelSettings& peel, RenderStats* stats, const RowSpans* needed) override;
+                     const PeelSettings& peel, RenderStats* stats, const RowSpans* needed,
+                     bool summarizeTiles) override;
 
 private:
   struct Targets {
@@ -630,7 +631,7 @@ private:
 };
 
 DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                                    const PeelSettings& peel, RenderStats* stats, const RowSpans*) {
+                                    const PeelSettings& peel, RenderStats* stats, const RowSpans*, bool) {
   const uint32_t n = view.resolution;
   if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
       uint64_t(rect.y0) + rect.height > n)

@@ -33,6 +33,9 @@ struct RenderStats {
   uint32_t peelIterations = 0;
   uint64_t texelsAtPeelCap = 0;  // texels whose exit was set conservatively at the cap
   uint64_t trianglesSubmitted = 0;
+  uint64_t uniformTiles = 0;     // tiles whose slices came from planes (CPU rasteriser, summarizeTiles)
+  uint64_t summarizedTiles = 0;  // of those, the tiles handed over as a summary (DepthRegion::tiles)
+  double classifyMs = 0;      // finding them (part of enterMs)
 };
 
 class DepthRenderer {
@@ -50,10 +53,12 @@ public:
   // Renders the region's enter and exit slices. `geometry` holds the triangles that reach the view (see
   // view_geometry.h); the renderer submits only those that overlap the region. With `needed`, only those
   // texels' slices count: the rest may hold anything (the CPU rasteriser does not visit them, and the peel's
-  // early stop counts only needed texels still inside; GL renders the whole region).
+  // early stop counts only needed texels still inside; GL renders the whole region). With `summarizeTiles`, a
+  // renderer may summarise tiles instead of writing their texels (DepthRegion::tiles): for callers that only
+  // build tile chains from the result.
   virtual DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                             const PeelSettings& peel, RenderStats* stats = nullptr,
-                             const RowSpans* needed = nullptr) = 0;
+                             const PeelSettings& peel, RenderStats* stats = nullptr, const RowSpans* needed = nullptr,
+                             bool summarizeTiles = false) = 0;
 };
 
 }  // namespace cpvs

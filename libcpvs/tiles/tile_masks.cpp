@@ -131,6 +131,20 @@ uint32_t buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n
   return maxE;
 }
 
+// The chain buildChain gives a tile whose every exit lies past its farthest enter (maxEnter < minExit), from
+// those two values alone: all lit until the nearest exit, all shadowed from there (the first mask buildChain
+// tries at z = minExit already shadows every texel, since z > maxEnter). Without any exit before N the chain is
+// all lit. tests/dag_test.cpp compares it with buildChain.
+uint32_t summarizedChain(uint32_t maxEnter, uint32_t minExit, uint32_t n, UndefinedMode mode, std::vector<Entry>& out) {
+  out.clear();
+  out.push_back({0, kAllLit});
+  if (minExit < n) {
+    const uint32_t earliest = std::max(1u, maxEnter + 1);
+    out.push_back({mode == UndefinedMode::Kampe ? mostAlignedSlice(earliest, minExit) : minExit, kAllShadowed});
+  }
+  return maxEnter;
+}
+
 // The chains of one band of tile rows, appended tile after tile to flat arrays (no allocation per tile).
 struct ChainBand {
   std::vector<uint32_t> start;
@@ -146,6 +160,19 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
   band.length.reserve(size_t(rowEnd - rowBegin) * tilesX);
   for (uint32_t ty = rowBegin; ty < rowEnd; ++ty) {
     for (uint32_t tx = 0; tx < tilesX; ++tx) {
+      if (depth.summarized(tx, ty)) {
+        const TileSummary& summary = depth.tiles[size_t(ty) * tilesX + tx];
+        if (mode == UndefinedMode::None && summary.maxEnter < n)  // its exits would be e + 1, not the peel's
+          throw Error(ErrorCategory::RuntimeFailure, "tile chains: mode none needs every texel of a tile that sees geometry");
+        const uint32_t farthestEnter = summarizedChain(summary.maxEnter, summary.minExit, n, mode, chain);
+        for (const Entry& entry : chain) {
+          band.start.push_back(entry.start);
+          band.mask.push_back(entry.mask);
+        }
+        band.length.push_back(uint32_t(chain.size()));
+        darkFrom[size_t(ty) * tilesX + tx] = std::min(farthestEnter + 1, n);
+        continue;
+      }
       for (uint32_t j = 0; j < 64; ++j) {
         const uint32_t px = tx * 8 + (j & 7), py = ty * 8 + (j >> 3);
         e[j] = depth.enterAt(px, py);

@@ -19,6 +19,9 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                "Bake a spot light's whole square view, also where it lies outside the cone (never looked up), to "
                "measure it");
   app.add_flag("--no-node-reuse", noNodeReuse, "Build every node (skip Kämpe et al. 2015, §3.2), to measure it");
+  app.add_flag("--per-texel", perTexel,
+               "Rasterise every tile texel by texel, also uniform ones whose slices follow from planes (same bytes; "
+               "the reference path, to measure the fast one)");
   app.add_option("--region", regionSize, "Largest region rendered at once (power of two); bounds memory")
       ->capture_default_str();
   app.add_option("--max-memory", maxMemory,
@@ -45,6 +48,7 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
   settings.voxelSize = voxelSize;
   settings.undefinedMode = forFlag("--undefined", [&] { return parseUndefinedMode(undefinedMode); });
   settings.nodeReuse = !noNodeReuse;
+  settings.perTexel = perTexel;
   settings.cropToCone = !noConeCrop;
   settings.regionSize = forFlag("--region", [&] { return parseResolution(regionSize); });
   settings.peel.maxPeels = maxPeels;

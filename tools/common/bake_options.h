@@ -14,6 +14,7 @@ struct BakeShapeOptions {
   double voxelSize = 0;
   std::string undefinedMode = "kampe";
   bool noNodeReuse = false;
+  bool perTexel = false;
   bool noConeCrop = false;
   std::string regionSize = "1k";
   uint32_t maxPeels = 2;
