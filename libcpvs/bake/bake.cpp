@@ -337,6 +337,8 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       const bool summarizeTiles =
           !settings.perTexel && !callbacks.depthRegion && settings.undefinedMode != UndefinedMode::None;
       vr.regions = uint32_t(regions.size());
+      // Each region's candidate triangles, from one pass over the view's (not one per region).
+      const std::vector<std::vector<uint32_t>> regionTriangles = binToRegions(geometry, view.resolution, regionSize);
       // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
       // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
       BackgroundWork pending;
@@ -349,7 +351,8 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         } else {
           const RowSpans inside = crop.inside(view, regions[ri]);
           depth = std::make_shared<DepthRegion>(
-              renderer->render(geometry, view, regions[ri], settings.peel, &stats, crop.active ? &inside : nullptr,
+              renderer->render(cullToRegion(geometry, regions[ri], regionTriangles[ri]), view, regions[ri], settings.peel,
+                               &stats, crop.active ? &inside : nullptr,
                                summarizeTiles));
           vr.tiles += uint64_t(regions[ri].width / 8) * (regions[ri].height / 8);
           vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);

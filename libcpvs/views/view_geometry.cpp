@@ -133,28 +133,69 @@ ViewGeometry gatherViewGeometry(const WorldGeometry& world, const LightView& vie
   return out;
 }
 
-ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect) {
-  ViewGeometry out;
+namespace {
+
+// Whether triangle bounds b = (uMin, uMax, vMin, vMax) overlap the region grown by one texel.
+bool overlapsRegion(const glm::vec4& b, const RegionRect& rect) {
   const float x0 = float(rect.x0) - 1.0f, x1 = float(rect.x0 + rect.width) + 1.0f;
   const float y0 = float(rect.y0) - 1.0f, y1 = float(rect.y0 + rect.height) + 1.0f;
+  return !(b.y < x0 || b.x > x1 || b.w < y0 || b.z > y1);
+}
+
+// Appends triangle t (an index over closed, then open triangles) of `geometry` to `out`.
+void keepTriangle(const ViewGeometry& geometry, size_t t, ViewGeometry& out) {
   const size_t closedCount = geometry.closedIndices.size() / 3;
-  auto keep = [&](const std::vector<uint32_t>& indices, std::vector<uint32_t>& outIndices, size_t firstTriangle) {
-    for (size_t t = 0; t < indices.size() / 3; ++t) {
-      const glm::vec4& b = geometry.gridBounds[firstTriangle + t];
-      if (b.y < x0 || b.x > x1 || b.w < y0 || b.z > y1) continue;
-      for (int k = 0; k < 3; ++k) {
-        outIndices.push_back(uint32_t(out.positions.size()));
-        out.positions.push_back(geometry.positions[indices[3 * t + k]]);
-        if (geometry.hasMasks()) out.maskUvs.push_back(geometry.maskUvs[indices[3 * t + k]]);
-      }
-      out.gridBounds.push_back(b);
-      if (geometry.hasMasks()) out.maskOf.push_back(geometry.maskOf[firstTriangle + t]);
-    }
-  };
-  keep(geometry.closedIndices, out.closedIndices, 0);
-  keep(geometry.openIndices, out.openIndices, closedCount);
+  const bool closed = t < closedCount;
+  const uint32_t* idx = closed ? &geometry.closedIndices[3 * t] : &geometry.openIndices[3 * (t - closedCount)];
+  std::vector<uint32_t>& outIndices = closed ? out.closedIndices : out.openIndices;
+  for (int k = 0; k < 3; ++k) {
+    outIndices.push_back(uint32_t(out.positions.size()));
+    out.positions.push_back(geometry.positions[idx[k]]);
+    if (geometry.hasMasks()) out.maskUvs.push_back(geometry.maskUvs[idx[k]]);
+  }
+  out.gridBounds.push_back(geometry.gridBounds[t]);
+  if (geometry.hasMasks()) out.maskOf.push_back(geometry.maskOf[t]);
+}
+
+}  // namespace
+
+ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect) {
+  ViewGeometry out;
+  for (size_t t = 0; t < geometry.triangleCount(); ++t)
+    if (overlapsRegion(geometry.gridBounds[t], rect)) keepTriangle(geometry, t, out);
   if (geometry.hasMasks()) out.masks = geometry.masks;
   return out;
+}
+
+ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect, const std::vector<uint32_t>& candidates) {
+  ViewGeometry out;
+  for (uint32_t t : candidates)
+    if (overlapsRegion(geometry.gridBounds[t], rect)) keepTriangle(geometry, t, out);
+  if (geometry.hasMasks()) out.masks = geometry.masks;
+  return out;
+}
+
+std::vector<std::vector<uint32_t>> binToRegions(const ViewGeometry& geometry, uint32_t resolution, uint32_t regionSize) {
+  const uint32_t perSide = (resolution + regionSize - 1) / regionSize;
+  std::vector<std::vector<uint32_t>> bins(size_t(perSide) * perSide);
+  // The regions whose guard-banded rectangle [x0 - 1, x0 + size + 1] may meet [lo, hi] (float bounds; NaN-free).
+  const auto range = [&](float lo, float hi, uint32_t& first, uint32_t& last) {
+    if (std::isnan(lo)) lo = -std::numeric_limits<float>::infinity();  // cullToRegion cannot exclude it by a NaN
+    if (std::isnan(hi)) hi = std::numeric_limits<float>::infinity();
+    const double a = std::floor((double(lo) - 1.0) / regionSize), b = std::floor((double(hi) + 1.0) / regionSize);
+    if (!(b >= 0) || !(a < perSide)) return false;
+    first = uint32_t(std::max(0.0, a));
+    last = uint32_t(std::min(double(perSide - 1), b));
+    return true;
+  };
+  for (size_t t = 0; t < geometry.triangleCount(); ++t) {
+    const glm::vec4& b = geometry.gridBounds[t];
+    uint32_t rx0, rx1, ry0, ry1;
+    if (!range(b.x, b.y, rx0, rx1) || !range(b.z, b.w, ry0, ry1)) continue;
+    for (uint32_t ry = ry0; ry <= ry1; ++ry)
+      for (uint32_t rx = rx0; rx <= rx1; ++rx) bins[size_t(ry) * perSide + rx].push_back(uint32_t(t));
+  }
+  return bins;
 }
 
 }  // namespace cpvs

@@ -47,5 +47,11 @@ std::vector<uint32_t> trianglesNear(const WorldGeometry& world, const LightView&
 
 // The subset of `geometry` whose grid bounds overlap the region (with a one-texel guard band).
 ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect);
+// The same subset, looking only at `candidates` (triangle indices, closed first then open, ascending) instead of
+// every triangle: with binToRegions, the view's triangles are visited once for all its regions.
+ViewGeometry cullToRegion(const ViewGeometry& geometry, const RegionRect& rect, const std::vector<uint32_t>& candidates);
+// Per region of splitIntoRegions(resolution, regionSize), the indices of the triangles whose grid bounds may
+// overlap it with its guard band (ascending; a superset of what cullToRegion keeps there).
+std::vector<std::vector<uint32_t>> binToRegions(const ViewGeometry& geometry, uint32_t resolution, uint32_t regionSize);
 
 }  // namespace cpvs
