@@ -7,6 +7,8 @@ namespace cpvs {
 namespace {
 
 constexpr int32_t kTile = 8, kBlock = 64;
+// Blocks crossed by more triangles than this are not classified tile by tile (see classifyTiles).
+constexpr uint32_t kMostCrossingPerBlock = 48;
 
 enum class Coverage : uint8_t { None, Crossed, Full };
 
@@ -153,27 +155,33 @@ TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t
     ja = by * kBlock;
     jb = std::min(h, ja + kBlock) - 1;
   };
-  for (int pass = 0; pass < 2; ++pass) {
-    std::vector<uint32_t> cursor;
-    if (pass == 1) {
-      for (size_t b = 0; b < blockCount; ++b) first[b + 1] += first[b];
-      entries.resize(first[blockCount]);
-      cursor.assign(first.begin(), first.end() - 1);
-    }
-    for (size_t k = 0; k < triangles.size(); ++k) {
-      const RasterTriangle& t = triangles[k];
-      if (t.i0 > t.i1 || t.j0 > t.j1) continue;
-      for (int32_t by = t.j0 / kBlock; by <= t.j1 / kBlock; ++by)
-        for (int32_t bx = t.i0 / kBlock; bx <= t.i1 / kBlock; ++bx) {
-          int32_t ia, ib, ja, jb;
-          blockRect(bx, by, ia, ib, ja, jb);
-          const Coverage c = coverage(t, ia, ib, ja, jb);
-          if (c == Coverage::None) continue;
-          const size_t b = size_t(by) * size_t(blocksX) + size_t(bx);
-          if (pass == 0) ++first[b + 1];
-          else entries[cursor[b]++] = {int32_t(k), c};
-        }
-    }
+  // One coverage test per (triangle, block), kept in triangle order, then grouped by block (a counting sort keeps
+  // triangle order within a block).
+  struct Hit {
+    uint32_t block;
+    int32_t triangle;
+    Coverage coverage;
+  };
+  std::vector<Hit> hits;
+  for (size_t k = 0; k < triangles.size(); ++k) {
+    const RasterTriangle& t = triangles[k];
+    if (t.i0 > t.i1 || t.j0 > t.j1) continue;
+    for (int32_t by = t.j0 / kBlock; by <= t.j1 / kBlock; ++by)
+      for (int32_t bx = t.i0 / kBlock; bx <= t.i1 / kBlock; ++bx) {
+        int32_t ia, ib, ja, jb;
+        blockRect(bx, by, ia, ib, ja, jb);
+        const Coverage c = coverage(t, ia, ib, ja, jb);
+        if (c == Coverage::None) continue;
+        const uint32_t block = uint32_t(by) * uint32_t(blocksX) + uint32_t(bx);
+        hits.push_back({block, int32_t(k), c});
+        ++first[block + 1];
+      }
+  }
+  for (size_t b = 0; b < blockCount; ++b) first[b + 1] += first[b];
+  entries.resize(hits.size());
+  {
+    std::vector<uint32_t> cursor(first.begin(), first.end() - 1);
+    for (const Hit& hit : hits) entries[cursor[hit.block]++] = {hit.triangle, hit.coverage};
   }
 
   std::vector<Candidate> candidates;
@@ -213,6 +221,11 @@ TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t
           continue;
         }
       }
+      // A block that many triangles cross is detailed geometry, where tiles are rarely uniform: leave its tiles to
+      // the per-texel path rather than test each of them against every triangle (only the time changes).
+      uint32_t crossing = 0;
+      for (uint32_t e = first[b]; e < first[b + 1]; ++e) crossing += entries[e].second == Coverage::Crossed;
+      if (crossing > kMostCrossingPerBlock) continue;
       for (int32_t ty = ty0; ty < ty1; ++ty)
         for (int32_t tx = tx0; tx < tx1; ++tx) {
           if (!tileEligible(tx, ty)) continue;
