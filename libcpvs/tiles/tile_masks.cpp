@@ -134,15 +134,17 @@ uint32_t buildChain(const uint32_t (&e)[64], const uint32_t (&x)[64], uint32_t n
 // The chain buildChain gives a tile whose every exit lies past its farthest enter (maxEnter < minExit), from
 // those two values alone: all lit until the nearest exit, all shadowed from there (the first mask buildChain
 // tries at z = minExit already shadows every texel, since z > maxEnter). Without any exit before N the chain is
-// all lit. tests/dag_test.cpp compares it with buildChain.
-uint32_t summarizedChain(uint32_t maxEnter, uint32_t minExit, uint32_t n, UndefinedMode mode, std::vector<Entry>& out) {
-  out.clear();
-  out.push_back({0, kAllLit});
-  if (minExit < n) {
-    const uint32_t earliest = std::max(1u, maxEnter + 1);
-    out.push_back({mode == UndefinedMode::Kampe ? mostAlignedSlice(earliest, minExit) : minExit, kAllShadowed});
-  }
-  return maxEnter;
+// all lit. tests/uniform_tiles_test.cpp compares the chains of summarised regions with buildChain's. Appends the
+// chain to `start` and `mask`; returns its length.
+uint32_t summarizedChain(uint32_t maxEnter, uint32_t minExit, uint32_t n, UndefinedMode mode,
+                         std::vector<uint32_t>& start, std::vector<uint64_t>& mask) {
+  start.push_back(0);
+  mask.push_back(kAllLit);
+  if (minExit >= n) return 1;
+  const uint32_t earliest = std::max(1u, maxEnter + 1);
+  start.push_back(mode == UndefinedMode::Kampe ? mostAlignedSlice(earliest, minExit) : minExit);
+  mask.push_back(kAllShadowed);
+  return 2;
 }
 
 // The chains of one band of tile rows, appended tile after tile to flat arrays (no allocation per tile).
@@ -158,19 +160,17 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
   const uint32_t n = depth.resolution;
   std::vector<Entry> chain;
   band.length.reserve(size_t(rowEnd - rowBegin) * tilesX);
+  band.start.reserve(2 * band.length.capacity());  // most tiles hold two entries: lit, then shadowed
+  band.mask.reserve(2 * band.length.capacity());
   for (uint32_t ty = rowBegin; ty < rowEnd; ++ty) {
     for (uint32_t tx = 0; tx < tilesX; ++tx) {
       if (depth.summarized(tx, ty)) {
         const TileSummary& summary = depth.tiles[size_t(ty) * tilesX + tx];
         if (mode == UndefinedMode::None && summary.maxEnter < n)  // its exits would be e + 1, not the peel's
           throw Error(ErrorCategory::RuntimeFailure, "tile chains: mode none needs every texel of a tile that sees geometry");
-        const uint32_t farthestEnter = summarizedChain(summary.maxEnter, summary.minExit, n, mode, chain);
-        for (const Entry& entry : chain) {
-          band.start.push_back(entry.start);
-          band.mask.push_back(entry.mask);
-        }
-        band.length.push_back(uint32_t(chain.size()));
-        darkFrom[size_t(ty) * tilesX + tx] = std::min(farthestEnter + 1, n);
+        const uint32_t length = summarizedChain(summary.maxEnter, summary.minExit, n, mode, band.start, band.mask);
+        band.length.push_back(length);
+        darkFrom[size_t(ty) * tilesX + tx] = std::min(summary.maxEnter + 1, n);
         continue;
       }
       for (uint32_t j = 0; j < 64; ++j) {
