@@ -21,6 +21,19 @@
 
 namespace cpvs {
 namespace {
+// Row j's texels [i0, i1) of an alpha-tested (always open) triangle: only those its mask blocks may become the
+// enter surface (a lower kind wins an exact tie, as for every triangle).
+void enterMaskedSpan(const RasterTriangle& t, const MaskedTriangle& m, double rowQ, double keySign, int32_t j,
+                     int32_t i0, int32_t i1, float* keys, uint8_t* kinds) {
+  for (int32_t i = i0; i < i1; ++i) {
+    const float key = float(keySign * depthAt(t, rowQ, i));
+    if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
+      keys[i] = key;
+      kinds[i] = t.kind;
+    }
+  }
+}
+
 class CpuDepthRenderer final : public DepthRenderer {
 public:
   explicit CpuDepthRenderer(CpuPeel peelMethod) : peelMethod_(peelMethod) {}
@@ -262,15 +275,8 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
             }
           };
           forPerTexel(j, spanBegin, spanEnd, [&](int32_t i0, int32_t i1) {
-            if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
-              const MaskedTriangle& m = masked[size_t(t.masked)];
-              for (int32_t i = i0; i < i1; ++i) {
-                const float key = keyOf(depthAt(t, rowQ, i));
-                if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
-                  keys[i] = key;
-                  kinds[i] = t.kind;
-                }
-              }
+            if (t.masked >= 0) {
+              enterMaskedSpan(t, masked[size_t(t.masked)], rowQ, keySign, j, i0, i1, keys, kinds);
             } else if (triangleKind == kOpen) {
               for (int32_t i = i0; i < i1; ++i) enter(i, keyAt.at(i));
             } else if (triangleKind == kClosedFront) {
@@ -383,15 +389,8 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
         scan(t, r0, r1, [&](int32_t j, int32_t i0, int32_t i1, double rowQ) {
           float* keys = &enterKey[size_t(j) * width];
           uint8_t* kinds = &kind[size_t(j) * width];
-          if (t.masked >= 0) {  // alpha-tested (always open): only texels its mask blocks count
-            const MaskedTriangle& m = masked[size_t(t.masked)];
-            for (int32_t i = i0; i < i1; ++i) {
-              const float key = keyOf(depthAt(t, rowQ, i));
-              if ((key < keys[i] || (key == keys[i] && t.kind < kinds[i])) && m.blocksAt(t.x0 + i, t.y0 + j)) {
-                keys[i] = key;
-                kinds[i] = t.kind;
-              }
-            }
+          if (t.masked >= 0) {
+            enterMaskedSpan(t, masked[size_t(t.masked)], rowQ, keySign, j, i0, i1, keys, kinds);
             return;
           }
           for (int32_t i = i0; i < i1; ++i) {
