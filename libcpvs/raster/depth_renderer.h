@@ -35,7 +35,6 @@ struct RenderStats {
   uint64_t trianglesSubmitted = 0;
   uint64_t uniformTiles = 0;     // tiles whose slices came from planes (CPU rasteriser, summarizeTiles)
   uint64_t summarizedTiles = 0;  // of those, the tiles handed over as a summary (DepthRegion::tiles)
-  double classifyMs = 0;      // finding them (part of enterMs)
 };
 
 class DepthRenderer {
