@@ -19,9 +19,9 @@ import json
 import os
 import subprocess
 import sys
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bake_scale import measured  # noqa: E402
 from machine import machine_info  # noqa: E402
 
 
@@ -39,14 +39,8 @@ def bake(a, scene, resolution, out, per_texel):
     report = out + ".json"
     cmd = [os.path.join(a.bin, "cpvs-bake"), scene, "-r", resolution, "-j", str(a.threads), "-o", out + ".cpvs",
            "--report", report, "-q"] + a.light.split() + (["--per-texel"] if per_texel else [])
-    print("$ " + " ".join(cmd), flush=True)
     load_before = load_average()
-    start = time.time()
-    proc = subprocess.Popen(cmd)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.time() - start
-    if os.waitstatus_to_exitcode(status) != 0:
-        sys.exit("cpvs-bake exited with %d" % os.waitstatus_to_exitcode(status))
+    run = measured(cmd)
     with open(report) as f:
         r = json.load(f)
     phases = {}
@@ -58,11 +52,11 @@ def bake(a, scene, resolution, out, per_texel):
             tiles += v.get("tiles", 0)
             uniform += v.get("uniform_tiles", 0)
             summarized += v.get("summarized_tiles", 0)
-    return {"command": " ".join(cmd), "resolution": resolution, "per_texel": per_texel, "wall_s": wall,
-            "cpu_s": usage.ru_utime + usage.ru_stime, "peak_rss_bytes": usage.ru_maxrss * 1024,
-            "file_bytes": r["file_bytes"], "phases_s": phases, "tiles": tiles, "uniform_tiles": uniform,
-            "summarized_tiles": summarized, "load_before": load_before, "load_after": load_average(),
-            "file": out + ".cpvs"}
+    run.update({"command": " ".join(cmd), "resolution": resolution, "per_texel": per_texel,
+                "file_bytes": r["file_bytes"], "phases_s": phases, "tiles": tiles, "uniform_tiles": uniform,
+                "summarized_tiles": summarized, "load_before": load_before, "load_after": load_average(),
+                "file": out + ".cpvs"})
+    return run
 
 
 def main():
