@@ -13,6 +13,8 @@
 # Everything after SCENE goes to every shard's cpvs-bake (e.g. -r 4k --sun 0,-1,0.3). Paths are made
 # absolute; jobs run in WORKDIR, so a relative path inside the bake flags is taken from there.
 # sbatch reads its usual environment: SBATCH_PARTITION, SBATCH_ACCOUNT, SBATCH_TIMELIMIT, SBATCH_QOS...
+# A memory request (SBATCH_MEM_PER_NODE, SBATCH_MEM_PER_CPU) reaches each shard's cpvs-bake as CPVS_MEMORY_LIMIT,
+# its memory limit (the default budget is an eighth below it).
 # Slurm configuration: SLURM_CONF if set; else the system's (/etc/slurm/slurm.conf); else the local test
 # cluster of scripts/slurm-local.sh.
 # Exit codes: 0 submitted (or, with --wait, merged); 1 usage error or missing input; 4 sbatch failed, a job
@@ -99,6 +101,14 @@ cat >"$workdir/shard.sh" <<EOF
 set -eu
 i="\${SLURM_ARRAY_TASK_ID:?not started as a Slurm array task}"
 echo "shard \$i/$shards on \$(hostname), job \${SLURM_JOB_ID:-?}"
+# The job's memory request is the bake's memory limit: cpvs-bake budgets an eighth below it and stops with
+# exit 4 and a message before Slurm would kill the shard (0 asks for the whole node: the node's limits apply).
+if [ "\${SLURM_MEM_PER_NODE:-0}" -gt 0 ]; then
+  export CPVS_MEMORY_LIMIT="\${SLURM_MEM_PER_NODE}M"
+elif [ "\${SLURM_MEM_PER_CPU:-0}" -gt 0 ]; then
+  export CPVS_MEMORY_LIMIT="\$((SLURM_MEM_PER_CPU * \${SLURM_CPUS_ON_NODE:-1}))M"
+fi
+[ -z "\${CPVS_MEMORY_LIMIT:-}" ] || echo "memory limit: CPVS_MEMORY_LIMIT=\$CPVS_MEMORY_LIMIT"
 exec $(q "$bin/cpvs-bake" "$scene") --shard "\$i/$shards" -o $(printf '%q' "$workdir")/part_"\$i".cpvs $(q "${flags[@]}")
 EOF
 parts=()

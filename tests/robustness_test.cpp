@@ -204,7 +204,7 @@ TEST(Robustness, AMemoryBudgetShrinksRegionsOrStopsTheBake) {
                            " -r 2k --sun 0.3,-1,0.2 --quiet -o " + dir + "/out.cpvs";
   const auto small = runTool(bake + " --max-memory 16M");
   EXPECT_EQ(small.exitCode, 4) << small.output;
-  EXPECT_NE(small.output.find("memory budget of 16 MiB exceeded"), std::string::npos) << small.output;
+  EXPECT_NE(small.output.find("memory budget of 16 MiB (--max-memory 16M) exceeded"), std::string::npos) << small.output;
   EXPECT_NE(small.output.find("raise the budget"), std::string::npos) << small.output;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out.cpvs"));
   // A generous budget changes nothing.
@@ -214,6 +214,71 @@ TEST(Robustness, AMemoryBudgetShrinksRegionsOrStopsTheBake) {
   ASSERT_EQ(plain.exitCode, 0) << plain.output;
   EXPECT_EQ(runTool("cmp " + dir + "/out.cpvs " + dir + "/plain.cpvs").exitCode, 0);
   EXPECT_EQ(runTool(bake + " --max-memory 12X").exitCode, 1);
+  // Without --max-memory the default budget (this machine's memory less a margin) is far from reached here:
+  // the same bytes as no budget at all.
+  ASSERT_EQ(runTool(bake + " --max-memory none").exitCode, 0);
+  EXPECT_EQ(runTool("cmp " + dir + "/out.cpvs " + dir + "/plain.cpvs").exitCode, 0);
+}
+
+// A bake that grows past a memory limit set from outside: the diorama at 16k peaks near 370 MB; under a 200 MiB
+// limit the default budget is 136 MiB (an eighth, at least 64 MiB, kept as margin), so the bake must stop with
+// exit 4 and the message, write no output and store no cache entry.
+void expectStoppedByDefaultBudget(const std::string& prefix, const std::string& source) {
+  const std::string dir = tempDir();
+  const std::string command = prefix + toolPath("cpvs-bake") + " " +
+                              test::sourcePath("data/scenes/MacrossCityDiorama/scene.glb") +
+                              " -r 16k --sun 0.3,-1,0.2 -j 2 --quiet --cache " + dir + "/cache -o " + dir +
+                              "/out.cpvs --report " + dir + "/report.json";
+  const auto run = runTool(command);
+  EXPECT_EQ(run.exitCode, 4) << command << "\n" << run.output;
+  EXPECT_NE(run.output.find("memory budget of 136 MiB"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("(default: " + source + " less 64 MiB) exceeded"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("while baking light"), std::string::npos) << run.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.cpvs"));
+  EXPECT_FALSE(std::filesystem::exists(dir + "/report.json"));
+  if (std::filesystem::exists(dir + "/cache")) {
+    EXPECT_TRUE(std::filesystem::is_empty(dir + "/cache")) << "a cache entry (or a part of one) was left behind";
+  }
+}
+
+TEST(Robustness, TheDefaultMemoryBudgetFollowsCpvsMemoryLimit) {
+  expectStoppedByDefaultBudget("CPVS_MEMORY_LIMIT=200M ", "CPVS_MEMORY_LIMIT 200 MiB");
+  // A limit that is not a size is an error, not silently no budget.
+  const auto bad = runTool("CPVS_MEMORY_LIMIT=lots " + toolPath("cpvs-bake") + " " +
+                           test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") + " --sun 0,-1,0 -o " +
+                           tempDir() + "/x.cpvs");
+  EXPECT_EQ(bad.exitCode, 1) << bad.output;
+  EXPECT_NE(bad.output.find("CPVS_MEMORY_LIMIT='lots'"), std::string::npos) << bad.output;
+}
+
+// A memory cgroup of its own with a 200 MiB limit, where this machine lets the test make one (root, a writable
+// cgroup v1 memory hierarchy or v2 with the memory controller): the kernel would kill the bake at 200 MiB, so
+// this also shows the budget stops it first.
+TEST(Robustness, TheDefaultMemoryBudgetFollowsTheCgroupLimit) {
+  const std::string name = "cpvs-test-" + std::to_string(::getpid());
+  std::string group, limitFile;
+  if (std::filesystem::exists("/sys/fs/cgroup/memory/memory.limit_in_bytes")) {
+    group = "/sys/fs/cgroup/memory/" + name;
+    limitFile = "memory.limit_in_bytes";
+  } else if (std::filesystem::exists("/sys/fs/cgroup/cgroup.controllers")) {
+    group = "/sys/fs/cgroup/" + name;
+    limitFile = "memory.max";
+  }
+  std::error_code ec;
+  if (group.empty() || !std::filesystem::create_directory(group, ec))
+    GTEST_SKIP() << "cannot make a memory cgroup here (not root, or no writable cgroup hierarchy)";
+  {
+    std::ofstream limit(group + "/" + limitFile);
+    limit << (uint64_t(200) << 20);
+  }
+  if (!std::filesystem::exists(group + "/" + limitFile)) {
+    std::filesystem::remove(group, ec);
+    GTEST_SKIP() << "the cgroup has no memory controller";
+  }
+  expectStoppedByDefaultBudget("sh -c 'echo $$ > " + group + "/cgroup.procs && exec \"$0\" \"$@\"' ",
+                               "cgroup limit 200 MiB in " + group + "/" + limitFile);
+  std::filesystem::remove(group, ec);
+  EXPECT_FALSE(ec) << "cgroup " << group << " not removed: " << ec.message();
 }
 
 }  // namespace

@@ -370,7 +370,8 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         }
         if (settings.maxMemoryBytes && currentRssBytes() > settings.maxMemoryBytes)
           throw Error(ErrorCategory::RuntimeFailure,
-                      "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB exceeded (" +
+                      "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
+                          (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") + " exceeded (" +
                           std::to_string(currentRssBytes() >> 20) + " MiB resident) while baking light '" +
                           baked.light.name + "' view " + std::to_string(vi) + " at " +
                           std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");

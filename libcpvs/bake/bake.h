@@ -38,8 +38,10 @@ struct BakeSettings {
   GroundSheets ground = GroundSheets::Auto;  // close ground sheets into solids (libcpvs/scene/ground_sheet.h)
   // Memory budget in bytes (0: none). The region size is lowered until a region's buffers take at most a
   // quarter of it, and the bake stops with Error(RuntimeFailure) as soon as the process's resident memory
-  // exceeds it (checked after every region), before the system would kill it.
+  // exceeds it (checked after every region), before the system would kill it. The library sets none by
+  // itself; cpvs-bake defaults to defaultMemoryBudget() (libcpvs/base/memory_limit.h).
   uint64_t maxMemoryBytes = 0;
+  std::string maxMemorySource;  // where the budget came from, for the message when it is exceeded
 
   // Which lights this run bakes (none of this changes a light's bytes, nor the input hash):
   std::vector<uint32_t> lights;  // indices into the scene's lights, ascending; empty: every light

@@ -1,9 +1,22 @@
 #include "tools/common/bake_options.h"
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/memory_limit.h"
 #include "tools/common/cli.h"
 
 namespace cpvs::tools {
+namespace {
+
+// For --help: a CPVS_MEMORY_LIMIT that is not a size is reported when a bake starts, not here.
+MemoryLimit defaultBudgetOrNone() {
+  try {
+    return defaultMemoryBudget();
+  } catch (const Error&) {
+    return {};
+  }
+}
+
+}  // namespace
 
 void BakeShapeOptions::addTo(CLI::App& app) {
   app.add_option("-r,--resolution", resolution, "Voxel grid N per view: a power of two, 8..256k (e.g. 4k, 16k)")
@@ -24,10 +37,14 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                "the reference path, to measure the fast one)");
   app.add_option("--region", regionSize, "Largest region rendered at once (power of two); bounds memory")
       ->capture_default_str();
+  const MemoryLimit budget = defaultBudgetOrNone();
   app.add_option("--max-memory", maxMemory,
-                 "Memory budget (e.g. 2G): smaller regions where they help, else stop with exit 4 before the system "
-                 "runs out (the process's resident memory is checked after every region)")
-      ->type_name("SIZE");
+                 "Memory budget (e.g. 2G), or none: smaller regions where they help, else stop with exit 4 before the "
+                 "system runs out (the process's resident memory is checked after every region). Default: the "
+                 "memory this process may use (cgroup limit, CPVS_MEMORY_LIMIT, else physical memory) less an "
+                 "eighth (64 MiB to 4 GiB), here " +
+                     (budget.bytes ? formatMemorySize(budget.bytes) + " (" + budget.source + ")" : std::string("none")))
+      ->type_name("SIZE|none");
   app.add_option("--max-peels", maxPeels,
                  "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits "
                  "are set early (never wrong, less compression)")
@@ -52,7 +69,17 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
   settings.cropToCone = !noConeCrop;
   settings.regionSize = forFlag("--region", [&] { return parseResolution(regionSize); });
   settings.peel.maxPeels = maxPeels;
-  if (!maxMemory.empty()) settings.maxMemoryBytes = forFlag("--max-memory", [&] { return parseByteSize(maxMemory); });
+  if (maxMemory.empty()) {
+    const MemoryLimit budget = defaultMemoryBudget();
+    settings.maxMemoryBytes = budget.bytes;
+    settings.maxMemorySource = budget.bytes ? "default: " + budget.source : "";
+  } else if (maxMemory == "none") {
+    settings.maxMemoryBytes = 0;
+    settings.maxMemorySource = "none";
+  } else {
+    settings.maxMemoryBytes = forFlag("--max-memory", [&] { return parseByteSize(maxMemory); });
+    settings.maxMemorySource = "--max-memory " + maxMemory;
+  }
   settings.ground = forFlag("--ground", [&] { return parseGroundSheets(ground); });
 }
 

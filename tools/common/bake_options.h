@@ -18,7 +18,7 @@ struct BakeShapeOptions {
   bool noConeCrop = false;
   std::string regionSize = "1k";
   uint32_t maxPeels = 2;
-  std::string maxMemory;
+  std::string maxMemory;  // empty: defaultMemoryBudget(); "none": no budget
   std::string ground = "auto";
 
   void addTo(CLI::App& app);

@@ -10,6 +10,7 @@
 #include <new>
 #include <sstream>
 
+#include "libcpvs/base/memory_limit.h"
 #include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/version.h"
 
@@ -192,22 +193,10 @@ void addVersionFlag(CLI::App& app, const char* toolName) {
 }
 
 uint64_t parseByteSize(const std::string& text) {
-  static const std::string kUnits = "KMGT";
-  std::string number = text;
-  double multiplier = 1;
-  if (!number.empty()) {
-    const size_t unit = kUnits.find(char(std::toupper(static_cast<unsigned char>(number.back()))));
-    if (unit != std::string::npos) {
-      multiplier = std::ldexp(1.0, 10 * int(unit + 1));
-      number.pop_back();
-    }
-  }
-  char* end = nullptr;
-  const double value = number.empty() ? -1 : std::strtod(number.c_str(), &end);
-  const double bytes = value * multiplier;
-  if (number.empty() || !end || *end != '\0' || !(bytes >= 1 << 20) || !(bytes < 0x1p62))
+  const uint64_t bytes = parseMemorySize(text);
+  if (bytes < (uint64_t(1) << 20))
     throw Error(ErrorCategory::InvalidArgument, "'" + text + "': expected a size from 1M to 4096T (e.g. 512M, 2G)");
-  return uint64_t(bytes);
+  return bytes;
 }
 
 uint32_t parseResolution(const std::string& text) {
