@@ -342,6 +342,21 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
       // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
       BackgroundWork pending;
+      // Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
+      const auto checkBudget = [&](uint64_t extraBytes) {
+        if (!settings.maxMemoryBytes) return;
+        const uint64_t resident = currentRssBytes();
+        if (resident + extraBytes <= settings.maxMemoryBytes) return;
+        throw Error(ErrorCategory::RuntimeFailure,
+                    "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
+                        (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") +
+                        " exceeded (" + std::to_string(resident >> 20) + " MiB resident" +
+                        (extraBytes ? ", and about " + std::to_string(extraBytes >> 20) +
+                                          " MiB more to encode the view's DAG"
+                                    : "") +
+                        ") while baking light '" + baked.light.name + "' view " + std::to_string(vi) + " at " +
+                        std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
+      };
       for (size_t ri = 0; ri < regions.size(); ++ri) {
         RenderStats stats;
         std::shared_ptr<DepthRegion> depth;
@@ -368,13 +383,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
           const std::lock_guard<std::mutex> lock(run.mutex);
           callbacks.depthRegion(li, vi, view, *depth);
         }
-        if (settings.maxMemoryBytes && currentRssBytes() > settings.maxMemoryBytes)
-          throw Error(ErrorCategory::RuntimeFailure,
-                      "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
-                          (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") + " exceeded (" +
-                          std::to_string(currentRssBytes() >> 20) + " MiB resident) while baking light '" +
-                          baked.light.name + "' view " + std::to_string(vi) + " at " +
-                          std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
+        checkBudget(0);
         pending.wait();
         auto work = [&, depth]() {
           Stopwatch masks;
@@ -395,6 +404,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         }
       }
       pending.wait();
+      checkBudget(builder.finishExtraBytes());  // encoding needs memory of its own: refuse before, not during
       Stopwatch finish;
       bakedView.dag = builder.finish();
       vr.dagMs += finish.ms();

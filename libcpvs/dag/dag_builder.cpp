@@ -145,15 +145,24 @@ void DagBuilder::addRegion(const TileChains& chains) {
   Result neighbour;
   for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
     neighbour = build(regionLevel_, 0, 0, zBlock * regionSize_, neighbour);
-    regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock] = neighbour;
+    regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock] = packColumn(neighbour);
   }
   regionAdded_[size_t(ry) * regionsPerSide_ + rx] = true;
   chains_ = nullptr;
   hierarchy_.reset();
 }
 
+uint32_t DagBuilder::packColumn(const Result& result) {
+  if (result.ref >= (1u << 30))
+    throw Error(ErrorCategory::RuntimeFailure, "DAG builder: a region level holds more than 2^30 words");
+  return uint32_t(result.code) | (result.ref << 2);
+}
+
 DagBuilder::Result DagBuilder::buildTop(uint32_t level, uint32_t rx, uint32_t ry, uint32_t zBlock) {
-  if (level == regionLevel_) return regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock];
+  if (level == regionLevel_) {
+    const uint32_t column = regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock];
+    return {ChildCode(column & 3), column >> 2, 0, true};
+  }
   const uint32_t half = 1u << (regionLevel_ - level - 1);  // child span in regions
   Result children[8];
   for (unsigned c = 0; c < 8; ++c)
@@ -165,6 +174,10 @@ ShadowDag DagBuilder::finish() {
   for (bool added : regionAdded_)
     if (!added) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);
+  // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
+  for (NodeTable& table : tables_) table.releaseIndex();
+  leafTable_.releaseIndex();
+  std::vector<uint32_t>().swap(regionColumns_);
 
   // The root must sit at offset 0: level 0 holds exactly the root when it is a node.
   if (root.code == ChildCode::Ref && root.ref != 0)
@@ -177,6 +190,24 @@ ShadowDag DagBuilder::finish() {
   }
   return orThrow(encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),
                    NodeOrder::MostReferencedFirst));
+}
+
+uint64_t DagBuilder::finishExtraBytes() const {
+  // encodeDag (libcpvs/runtime/shadow_dag.cpp) keeps: the reordered leaves and their index arrays (8 + 16 bytes
+  // a leaf); every level's 16-bit units, then their concatenation (2 + 2 bytes a unit, at most 1.5 units a word);
+  // and while one level is encoded, its node order twice, its reference counts and positions (4 bytes a word
+  // each) and the positions of the level below.
+  uint64_t totalWords = 0, largestLevel = 0;
+  for (size_t l = 0; l < tables_.size(); ++l) {
+    const uint64_t words = tables_[l].words().size();
+    const uint64_t below = l + 1 < tables_.size() ? tables_[l + 1].words().size() : 0;
+    totalWords += words;
+    largestLevel = std::max(largestLevel, 16 * words + 4 * below);
+  }
+  uint64_t released = leafTable_.indexBytes() + regionColumns_.capacity() * 4;
+  for (const NodeTable& table : tables_) released += table.indexBytes();
+  const uint64_t needed = 24 * uint64_t(leafTable_.leaves().size()) + 6 * totalWords + largestLevel;
+  return needed > released ? needed - released : 0;
 }
 
 ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {

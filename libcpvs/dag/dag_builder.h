@@ -28,6 +28,9 @@ public:
   void addRegion(const TileChains& chains);
   // Builds the levels above the regions and returns the relocated DAG. Every region must have been added.
   ShadowDag finish();
+  // Bytes finish() may allocate beyond what it frees first (the hash indexes and region columns, which the
+  // allocator can hand out again): an upper estimate, for a memory budget to refuse before running out.
+  uint64_t finishExtraBytes() const;
 
   const DagBuildStats& stats() const { return stats_; }
 
@@ -54,7 +57,10 @@ private:
   uint32_t regionsPerSide_;
   std::vector<NodeTable> tables_;  // per level
   LeafTable leafTable_;
-  std::vector<Result> regionColumns_;  // [ry][rx][zBlock]
+  // [ry][rx][zBlock]: each region volume's child code (low two bits) and node offset (above them), all that
+  // buildTop needs. A full Result is 32 bytes; at 256k with 1k regions there are 256^3 of them (537 MB).
+  std::vector<uint32_t> regionColumns_;
+  static uint32_t packColumn(const Result& result);
   std::vector<bool> regionAdded_;
   DagBuildStats stats_;
   // Per-region state while building.

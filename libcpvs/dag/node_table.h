@@ -1,6 +1,8 @@
 #pragma once
 // Hash-consing of DAG nodes and leaf masks: one table per level; every hash hit is confirmed by comparing
-// the whole node (a hash alone would corrupt shadows on a collision).
+// the whole node (a hash alone would corrupt shadows on a collision). A node's offset is where it was appended,
+// so the index (slots and hashes) decides nothing about the bytes: it is kept small (8 bytes a slot) and can be
+// released once no more nodes come.
 #include <cstdint>
 #include <cstring>
 #include <vector>
@@ -14,7 +16,7 @@ public:
   // Returns the word offset of a node equal to words[0, count), appending it when new.
   uint32_t intern(const uint32_t* words, uint32_t count) {
     if (2 * (size_ + 1) > slots_.size()) grow();
-    const uint64_t hash = XXH3_64bits(words, count * sizeof(uint32_t));
+    const uint32_t hash = uint32_t(XXH3_64bits(words, count * sizeof(uint32_t)));
     const size_t mask = slots_.size() - 1;
     for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
       const uint32_t slot = slots_[i];
@@ -35,12 +37,18 @@ public:
   const std::vector<uint32_t>& words() const { return words_; }
   std::vector<uint32_t>& words() { return words_; }
   uint64_t size() const { return size_; }
+  // Frees the index: no intern() after this.
+  void releaseIndex() {
+    std::vector<uint32_t>().swap(slots_);
+    std::vector<uint32_t>().swap(hashes_);
+  }
+  uint64_t indexBytes() const { return slots_.capacity() * 4 + hashes_.capacity() * 4; }
 
 private:
   void grow() {
     const size_t capacity = slots_.empty() ? 1024 : slots_.size() * 2;
     std::vector<uint32_t> slots(capacity, 0);
-    std::vector<uint64_t> hashes(capacity, 0);
+    std::vector<uint32_t> hashes(capacity, 0);
     for (size_t i = 0; i < slots_.size(); ++i) {
       if (slots_[i] == 0) continue;
       for (size_t j = size_t(hashes_[i]) & (capacity - 1);; j = (j + 1) & (capacity - 1)) {
@@ -57,7 +65,7 @@ private:
 
   std::vector<uint32_t> words_;
   std::vector<uint32_t> slots_;  // word offset + 1; 0 = empty
-  std::vector<uint64_t> hashes_;
+  std::vector<uint32_t> hashes_;  // the low 32 bits of each node's hash: its slot (capacity <= 2^32) and a filter
   uint64_t size_ = 0;
 };
 
@@ -78,6 +86,8 @@ public:
   }
   const std::vector<uint64_t>& leaves() const { return leaves_; }
   std::vector<uint64_t>& leaves() { return leaves_; }
+  void releaseIndex() { std::vector<uint32_t>().swap(slots_); }
+  uint64_t indexBytes() const { return slots_.capacity() * 4; }
 
 private:
   void grow() {
