@@ -383,8 +383,10 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
           const std::lock_guard<std::mutex> lock(run.mutex);
           callbacks.depthRegion(li, vi, view, *depth);
         }
-        checkBudget(0);
         pending.wait();
+        // The builder is idle here. Its tables only grow, so once what encoding them would need no longer fits,
+        // the view cannot finish within the budget: stop now rather than at the end.
+        checkBudget(builder.finishExtraBytes());
         auto work = [&, depth]() {
           Stopwatch masks;
           const TileChains chains = buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads));
@@ -404,7 +406,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         }
       }
       pending.wait();
-      checkBudget(builder.finishExtraBytes());  // encoding needs memory of its own: refuse before, not during
+      checkBudget(builder.finishExtraBytes());  // the last region's tables too
       Stopwatch finish;
       bakedView.dag = builder.finish();
       vr.dagMs += finish.ms();
