@@ -39,9 +39,9 @@ void BakeShapeOptions::addTo(CLI::App& app) {
       ->capture_default_str();
   const MemoryLimit budget = defaultBudgetOrNone();
   app.add_option("--max-memory", maxMemory,
-                 "Memory budget (e.g. 2G), or none: smaller regions where they help, else stop with exit 4 before the "
-                 "system runs out (the process's resident memory is checked after every region). Default: the "
-                 "memory this process may use (cgroup limit, CPVS_MEMORY_LIMIT, else physical memory) less an "
+                 "Memory budget (e.g. 2G), or none: smaller regions where they help, else stop with exit 4 before "
+                 "the system runs out (resident memory, plus what encoding the DAG would need, checked after every "
+                 "region). Default: the memory this process may use (cgroup limit, CPVS_MEMORY_LIMIT, else physical memory) less an "
                  "eighth (64 MiB to 4 GiB), here " +
                      (budget.bytes ? formatMemorySize(budget.bytes) + " (" + budget.source + ")" : std::string("none")))
       ->type_name("SIZE|none");
