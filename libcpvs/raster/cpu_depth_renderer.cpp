@@ -34,6 +34,24 @@ void enterMaskedSpan(const RasterTriangle& t, const MaskedTriangle& m, double ro
   }
 }
 
+// Row texels [i0, i1) of a triangle of kind `Kind` in the enter pass: the nearest key and its kind per texel (a
+// lower kind wins an exact tie), and for a closed triangle the crossing the replay keeps (texel i's at
+// kept[i - i0]). Everything comes by value: the uint8_t stores may alias anything, so values read through
+// references would be reloaded per texel.
+template <uint8_t Kind, class Kept>
+void enterSpan(const RowKeys keyAt, float* const keys, uint8_t* const kinds, Kept* const kept, const int32_t i0,
+               const int32_t i1) {
+  for (int32_t i = i0; i < i1; ++i) {
+    const float key = keyAt.at(i);
+    if (key < keys[i] || (key == keys[i] && Kind < kinds[i])) {
+      keys[i] = key;
+      kinds[i] = Kind;
+    }
+    if constexpr (Kind == kClosedFront) kept[i - i0].addFront(key);
+    if constexpr (Kind == kClosedBack) kept[i - i0].addBack(key);
+  }
+}
+
 class CpuDepthRenderer final : public DepthRenderer {
 public:
   explicit CpuDepthRenderer(CpuPeel peelMethod) : peelMethod_(peelMethod) {}
@@ -72,9 +90,11 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
 
   const ViewGeometry culled = cullToRegion(geometry, rect);
   local.trianglesSubmitted = culled.triangleCount();
-  region.enter.assign(texels, n);
-  region.exit.assign(texels, n);
+  region.enter.resize(texels);  // uninitialised: what is not written below is a summarised tile's
+  region.exit.resize(texels);
   if (view.empty || local.trianglesSubmitted == 0) {
+    std::fill(region.enter.begin(), region.enter.end(), n);
+    std::fill(region.exit.begin(), region.exit.end(), n);
     if (stats) *stats = local;
     return region;
   }
@@ -145,9 +165,14 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
 
   // Uniform tiles (docs/depth-maps.md, "Uniform tiles"): every texel meets the same planes in the same order, so
   // their slices follow from two planes and the per-texel passes below skip them. Per tile row, the runs of
-  // texels [a, b) that take the per-texel path instead.
+  // texels [a, b) that take the per-texel path instead, and where their 8 rows' slots start in the replay's kept
+  // crossings: only those texels have slots, row after row of each run, so a band's crossings stay in cache.
+  struct PerTexelRun {
+    int32_t a, b;
+    size_t kept;
+  };
   const uint32_t tileRows = (rect.height + 7) / 8;
-  std::vector<std::vector<std::pair<int32_t, int32_t>>> perTexelRuns(tileRows);
+  std::vector<std::vector<PerTexelRun>> perTexelRuns(tileRows);
   TileClasses classes;
   if (summarizeTiles && peelMethod_ == CpuPeel::Replay && peel.maxPeels >= 1 && peel.maxPeels <= kMaxReplayedPeels) {
     const Stopwatch classifyTime;
@@ -158,25 +183,39 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
   }
   for (uint32_t ty = 0; ty < tileRows; ++ty) {
     if (classes.setOf.empty()) {
-      perTexelRuns[ty].push_back({0, int32_t(width)});
+      perTexelRuns[ty].push_back({0, int32_t(width), 0});
       continue;
     }
     for (uint32_t tx = 0; tx < classes.tilesX; ++tx) {
       if (classes.uniform(size_t(ty) * classes.tilesX + tx)) continue;
       const int32_t a = int32_t(tx * 8), b = int32_t(std::min(width, tx * 8 + 8));
       auto& runs = perTexelRuns[ty];
-      if (!runs.empty() && runs.back().second == a) runs.back().second = b;
-      else runs.push_back({a, b});
+      if (!runs.empty() && runs.back().b == a) runs.back().b = b;
+      else runs.push_back({a, b, 0});
     }
   }
-  // Calls fn(a, b) for the texels [a, b) of [i0, i1) in row j that are needed and take the per-texel path.
+  // The per-texel passes write the texels where something is met: the others of those runs see nothing (N).
+  // Uniform tiles are written by sliceUniformTile or summarised.
+  size_t keptSlots = 0;
+  for (uint32_t ty = 0; ty < tileRows; ++ty)
+    for (PerTexelRun& run : perTexelRuns[ty]) {
+      run.kept = keptSlots;
+      keptSlots += size_t(run.b - run.a) * 8;
+      for (uint32_t j = ty * 8; j < std::min(rect.height, ty * 8 + 8); ++j) {
+        std::fill(enterOut + size_t(j) * width + size_t(run.a), enterOut + size_t(j) * width + size_t(run.b), n);
+        std::fill(exitOut + size_t(j) * width + size_t(run.a), exitOut + size_t(j) * width + size_t(run.b), n);
+      }
+    }
+  // Calls fn(a, b, slot) for the texels [a, b) of [i0, i1) in row j that are needed and take the per-texel path;
+  // texel a's kept crossings are at `slot`, and those of the texels after it follow.
   const auto forPerTexel = [&](int32_t j, int32_t i0, int32_t i1, auto&& fn) {
     i0 = std::max(i0, spanBegin(j));
     i1 = std::min(i1, spanEnd(j));
-    for (const auto& [a, b] : perTexelRuns[size_t(j) / 8]) {
-      if (b <= i0) continue;
-      if (a >= i1) break;
-      fn(std::max(a, i0), std::min(b, i1));
+    for (const PerTexelRun& run : perTexelRuns[size_t(j) / 8]) {
+      if (run.b <= i0) continue;
+      if (run.a >= i1) break;
+      const int32_t a = std::max(run.a, i0);
+      fn(a, std::min(run.b, i1), run.kept + size_t(j % 8) * size_t(run.b - run.a) + size_t(a - run.a));
     }
   };
   // A uniform tile's slices, given its peel: its tile chain's summary where that is all the chain needs (every
@@ -239,7 +278,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
   const auto replayWith = [&](auto cap) {
     constexpr int P = decltype(cap)::value;
     using Kept = KeptCrossings<P>;
-    crossings_.resize(texels * sizeof(Kept));
+    crossings_.resize(keptSlots * sizeof(Kept));
     Kept* const kept = reinterpret_cast<Kept*>(crossings_.data());
     std::vector<std::array<uint64_t, P + 2>> finishedAt(bands);  // per band: texels by the iteration they leave
     std::vector<std::pair<double, double>> bandMs(bands);  // CPU ms per band: scan, replay and slices
@@ -255,43 +294,26 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
     forBands([&](int32_t r0, int32_t r1) {
       const Stopwatch scanTime;
       for (int32_t j = r0; j < r1; ++j)
-        forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b) {
+        forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b, size_t slot) {
           const size_t row = size_t(j) * width;
           std::fill(enterKeyAt + row + a, enterKeyAt + row + b, kInfinity);
           std::fill(kindAt + row + a, kindAt + row + b, uint8_t(kNone));
-          for (size_t at = row + size_t(a); at < row + size_t(b); ++at) kept[at].clear();
+          for (Kept* k = kept + slot; k < kept + slot + size_t(b - a); ++k) k->clear();
         });
       for (const RasterTriangle& t : triangles)
         scan(t, r0, r1, [&](int32_t j, int32_t spanBegin, int32_t spanEnd, double rowQ) {
           float* const keys = enterKeyAt + size_t(j) * width;
           uint8_t* const kinds = kindAt + size_t(j) * width;
-          Kept* const row = kept + size_t(j) * width;
-          const uint8_t triangleKind = t.kind;
           const RowKeys keyAt(t, rowQ, keySign);
-          const auto enter = [=](int32_t i, float key) {
-            if (key < keys[i] || (key == keys[i] && triangleKind < kinds[i])) {
-              keys[i] = key;
-              kinds[i] = triangleKind;
-            }
-          };
-          forPerTexel(j, spanBegin, spanEnd, [&](int32_t i0, int32_t i1) {
-            if (t.masked >= 0) {
+          forPerTexel(j, spanBegin, spanEnd, [&](int32_t i0, int32_t i1, size_t slot) {
+            if (t.masked >= 0)
               enterMaskedSpan(t, masked[size_t(t.masked)], rowQ, keySign, j, i0, i1, keys, kinds);
-            } else if (triangleKind == kOpen) {
-              for (int32_t i = i0; i < i1; ++i) enter(i, keyAt.at(i));
-            } else if (triangleKind == kClosedFront) {
-              for (int32_t i = i0; i < i1; ++i) {
-                const float key = keyAt.at(i);
-                enter(i, key);
-                row[i].addFront(key);
-              }
-            } else {
-              for (int32_t i = i0; i < i1; ++i) {
-                const float key = keyAt.at(i);
-                enter(i, key);
-                row[i].addBack(key);
-              }
-            }
+            else if (t.kind == kOpen)
+              enterSpan<kOpen>(keyAt, keys, kinds, kept + slot, i0, i1);
+            else if (t.kind == kClosedFront)
+              enterSpan<kClosedFront>(keyAt, keys, kinds, kept + slot, i0, i1);
+            else
+              enterSpan<kClosedBack>(keyAt, keys, kinds, kept + slot, i0, i1);
           });
         });
       Stopwatch replayTime;
@@ -300,12 +322,13 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       counts.fill(0);
       for (int32_t j = r0; j < r1; ++j) {
         uint32_t enterHint = 0, exitHint = 0;
-        forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b) {
-          for (size_t at = size_t(j) * width + size_t(a); at < size_t(j) * width + size_t(b); ++at) {
+        forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b, size_t slot) {
+          const size_t row = size_t(j) * width;
+          for (size_t at = row + size_t(a); at < row + size_t(b); ++at) {
             uint8_t texelState = kInactive;
             float exitKey = 0;
             if (kindAt[at] == kClosedFront) {
-              const ReplayedTexel r = replayTexel(kept[at], enterKeyAt[at], P, P);
+              const ReplayedTexel r = replayTexel(kept[slot + (at - row - size_t(a))], enterKeyAt[at], P, P);
               texelState = r.state;
               exitKey = std::max(r.frontCursor, r.backCursor);
               ++counts[r.finishedAt];
@@ -352,10 +375,11 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
       forBands([&](int32_t r0, int32_t r1) {
         for (int32_t j = r0; j < r1; ++j) {
           uint32_t enterHint = 0, exitHint = 0;
-          forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b) {
-            for (size_t at = size_t(j) * width + size_t(a); at < size_t(j) * width + size_t(b); ++at) {
+          forPerTexel(j, 0, int32_t(width), [&](int32_t a, int32_t b, size_t slot) {
+            const size_t row = size_t(j) * width;
+            for (size_t at = row + size_t(a); at < row + size_t(b); ++at) {
               if (kind[at] != kClosedFront || state[at] <= iterations) continue;
-              const ReplayedTexel r = replayTexel(kept[at], enterKey[at], iterations, P);
+              const ReplayedTexel r = replayTexel(kept[slot + (at - row - size_t(a))], enterKey[at], iterations, P);
               sliceTexel(at, r.state, std::max(r.frontCursor, r.backCursor), enterHint, exitHint);
             }
           });

@@ -2,6 +2,9 @@
 // Enter and exit depth maps of one region of a light view, in integer slices (docs/architecture.md, "The voxel convention").
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <new>
+#include <utility>
 #include <vector>
 
 #include "libcpvs/views/view_regions.h"
@@ -24,11 +27,33 @@ struct TileSummary {
   bool summarized = false;
 };
 
+// An allocator whose vectors leave new elements uninitialised (resize writes nothing): a renderer that writes
+// every texel it renders need not clear the texels of summarised tiles first (a region is 8 MB of texels).
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* at) noexcept {
+    ::new (static_cast<void*>(at)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* at, Args&&... args) {
+    ::new (static_cast<void*>(at)) U(std::forward<Args>(args)...);
+  }
+};
+using DepthTexels = std::vector<uint32_t, UninitializedAllocator<uint32_t>>;
+
 struct DepthRegion {
   RegionRect rect;
   uint32_t resolution = 0;
-  std::vector<uint32_t> enter;
-  std::vector<uint32_t> exit;
+  DepthTexels enter;
+  DepthTexels exit;
   // Per tile (row-major, rect.width / 8 per row), or empty: where summarized, that tile's enter and exit
   // texels hold nothing meaningful.
   std::vector<TileSummary> tiles;

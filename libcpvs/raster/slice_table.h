@@ -50,6 +50,13 @@ struct SliceTable {
     // From the hint, steps of 1, 2, 4, ... until the key is bracketed, then a binary search inside the bracket:
     // a few compares where the slice changes little from texel to texel, a logarithm of the jump where it
     // changes much (grazing surfaces, discontinuities). Invariant: b[lo] <= k < b[hi].
+    if (mode == 0) {
+      // Orthographic keys are t itself and bound[s] = s / N: floor(k N) names the slice (confirmed by the table,
+      // which holds the only s with b[s] <= k < b[s + 1]; a key it does not confirm takes the walk below).
+      const double f = std::floor(k * double(n));
+      const uint32_t s = f >= 0 ? (f > double(n) ? n : uint32_t(f)) : 0;  // NaN: 0, unconfirmed
+      if (b[s] <= k && k < b[s + 1]) return s;
+    }
     uint32_t lo, hi;
     if (k >= b[hint + 1]) {
       lo = hint + 1;
