@@ -300,7 +300,19 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
           std::fill(kindAt + row + a, kindAt + row + b, uint8_t(kNone));
           for (Kept* k = kept + slot; k < kept + slot + size_t(b - a); ++k) k->clear();
         });
-      for (const RasterTriangle& t : triangles)
+      // A triangle whose box meets no per-texel run of the band's tile rows has nothing to do here.
+      const auto reachesPerTexel = [&](const RasterTriangle& t) {
+        const int32_t ja = std::max(t.j0, r0), jb = std::min(t.j1, r1 - 1);
+        for (int32_t ty = ja / 8; ty <= jb / 8 && ja <= jb; ++ty)
+          for (const PerTexelRun& run : perTexelRuns[size_t(ty)]) {
+            if (run.b <= t.i0) continue;
+            if (run.a > t.i1) break;
+            return true;
+          }
+        return false;
+      };
+      for (const RasterTriangle& t : triangles) {
+        if (!reachesPerTexel(t)) continue;
         scan(t, r0, r1, [&](int32_t j, int32_t spanBegin, int32_t spanEnd, double rowQ) {
           float* const keys = enterKeyAt + size_t(j) * width;
           uint8_t* const kinds = kindAt + size_t(j) * width;
@@ -316,6 +328,7 @@ DepthRegion CpuDepthRenderer::render(const ViewGeometry& geometry, const LightVi
               enterSpan<kClosedBack>(keyAt, keys, kinds, kept + slot, i0, i1);
           });
         });
+      }
       Stopwatch replayTime;
       // 2. While the band is in cache: each texel's peel replayed to the cap, and its integer slices.
       auto& counts = finishedAt[size_t(r0) / kBandRows];
