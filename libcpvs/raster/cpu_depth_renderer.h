@@ -18,6 +18,12 @@ enum class CpuPeel {
   Passes,
 };
 
-std::unique_ptr<DepthRenderer> createCpuDepthRenderer(CpuPeel peel = CpuPeel::Replay);
+// The instruction sets the rasteriser is built for; both give the same maps bit for bit.
+enum class RasterIsa { Baseline, Avx2 };
+// The widest one this CPU runs; the environment variable CPVS_RASTER_ISA=scalar keeps the baseline.
+RasterIsa bestRasterIsa();
+
+// `isa` is lowered to what the CPU runs.
+std::unique_ptr<DepthRenderer> createCpuDepthRenderer(CpuPeel peel = CpuPeel::Replay, RasterIsa isa = bestRasterIsa());
 
 }  // namespace cpvs
