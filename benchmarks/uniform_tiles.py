@@ -3,15 +3,15 @@
 
     python3 benchmarks/uniform_tiles.py [--bin build/bin] [--out out/uniform-tiles] [--json docs/depth-maps/uniform-tiles.json]
                                         [--resolutions 1k,4k,16k,32k,64k] [--per-texel-up-to 64k] [--rounds 2]
-                                        [--scene SPEC] [--light ARGS] [--threads 2] [--versus per-texel|scalar]
+                                        [--scene SPEC] [--light ARGS] [--threads 2] [--versus per-texel|scalar|avx2]
 
 For each resolution and round, `cpvs-bake` bakes the scene (default `cpvs-scenegen city --triangles 100000`, lit
 by `--sun 0.4,-1,0.3`) with uniform tiles and then with `--per-texel` (the reference path; only up to
 --per-texel-up-to, as it grows x4 per doubling), one after the other, and checks that both files are identical.
 Wall time, CPU time (user + system) and peak RSS come from the operating system (wait4); the phases, the tiles
 taken by each path and the bytes from the bake's report. The load average is read before and after every run.
-`--versus scalar` replaces the per-texel arm by the same bake on the rasteriser's baseline copy
-(CPVS_RASTER_ISA=scalar), to measure its AVX2 copy; the files must be identical too.
+`--versus scalar` (or `avx2`) replaces the per-texel arm by the same bake on the rasteriser's baseline (or AVX2)
+copy, CPVS_RASTER_ISA=scalar (avx2), to measure the widest copy the CPU runs; the files must be identical too.
 Prints a markdown table (the best round of each) and writes every run to --json. Python 3 standard library only.
 """
 
@@ -39,12 +39,12 @@ def load_average():
 
 def bake(a, scene, resolution, out, per_texel):
     report = out + ".json"
-    versus_scalar = per_texel and a.versus == "scalar"
+    versus_scalar = per_texel and a.versus != "per-texel"  # an instruction set instead of the per-texel path
     cmd = [os.path.join(a.bin, "cpvs-bake"), scene, "-r", resolution, "-j", str(a.threads), "-o", out + ".cpvs",
            "--report", report, "-q"] + a.light.split() + (["--per-texel"] if per_texel and not versus_scalar else [])
     load_before = load_average()
-    if versus_scalar:  # the same bake on the rasteriser's baseline copy instead of its AVX2 one
-        os.environ["CPVS_RASTER_ISA"] = "scalar"
+    if versus_scalar:  # the same bake on a narrower copy of the rasteriser than the widest the CPU runs
+        os.environ["CPVS_RASTER_ISA"] = a.versus
     try:
         run = measured(cmd)
     finally:
@@ -60,7 +60,7 @@ def bake(a, scene, resolution, out, per_texel):
             tiles += v.get("tiles", 0)
             uniform += v.get("uniform_tiles", 0)
             summarized += v.get("summarized_tiles", 0)
-    run.update({"command": ("CPVS_RASTER_ISA=scalar " if versus_scalar else "") + " ".join(cmd), "resolution": resolution, "per_texel": per_texel,
+    run.update({"command": ("CPVS_RASTER_ISA=%s " % a.versus if versus_scalar else "") + " ".join(cmd), "resolution": resolution, "per_texel": per_texel,
                 "file_bytes": r["file_bytes"], "phases_s": phases, "tiles": tiles, "uniform_tiles": uniform,
                 "summarized_tiles": summarized, "load_before": load_before, "load_after": load_average(),
                 "file": out + ".cpvs"})
@@ -79,9 +79,9 @@ def main():
                    help="cpvs-scenegen arguments, or the path of a scene file")
     p.add_argument("--light", default="--sun 0.4,-1,0.3", help="cpvs-bake's light arguments")
     p.add_argument("--threads", type=int, default=2)
-    p.add_argument("--versus", choices=["per-texel", "scalar"], default="per-texel",
-                   help="the other arm: the per-texel path, or the same bake on the rasteriser's baseline (non-AVX2) "
-                        "copy (CPVS_RASTER_ISA=scalar)")
+    p.add_argument("--versus", choices=["per-texel", "scalar", "avx2"], default="per-texel",
+                   help="the other arm: the per-texel path, or the same bake on a narrower copy of the rasteriser "
+                        "(CPVS_RASTER_ISA=scalar: the baseline build; avx2)")
     a = p.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if os.path.exists(a.scene):

@@ -1,5 +1,5 @@
 // The CPU rasteriser's passes compiled for AVX2 (cpu_depth_renderer_passes.h): the per-texel loops of the
-// tiles that are not uniform (keys in double, compares, selects) gain about 3 % of a 64k sun's CPU time
+// tiles that are not uniform (keys in double, compares, selects) take about 5 % off a 64k sun's CPU time
 // (docs/depth-maps.md, "What uniform tiles gain"). createCpuDepthRenderer uses it only on CPUs that have AVX2.
 // Every header the passes include comes first, outside the target, so that nothing they define is compiled
 // for AVX2 (isa_target.h).

@@ -1,0 +1,33 @@
+// The CPU rasteriser's passes compiled for AVX-512F (cpu_depth_renderer_passes.h), as cpu_depth_renderer_avx2.cpp
+// compiles them for AVX2: createCpuDepthRenderer uses it only on CPUs that have AVX-512F. Every header the passes
+// include comes first, outside the target, so that nothing they define is compiled for AVX-512 (isa_target.h).
+#if defined(__x86_64__) && defined(__GNUC__)
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/base/stopwatch.h"
+#include "libcpvs/raster/cpu_depth_renderer.h"
+#include "libcpvs/raster/peel_replay.h"
+#include "libcpvs/raster/raster_triangle.h"
+#include "libcpvs/raster/slice_table.h"
+#include "libcpvs/raster/uniform_tiles.h"
+#include "libcpvs/runtime/isa_target.h"
+
+CPVS_TARGET_BEGIN_AVX512F
+#define CPVS_RASTER_NAMESPACE avx512
+#include "libcpvs/raster/cpu_depth_renderer_passes.h"
+CPVS_TARGET_END
+
+#endif
