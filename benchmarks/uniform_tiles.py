@@ -12,6 +12,7 @@ Wall time, CPU time (user + system) and peak RSS come from the operating system 
 taken by each path and the bytes from the bake's report. The load average is read before and after every run.
 `--versus scalar` (or `avx2`) replaces the per-texel arm by the same bake on the rasteriser's baseline (or AVX2)
 copy, CPVS_RASTER_ISA=scalar (avx2), to measure the widest copy the CPU runs; the files must be identical too.
+(`--versus avx2` measured an AVX-512 copy of the rasteriser, which gained nothing and was not kept.)
 Prints a markdown table (the best round of each) and writes every run to --json. Python 3 standard library only.
 """
 
@@ -81,7 +82,7 @@ def main():
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--versus", choices=["per-texel", "scalar", "avx2"], default="per-texel",
                    help="the other arm: the per-texel path, or the same bake on a narrower copy of the rasteriser "
-                        "(CPVS_RASTER_ISA=scalar: the baseline build; avx2)")
+                        "(CPVS_RASTER_ISA=scalar: the baseline build; avx2: no wider, for a build with wider copies)")
     a = p.parse_args()
     os.makedirs(a.out, exist_ok=True)
     if os.path.exists(a.scene):

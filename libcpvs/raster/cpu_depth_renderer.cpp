@@ -4,7 +4,6 @@
 #define CPVS_RASTER_NAMESPACE baseline
 #include "libcpvs/raster/cpu_depth_renderer_passes.h"
 
-#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 
@@ -14,27 +13,21 @@ namespace cpvs {
 namespace avx2 {
 std::unique_ptr<DepthRenderer> createCpuDepthRendererHere(CpuPeel peel);
 }  // namespace avx2
-namespace avx512 {
-std::unique_ptr<DepthRenderer> createCpuDepthRendererHere(CpuPeel peel);
-}  // namespace avx512
 #endif
 
 RasterIsa bestRasterIsa() {
   RasterIsa best = RasterIsa::Baseline;
 #if defined(__x86_64__) && defined(__GNUC__)
   if (__builtin_cpu_supports("avx2")) best = RasterIsa::Avx2;
-  if (__builtin_cpu_supports("avx512f")) best = RasterIsa::Avx512;
 #endif
   const char* limit = std::getenv("CPVS_RASTER_ISA");
   if (limit && std::strcmp(limit, "scalar") == 0) best = RasterIsa::Baseline;
-  if (limit && std::strcmp(limit, "avx2") == 0) best = std::min(best, RasterIsa::Avx2);
   return best;
 }
 
 std::unique_ptr<DepthRenderer> createCpuDepthRenderer(CpuPeel peel, RasterIsa isa) {
 #if defined(__x86_64__) && defined(__GNUC__)
-  if (isa == RasterIsa::Avx512 && __builtin_cpu_supports("avx512f")) return avx512::createCpuDepthRendererHere(peel);
-  if (isa >= RasterIsa::Avx2 && __builtin_cpu_supports("avx2")) return avx2::createCpuDepthRendererHere(peel);
+  if (isa == RasterIsa::Avx2 && __builtin_cpu_supports("avx2")) return avx2::createCpuDepthRendererHere(peel);
 #endif
   (void)isa;
   return baseline::createCpuDepthRendererHere(peel);

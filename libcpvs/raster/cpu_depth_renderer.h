@@ -19,8 +19,8 @@ enum class CpuPeel {
 };
 
 // The instruction sets the rasteriser is built for; both give the same maps bit for bit.
-enum class RasterIsa { Baseline, Avx2, Avx512 };
-// The widest one this CPU runs; the environment variable CPVS_RASTER_ISA=scalar|avx2 lowers the choice.
+enum class RasterIsa { Baseline, Avx2 };
+// The widest one this CPU runs; the environment variable CPVS_RASTER_ISA=scalar keeps the baseline.
 RasterIsa bestRasterIsa();
 
 // `isa` is lowered to what the CPU runs.
