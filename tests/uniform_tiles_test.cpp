@@ -37,8 +37,12 @@ struct Totals {
 void compareLight(const WorldGeometry& world, const Light& light, uint32_t n, uint32_t regionSize,
                   const PeelSettings& peel, const std::string& what, Totals& totals) {
   const std::unique_ptr<DepthRenderer> renderer = createCpuDepthRenderer(CpuPeel::Replay, RasterIsa::Baseline);
+  // The CPU decides, not CPVS_RASTER_ISA (which lowers only bestRasterIsa's choice).
   const std::unique_ptr<DepthRenderer> wide =
-      bestRasterIsa() == RasterIsa::Avx2 ? createCpuDepthRenderer(CpuPeel::Replay, RasterIsa::Avx2) : nullptr;
+#if defined(__x86_64__) && defined(__GNUC__)
+      __builtin_cpu_supports("avx2") ? createCpuDepthRenderer(CpuPeel::Replay, RasterIsa::Avx2) :
+#endif
+                                     nullptr;
   for (const LightView& view : makeLightViews(light, world, n)) {
     if (view.empty) continue;
     const ViewGeometry geometry = gatherViewGeometry(world, view);
@@ -65,6 +69,13 @@ void compareLight(const WorldGeometry& world, const Light& light, uint32_t n, ui
           ASSERT_EQ(wideUniform.tiles[t].summarized, uniform.tiles[t].summarized) << where << " tile " << t;
           ASSERT_EQ(wideUniform.tiles[t].maxEnter, uniform.tiles[t].maxEnter) << where << " tile " << t;
           ASSERT_EQ(wideUniform.tiles[t].minExit, uniform.tiles[t].minExit) << where << " tile " << t;
+          if (uniform.tiles[t].summarized) continue;  // else every texel was written: compare them
+          const uint32_t tx = uint32_t(t % (rect.width / 8)), ty = uint32_t(t / (rect.width / 8));
+          for (uint32_t y = ty * 8; y < ty * 8 + 8; ++y)
+            for (uint32_t x = tx * 8; x < tx * 8 + 8; ++x)
+              ASSERT_TRUE(wideUniform.enterAt(x, y) == uniform.enterAt(x, y) &&
+                          wideUniform.exitAt(x, y) == uniform.exitAt(x, y))
+                  << where << " texel " << x << "," << y << " (AVX2)";
         }
         ++totals.wideRegions;
       }

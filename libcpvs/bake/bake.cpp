@@ -1,6 +1,7 @@
 #include "libcpvs/bake/bake.h"
 
 #include <algorithm>
+#include <atomic>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -107,7 +108,7 @@ uint64_t regionMemoryBytes(uint32_t regionSize) {
 
 uint32_t regionSizeWithinBudget(const BakeSettings& settings) {
   uint32_t size = settings.regionSize;
-  if (settings.maxMemoryBytes == 0) return size;
+  if (settings.maxMemoryBytes == 0 || settings.maxMemoryOnlyStops) return size;
   while (size > 64 && regionMemoryBytes(size) > settings.maxMemoryBytes / 4) size /= 2;
   return size;
 }
@@ -245,6 +246,8 @@ struct BakeRun {
   std::mutex mutex;                                       // callbacks, progress, the renderer's description
   std::string rendererDescription;
   size_t totalViews = 0, doneViews = 0;
+  // What the lanes' DAG encodings under way will still allocate: a lane's budget check counts the others'.
+  std::atomic<uint64_t> encodingBytes{0};
 
   void progress(double viewsDone) {
     if (callbacks.progress) callbacks.progress(viewsDone / double(totalViews));
@@ -343,9 +346,11 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
       BackgroundWork pending;
       // Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
+      // Other lanes' encodings under way count too: each may still allocate what it reserved.
       const auto checkBudget = [&](uint64_t extraBytes) {
         if (!settings.maxMemoryBytes) return;
         const uint64_t resident = currentRssBytes();
+        extraBytes += run.encodingBytes.load();
         if (resident + extraBytes <= settings.maxMemoryBytes) return;
         throw Error(ErrorCategory::RuntimeFailure,
                     "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
@@ -406,9 +411,17 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         }
       }
       pending.wait();
-      checkBudget(builder.finishExtraBytes());  // the last region's tables too
+      const uint64_t encoding = builder.finishExtraBytes();
+      checkBudget(encoding);  // the last region's tables too
       Stopwatch finish;
-      bakedView.dag = builder.finish();
+      run.encodingBytes += encoding;
+      try {
+        bakedView.dag = builder.finish();
+      } catch (...) {
+        run.encodingBytes -= encoding;
+        throw;
+      }
+      run.encodingBytes -= encoding;
       vr.dagMs += finish.ms();
       vr.nodesBuilt = builder.stats().nodesBuilt;
       vr.nodesReused = builder.stats().nodesReused;

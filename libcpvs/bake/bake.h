@@ -42,6 +42,9 @@ struct BakeSettings {
   // itself; cpvs-bake defaults to defaultMemoryBudget() (libcpvs/base/memory_limit.h).
   uint64_t maxMemoryBytes = 0;
   std::string maxMemorySource;  // where the budget came from, for the message when it is exceeded
+  // A budget the caller did not ask for (cpvs-bake's default) only stops the bake: it never lowers the region
+  // size, which is recorded in the file and its input hash, so the bytes never depend on the machine.
+  bool maxMemoryOnlyStops = false;
 
   // Which lights this run bakes (none of this changes a light's bytes, nor the input hash):
   std::vector<uint32_t> lights;  // indices into the scene's lights, ascending; empty: every light
@@ -121,7 +124,7 @@ uint64_t sceneInputHash(const Scene& scene, const BakeSettings& settings);
 // chains), as the memory budget counts it.
 uint64_t regionMemoryBytes(uint32_t regionSize);
 // The region size `settings` bakes with: its regionSize, halved (down to 64) while regionMemoryBytes exceeds a
-// quarter of maxMemoryBytes.
+// quarter of maxMemoryBytes (unless maxMemoryOnlyStops).
 uint32_t regionSizeWithinBudget(const BakeSettings& settings);
 
 // Bakes the scene's lights that `settings` selects (every light by default). A run that bakes only some of them

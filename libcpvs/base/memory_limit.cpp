@@ -87,7 +87,9 @@ MemoryLimit cgroupLimit() {
   MemoryLimit best;
   for (const CgroupMount& mount : memoryCgroupMounts()) {
     std::string path = cgroupPath(mount.v2);
+    // The process's cgroup must lie at or below the mount's root (a whole path component, not "/a/bc" for "/a/b").
     if (path.empty() || path.compare(0, mount.root.size(), mount.root) != 0) continue;
+    if (mount.root != "/" && path.size() > mount.root.size() && path[mount.root.size()] != '/') continue;
     path = path.substr(mount.root == "/" ? 0 : mount.root.size());
     const char* file = mount.v2 ? "memory.max" : "memory.limit_in_bytes";
     while (true) {
@@ -142,7 +144,7 @@ MemoryLimit processMemoryLimit() {
     if (limit.bytes && (best.bytes == 0 || limit.bytes < best.bytes)) best = limit;
   };
   tighter(cgroupLimit());
-  if (const char* env = std::getenv("CPVS_MEMORY_LIMIT")) {
+  if (const char* env = std::getenv("CPVS_MEMORY_LIMIT"); env && *env) {  // set but empty: as unset
     const uint64_t bytes = parseMemorySize(env);
     if (bytes == 0)
       throw Error(ErrorCategory::InvalidArgument,

@@ -136,6 +136,7 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
 }
 
 void DagBuilder::addRegion(const TileChains& chains) {
+  if (finished_) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: addRegion() after finish()");
   if (chains.resolution != resolution_ || chains.rect.width != regionSize_ || chains.rect.height != regionSize_ ||
       chains.rect.x0 % regionSize_ != 0 || chains.rect.y0 % regionSize_ != 0)
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: region does not match the builder's region grid");
@@ -171,6 +172,8 @@ DagBuilder::Result DagBuilder::buildTop(uint32_t level, uint32_t rx, uint32_t ry
 }
 
 ShadowDag DagBuilder::finish() {
+  if (finished_) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() called twice");
+  finished_ = true;
   for (bool added : regionAdded_)
     if (!added) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);

@@ -63,6 +63,7 @@ private:
   static uint32_t packColumn(const Result& result);
   std::vector<bool> regionAdded_;
   DagBuildStats stats_;
+  bool finished_ = false;  // finish() frees the hash indexes: nothing may be added after it
   // Per-region state while building.
   const TileChains* chains_ = nullptr;
   std::unique_ptr<TileHierarchy> hierarchy_;

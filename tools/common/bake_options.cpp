@@ -73,6 +73,7 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
     const MemoryLimit budget = defaultMemoryBudget();
     settings.maxMemoryBytes = budget.bytes;
     settings.maxMemorySource = budget.bytes ? "default: " + budget.source : "";
+    settings.maxMemoryOnlyStops = true;
   } else if (maxMemory == "none") {
     settings.maxMemoryBytes = 0;
     settings.maxMemorySource = "none";
