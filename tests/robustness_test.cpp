@@ -244,13 +244,16 @@ void expectStoppedByDefaultBudget(const std::string& prefix, const std::string& 
 TEST(Robustness, TheDefaultMemoryBudgetFollowsCpvsMemoryLimit) {
   expectStoppedByDefaultBudget("CPVS_MEMORY_LIMIT=200M ", "CPVS_MEMORY_LIMIT 200 MiB");
   // A bake that fits the same small budget: the same bytes as with no budget (a default budget never lowers
-  // the region size, which the file records; --max-memory 136M would halve it).
+  // the region size, which the file records; --max-memory 136M would halve it). Under AddressSanitizer the bake
+  // does not fit: its shadow memory and quarantine alone outgrow 136 MiB.
+#ifndef CPVS_SANITIZED
   const std::string dir = tempDir();
   const std::string bake = toolPath("cpvs-bake") + " " + test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") +
                            " -r 2k --sun 0.3,-1,0.2 --quiet -o " + dir;
   ASSERT_EQ(runTool("CPVS_MEMORY_LIMIT=200M " + bake + "/fits.cpvs").exitCode, 0);
   ASSERT_EQ(runTool(bake + "/none.cpvs --max-memory none").exitCode, 0);
   EXPECT_EQ(runTool("cmp " + dir + "/fits.cpvs " + dir + "/none.cpvs").exitCode, 0);
+#endif
   // A limit that is not a size is an error, not silently no budget.
   const auto bad = runTool("CPVS_MEMORY_LIMIT=lots " + toolPath("cpvs-bake") + " " +
                            test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") + " --sun 0,-1,0 -o " +
