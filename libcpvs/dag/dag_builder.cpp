@@ -121,7 +121,7 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
       childNeighbour = {neighbour.code, 0, neighbour.farNextT[c], true};
       for (uint32_t& t : childNeighbour.farNextT) t = childNeighbour.nextT;
       if (neighbour.code == ChildCode::Ref) {
-        const std::vector<uint32_t>& words = tables_[level].words();
+        const MappedArray<uint32_t>& words = tables_[level].words();
         const uint32_t header = words[neighbour.ref];
         childNeighbour.code = ChildCode(wordCodeOf(header, c + 4));
         if (childNeighbour.code == ChildCode::Ref)
@@ -188,7 +188,7 @@ ShadowDag DagBuilder::finish() {
   std::vector<std::span<const uint32_t>> levelWords;
   std::vector<uint64_t> nodesPerLevel;
   for (const NodeTable& table : tables_) {
-    levelWords.emplace_back(table.words());
+    levelWords.emplace_back(table.words().span());
     nodesPerLevel.push_back(table.size());
   }
   return orThrow(encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),

@@ -9,6 +9,8 @@
 
 #include <xxhash.h>
 
+#include "libcpvs/dag/mapped_array.h"
+
 namespace cpvs {
 
 class NodeTable {
@@ -22,7 +24,7 @@ public:
       const uint32_t slot = slots_[i];
       if (slot == 0) {
         const uint32_t offset = uint32_t(words_.size());
-        words_.insert(words_.end(), words, words + count);
+        words_.append(words, count);
         slots_[i] = offset + 1;
         hashes_[i] = hash;
         ++size_;
@@ -34,8 +36,7 @@ public:
         return offset;
     }
   }
-  const std::vector<uint32_t>& words() const { return words_; }
-  std::vector<uint32_t>& words() { return words_; }
+  const MappedArray<uint32_t>& words() const { return words_; }
   uint64_t size() const { return size_; }
   // Frees the index: no intern() after this.
   void releaseIndex() {
@@ -63,7 +64,7 @@ private:
     hashes_.swap(hashes);
   }
 
-  std::vector<uint32_t> words_;
+  MappedArray<uint32_t> words_;  // every node once, in the order they were added
   std::vector<uint32_t> slots_;  // word offset + 1; 0 = empty
   std::vector<uint32_t> hashes_;  // the low 32 bits of each node's hash: its slot (capacity <= 2^32) and a filter
   uint64_t size_ = 0;

@@ -1,0 +1,76 @@
+#pragma once
+// A growable array of trivially copyable values in an anonymous mapping of its own. Growing remaps its pages
+// (mremap) instead of copying them into a new allocation, so the node tables of a large view — gigabytes on a
+// forest — are neither copied at every doubling nor zeroed twice by the kernel, as a std::vector's would be
+// (docs/construction.md, "Memory"). Huge pages are asked for once it is large, as the tools' allocator does.
+#include <sys/mman.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <cstring>
+#include <new>
+#include <span>
+#include <type_traits>
+#include <utility>
+
+namespace cpvs {
+
+template <class T>
+class MappedArray {
+  static_assert(std::is_trivially_copyable_v<T>);
+
+public:
+  MappedArray() = default;
+  MappedArray(const MappedArray&) = delete;
+  MappedArray& operator=(const MappedArray&) = delete;
+  MappedArray(MappedArray&& other) noexcept { swap(other); }
+  MappedArray& operator=(MappedArray&& other) noexcept {
+    MappedArray(std::move(other)).swap(*this);
+    return *this;
+  }
+  ~MappedArray() {
+    if (data_) ::munmap(data_, capacityBytes_);
+  }
+
+  size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  const T* data() const { return data_; }
+  const T& operator[](size_t i) const { return data_[i]; }
+  std::span<const T> span() const { return {data_, size_}; }
+  // Bytes mapped (resident as far as they were touched).
+  size_t capacityBytes() const { return capacityBytes_; }
+
+  void append(const T* values, size_t count) {
+    reserve(size_ + count);
+    std::memcpy(data_ + size_, values, count * sizeof(T));
+    size_ += count;
+  }
+
+  void reserve(size_t count) {
+    if (count * sizeof(T) <= capacityBytes_) return;
+    // Pages while small (a view has a table per level, most of them small), huge pages once it is large.
+    constexpr size_t kPage = 4096, kHugePage = size_t(2) << 20;
+    const size_t wanted = std::max(count * sizeof(T), 2 * capacityBytes_);
+    const size_t granule = wanted >= kHugePage ? kHugePage : kPage;
+    const size_t bytes = (wanted + granule - 1) / granule * granule;
+    void* at = data_ ? ::mremap(data_, capacityBytes_, bytes, MREMAP_MAYMOVE)
+                     : ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (at == MAP_FAILED) throw std::bad_alloc();
+    if (granule == kHugePage) ::madvise(at, bytes, MADV_HUGEPAGE);  // a hint: ignored where huge pages are off
+    data_ = static_cast<T*>(at);
+    capacityBytes_ = bytes;
+  }
+
+private:
+  void swap(MappedArray& other) noexcept {
+    std::swap(data_, other.data_);
+    std::swap(size_, other.size_);
+    std::swap(capacityBytes_, other.capacityBytes_);
+  }
+
+  T* data_ = nullptr;
+  size_t size_ = 0;
+  size_t capacityBytes_ = 0;
+};
+
+}  // namespace cpvs
