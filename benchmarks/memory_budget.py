@@ -22,6 +22,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from machine import machine_info  # noqa: E402
+from uniform_tiles import load_average  # noqa: E402
 
 
 def meminfo(key):
@@ -49,11 +50,6 @@ def rss_of(pid):
             return int(f.read().split()[1]) * os.sysconf("SC_PAGESIZE")
     except OSError:
         return 0
-
-
-def load_average():
-    with open("/proc/loadavg") as f:
-        return float(f.read().split()[0])
 
 
 def main():

@@ -33,8 +33,6 @@ public:
   }
 
   size_t size() const { return size_; }
-  bool empty() const { return size_ == 0; }
-  const T* data() const { return data_; }
   const T& operator[](size_t i) const { return data_[i]; }
   std::span<const T> span() const { return {data_, size_}; }
   // Bytes mapped (resident as far as they were touched).
