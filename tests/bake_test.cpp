@@ -315,6 +315,28 @@ TEST(Bake, CpvsWriterRefusesLightsItWasNotLaidOutFor) {
   EXPECT_THROW(views.add(content.lights[0]), Error);
 }
 
+// Each light's DAG is validated where it lies, as a reader would validate it, before a byte of it is written.
+TEST(Bake, CpvsWriterRefusesADagAReaderWouldReject) {
+  const Scene scene = mixedScene();
+  BakeSettings settings;
+  settings.resolution = 64;
+  CpvsContent content = bakeScene(scene, settings);
+  ShadowDag& dag = content.lights[0].views[0].dag;
+  ASSERT_FALSE(dag.leaves.empty());
+  dag.leaves.pop_back();  // a leaf parent now references a leaf past the end
+  size_t written = 0;
+  CpvsWriter writer("{}", {scene.lights[0]}, {1}, [&](uint64_t, const char*, size_t n) { written += n; });
+  const size_t before = written;
+  try {
+    writer.add(content.lights[0]);
+    FAIL() << "wrote a DAG whose references leave it";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("references leaf"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("light 0 '" + scene.lights[0].name + "' view 0"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(written, before) << "nothing of the light was written";
+}
+
 TEST(Bake, ReportCountsWhatWasBuilt) {
   const Scene scene = mixedScene();
   BakeSettings settings;

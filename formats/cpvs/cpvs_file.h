@@ -82,4 +82,12 @@ private:
   std::vector<std::unique_ptr<ShadowDag>> converted_;  // format-1 DAGs in the stored form of format 2
 };
 
+// Validates one view's DAG in the stored form exactly as open() validates a view of a file (every node fits,
+// every reference points to the start of a node of the next level or to a leaf, the per-level counts tile the
+// units), without the file around it: the writer checks a DAG it is about to write in place instead of
+// copying it into a test file. nodesPerLevel holds one count per level of `resolution` (missing ones are 0).
+// Fails (InvalidInput) with a message that starts with `what`.
+Outcome validateStoredDag(const std::string& what, uint32_t resolution, ChildCode rootCode,
+                          std::span<const uint16_t> nodes, uint64_t leafCount, std::span<const uint64_t> nodesPerLevel);
+
 }  // namespace cpvs

@@ -229,6 +229,27 @@ Result<std::unique_ptr<CpvsFile>> catchReadFailure(Fn&& open) {
 
 }  // namespace
 
+Outcome validateStoredDag(const std::string& what, uint32_t resolution, ChildCode rootCode,
+                          std::span<const uint16_t> nodes, uint64_t leafCount, std::span<const uint64_t> nodesPerLevel) {
+  if (resolution < 8 || resolution > kMaxResolution || !std::has_single_bit(resolution))
+    return Outcome(ErrorCategory::InvalidInput, what + ": resolution " + std::to_string(resolution));
+  const uint32_t levels = uint32_t(std::countr_zero(resolution)) - 2;
+  if (nodesPerLevel.size() > levels)
+    return Outcome(ErrorCategory::InvalidInput, what + ": node counts for " + std::to_string(nodesPerLevel.size()) +
+                                                    " levels, the DAG has " + std::to_string(levels));
+  std::vector<uint64_t> counts(nodesPerLevel.begin(), nodesPerLevel.end());
+  counts.resize(levels, 0);
+  try {
+    const std::string name = "DAG";
+    validateDag(Reader(nullptr, 0, name), what, rootCode, levels, nodes, leafCount, counts);
+  } catch (const ReadFailure& f) {
+    return Outcome(ErrorCategory::InvalidInput, f.message);
+  } catch (const std::bad_alloc&) {
+    return Outcome(ErrorCategory::RuntimeFailure, "out of memory while validating a DAG");
+  }
+  return Outcome();
+}
+
 Result<std::unique_ptr<CpvsFile>> CpvsFile::open(const std::string& path) {
   return catchReadFailure([&] { return openOrThrow(path); });
 }

@@ -133,19 +133,29 @@ void CpvsWriter::add(const BakedLight& baked) {
     fail("light " + std::to_string(li) + " '" + light.name + "' has " + std::to_string(baked.views.size()) +
          " view(s), the file was laid out for " + std::to_string(viewsPerLight_[li]));
   if (checkLights_) {
-    // Never hand out a file a reader would reject: the light on its own must read back as a valid file.
+    // Never hand out a file a reader would reject. The light on its own, with its views' DAGs left empty, must
+    // read back as a valid file (its records), and each DAG must pass the reader's own validation where it
+    // lies: a copy of a forest's DAG into a test file would double the bake's peak memory.
+    BakedLight records{baked.light, {}};
+    for (const BakedView& bv : baked.views) records.views.push_back({bv.view, ShadowDag{}});
     std::string bytes;
-    CpvsWriter alone(settingsJson_, {light}, {baked.views.size()}, [&](uint64_t at, const char* data, size_t n) {
+    CpvsWriter alone(settingsJson_, {light}, {records.views.size()}, [&](uint64_t at, const char* data, size_t n) {
       if (bytes.size() < at + n) bytes.resize(at + n, '\0');
       std::memcpy(bytes.data() + at, data, n);
     });
     alone.checkLights_ = false;
-    alone.add(baked);
+    alone.add(records);
     alone.finish();
     const auto check = CpvsFile::fromBorrowedBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()},
                                                    "the written .cpvs");
     if (!check)
       fail(where(light, li, 0) + ": does not form a valid .cpvs (a bug in the baker): " + check.outcome().message());
+    for (size_t vi = 0; vi < baked.views.size(); ++vi) {
+      const ShadowDag& dag = baked.views[vi].dag;
+      const Outcome valid = validateStoredDag(where(light, li, vi), baked.views[vi].view.resolution, dag.rootCode,
+                                              dag.nodes, dag.leaves.size(), dag.nodesPerLevel);
+      if (!valid) fail("the DAG does not form a valid .cpvs view (a bug in the baker): " + valid.message());
+    }
   }
   for (size_t vi = 0; vi < baked.views.size(); ++vi) {
     const BakedView& bv = baked.views[vi];
