@@ -4,6 +4,7 @@
 #include <bit>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/dag/dag_encoder.h"
 
 namespace cpvs {
 
@@ -18,7 +19,7 @@ DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse)
   leafLevel_ = log2u(resolution) - 3;
   regionLevel_ = log2u(resolution / regionSize_);
   regionsPerSide_ = resolution / regionSize_;
-  tables_.resize(leafLevel_ + 1);
+  tables_.resize(leafLevel_);
   regionColumns_.resize(size_t(regionsPerSide_) * regionsPerSide_ * regionsPerSide_);
   regionAdded_.assign(size_t(regionsPerSide_) * regionsPerSide_, false);
 }
@@ -37,7 +38,9 @@ DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8
   if (same && children[0].code != ChildCode::Ref) return {children[0].code, 0, nextT, true};
   words[0] = header;
   ++stats_.nodesBuilt;
-  Result result{ChildCode::Ref, tables_[level].intern(words, count), nextT, true};
+  const uint32_t ref =
+      level == leafLevel_ ? leafParents_.intern(header, words + 1, count - 1) : tables_[level].intern(words, count);
+  Result result{ChildCode::Ref, ref, nextT, true};
   for (unsigned c = 0; c < 4; ++c) result.farNextT[c] = children[c + 4].nextT;
   return result;
 }
@@ -179,37 +182,36 @@ ShadowDag DagBuilder::finish() {
   const Result root = buildTop(0, 0, 0, 0);
   // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
   for (NodeTable& table : tables_) table.releaseIndex();
+  leafParents_.releaseIndex();
   leafTable_.releaseIndex();
   std::vector<uint32_t>().swap(regionColumns_);
 
   // The root must sit at offset 0: level 0 holds exactly the root when it is a node.
   if (root.code == ChildCode::Ref && root.ref != 0)
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: root is not the first node");
-  std::vector<std::span<const uint32_t>> levelWords;
-  std::vector<uint64_t> nodesPerLevel;
-  for (const NodeTable& table : tables_) {
-    levelWords.emplace_back(table.words().span());
-    nodesPerLevel.push_back(table.size());
-  }
-  return orThrow(encodeDag(resolution_, root.code, levelWords, nodesPerLevel, std::move(leafTable_.leaves()),
-                   NodeOrder::MostReferencedFirst));
+  std::vector<MappedArray<uint32_t>> levelWords;
+  for (NodeTable& table : tables_) levelWords.push_back(table.takeWords());
+  return encodeBuiltDag(resolution_, root.code, std::move(levelWords), leafParents_.takeBytes(),
+                        std::move(leafTable_.leaves()));
 }
 
 uint64_t DagBuilder::finishExtraBytes() const {
-  // encodeDag (libcpvs/runtime/shadow_dag.cpp) keeps: the reordered leaves and their index arrays (8 + 16 bytes
-  // a leaf); every level's 16-bit units, then their concatenation (2 + 2 bytes a unit, at most 1.5 units a word);
-  // and while one level is encoded, its node order twice, its reference counts and positions (4 bytes a word
-  // each) and the positions of the level below.
-  uint64_t totalWords = 0, largestLevel = 0;
-  for (size_t l = 0; l < tables_.size(); ++l) {
-    const uint64_t words = tables_[l].words().size();
-    const uint64_t below = l + 1 < tables_.size() ? tables_[l + 1].words().size() : 0;
-    totalWords += words;
-    largestLevel = std::max(largestLevel, 16 * words + 4 * below);
+  // encodeBuiltDag (dag_encoder.cpp) consumes the tables level by level. It keeps at most: each leaf's new
+  // index and a copy while the leaves are reordered (8 bytes a leaf), the new indices until the leaf parents
+  // are encoded; then, while a level is encoded, its node starts (0.19 bytes a word or byte), a count and then
+  // an offset per node (4 bytes), and its stored units (at most 2 + 4 bytes a reference: 4 bytes a word, 34 a
+  // leaf parent) before the level's table is given back. The stored levels below take no more than the words
+  // they replaced, and the final concatenation gives each level back as it copies it.
+  const uint64_t leafBytes = 4 * uint64_t(leafTable_.leaves().size());
+  const uint64_t leafParentBytes = leafParents_.bytes().size();
+  uint64_t largestLevel = leafBytes + leafParentBytes / 5 + leafParents_.size() * (4 + 34);
+  for (const NodeTable& table : tables_) {
+    const uint64_t words = table.words().size();
+    largestLevel = std::max(largestLevel, words * 4 + words / 5 + table.size() * 4);
   }
-  uint64_t released = leafTable_.indexBytes() + regionColumns_.capacity() * 4;
+  uint64_t released = leafTable_.indexBytes() + leafParents_.indexBytes() + regionColumns_.capacity() * 4;
   for (const NodeTable& table : tables_) released += table.indexBytes();
-  const uint64_t needed = 24 * uint64_t(leafTable_.leaves().size()) + 6 * totalWords + largestLevel;
+  const uint64_t needed = std::max(2 * leafBytes, largestLevel);
   return needed > released ? needed - released : 0;
 }
 

@@ -5,6 +5,7 @@
 #include <memory>
 #include <vector>
 
+#include "libcpvs/dag/leaf_parent_table.h"
 #include "libcpvs/dag/node_table.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -55,7 +56,8 @@ private:
   uint32_t leafLevel_;    // L
   uint32_t regionLevel_;  // level whose nodes cover exactly one region's footprint
   uint32_t regionsPerSide_;
-  std::vector<NodeTable> tables_;  // per level
+  std::vector<NodeTable> tables_;  // per level above the leaf parents
+  LeafParentTable leafParents_;    // level L
   LeafTable leafTable_;
   // [ry][rx][zBlock]: each region volume's child code (low two bits) and node offset (above them), all that
   // buildTop needs. A full Result is 32 bytes; at 256k with 1k regions there are 256^3 of them (537 MB).

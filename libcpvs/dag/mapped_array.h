@@ -34,6 +34,7 @@ public:
 
   size_t size() const { return size_; }
   const T& operator[](size_t i) const { return data_[i]; }
+  T& operator[](size_t i) { return data_[i]; }
   std::span<const T> span() const { return {data_, size_}; }
   // Bytes mapped (resident as far as they were touched).
   size_t capacityBytes() const { return capacityBytes_; }
@@ -42,6 +43,24 @@ public:
     reserve(size_ + count);
     std::memcpy(data_ + size_, values, count * sizeof(T));
     size_ += count;
+    written_ = std::max(written_, size_);
+  }
+
+  // New values are zero: fresh pages of an anonymous mapping are, and values once written are cleared.
+  void resize(size_t count) {
+    reserve(count);
+    if (count > size_ && written_ > size_) std::memset(data_ + size_, 0, (std::min(count, written_) - size_) * sizeof(T));
+    size_ = count;
+    written_ = std::max(written_, size_);
+  }
+
+  // Gives the whole pages below value `end` back to the kernel: a consumer that walks the array once frees it
+  // as it goes. Those values read as zero afterwards.
+  void discardBefore(size_t end) {
+    constexpr size_t kPage = 4096;
+    const size_t bytes = std::min(end, size_) * sizeof(T) / kPage * kPage;
+    if (bytes > discarded_) ::madvise(reinterpret_cast<char*>(data_) + discarded_, bytes - discarded_, MADV_DONTNEED);
+    discarded_ = std::max(discarded_, bytes);
   }
 
   void reserve(size_t count) {
@@ -64,11 +83,15 @@ private:
     std::swap(data_, other.data_);
     std::swap(size_, other.size_);
     std::swap(capacityBytes_, other.capacityBytes_);
+    std::swap(written_, other.written_);
+    std::swap(discarded_, other.discarded_);
   }
 
   T* data_ = nullptr;
   size_t size_ = 0;
   size_t capacityBytes_ = 0;
+  size_t written_ = 0;    // values [0, written_) may be non-zero
+  size_t discarded_ = 0;  // bytes at the front given back by discardBefore
 };
 
 }  // namespace cpvs
