@@ -3,7 +3,7 @@
 memory costs or saves, and whether both builds write the same bytes.
 
     python3 benchmarks/bake_memory.py --baseline-bin OLD/bin --baseline-commit C [--bin build/bin] [--scene S.glb]
-                                      [--lights sun] [--resolution 64k] [--rounds 2] [--threads 2]
+                                      [--light "--lights sun"] [--resolution 64k] [--rounds 2] [--threads 2]
                                       [--out out/bake-memory] [--json docs/construction/bake-memory.json]
 
 Without --scene it bakes the generated foliage level (`cpvs-scenegen foliage`: 1,606 instanced trees of
@@ -32,7 +32,7 @@ def head_commit():
 
 
 def bake(binary_dir, a, scene, out):
-    cmd = [os.path.join(binary_dir, "cpvs-bake"), scene, "-r", a.resolution, "--lights", a.lights, "-j",
+    cmd = [os.path.join(binary_dir, "cpvs-bake"), scene, "-r", a.resolution] + a.light.split() + ["-j",
            str(a.threads), "-o", out + ".cpvs", "--report", out + ".json", "-q"]
     load_before = load_average()
     run = measured(cmd)
@@ -54,7 +54,7 @@ def main():
     parser.add_argument("--baseline-bin", required=True)
     parser.add_argument("--baseline-commit", required=True, help="the commit the baseline build was made from")
     parser.add_argument("--scene", default="")
-    parser.add_argument("--lights", default="sun")
+    parser.add_argument("--light", default="--lights sun", help="the bake's light options")
     parser.add_argument("--resolution", default="64k")
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--threads", type=int, default=2)
@@ -66,7 +66,7 @@ def main():
     if not scene:
         scene = os.path.join(a.out, "foliage.glb")
         subprocess.run([os.path.join(a.bin, "cpvs-scenegen"), "foliage", "-o", scene], check=True)
-    result = {"machine": machine_info(), "scene": scene, "lights": a.lights, "resolution": a.resolution,
+    result = {"machine": machine_info(), "scene": scene, "light": a.light, "resolution": a.resolution,
               "threads": a.threads, "builds": {"baseline": a.baseline_commit, "new": head_commit()},
               "runs": {"baseline": [], "new": []}}
     for _ in range(a.rounds):
