@@ -40,6 +40,7 @@ public:
   size_t capacityBytes() const { return capacityBytes_; }
 
   void append(const T* values, size_t count) {
+    if (count == 0) return;  // values may be null then, which memcpy does not allow
     reserve(size_ + count);
     std::memcpy(data_ + size_, values, count * sizeof(T));
     size_ += count;
