@@ -5,6 +5,7 @@
 // stored item (a cache miss each). No hash is stored beside the slot: growing rehashes the stored items, so a
 // slot costs 4 bytes instead of the 8 of an (id, hash) pair, and a table of n items between 5.3n and 10.7n bytes
 // (docs/construction.md, "Memory").
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <vector>

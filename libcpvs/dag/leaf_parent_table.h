@@ -4,8 +4,9 @@
 // the u16 header, then the first leaf reference as a LEB128 varint and each further one as the varint of its
 // zigzag difference to the one before. The leaves of one leaf parent were mostly interned one after the other
 // (the slices of one tile), so the differences are small: on the foliage sun at 64k the level takes 601 MB
-// instead of 1,194 MB of words (docs/construction.md, "Memory"). The code is canonical and prefix-free, so two
-// nodes are equal exactly when their bytes are, and the index compares bytes.
+// instead of 1,194 MB of words (a one-off measurement: docs/construction.md, "Memory that follows the file").
+// The code is canonical and prefix-free, so two nodes are equal exactly when their bytes are, and the index
+// compares bytes.
 #include <cstdint>
 #include <cstring>
 #include <utility>
