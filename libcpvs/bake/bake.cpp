@@ -16,6 +16,7 @@
 #include "libcpvs/base/peak_memory.h"
 #include "libcpvs/base/stopwatch.h"
 #include "libcpvs/dag/dag_builder.h"
+#include "libcpvs/raster/next_surface.h"
 #include "libcpvs/version.h"
 #include "libcpvs/views/view_geometry.h"
 #include "libcpvs/views/view_fitting.h"
@@ -46,6 +47,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
                       {"ground", groundSheetsName(settings.ground)},
                       {"input_hash", hex64(inputHash)}};
   if (settings.voxelSize > 0) j["voxel_size"] = settings.voxelSize;
+  if (settings.maxVoxelError) j["max_voxel_error"] = *settings.maxVoxelError;
   j["crop_to_cone"] = settings.cropToCone;
   // The rasterisers agree on all but a few texels, not on every byte.
   j["backend"] = rasterBackendName(settings.backend);
@@ -88,6 +90,10 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   if (settings.voxelSize > 0) XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
   const uint64_t more[] = {uint64_t(settings.cropToCone), uint64_t(settings.backend)};
   XXH3_64bits_update(state, more, sizeof more);
+  if (settings.maxVoxelError) {  // lossless bakes keep the hash they had before the option existed
+    const uint64_t lossy[] = {0x6c6f737379ull, *settings.maxVoxelError};
+    XXH3_64bits_update(state, lossy, sizeof lossy);
+  }
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
   return hash;
@@ -370,12 +376,17 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
           vr.texelsOutsideCone += depth->enter.size();
         } else {
           const RowSpans inside = crop.inside(view, regions[ri]);
-          depth = std::make_shared<DepthRegion>(
-              renderer->render(cullToRegion(geometry, regions[ri], regionTriangles[ri]), view, regions[ri], settings.peel,
-                               &stats, crop.active ? &inside : nullptr,
-                               summarizeTiles));
+          const ViewGeometry regionGeometry = cullToRegion(geometry, regions[ri], regionTriangles[ri]);
+          depth = std::make_shared<DepthRegion>(renderer->render(regionGeometry, view, regions[ri], settings.peel,
+                                                                 &stats, crop.active ? &inside : nullptr,
+                                                                 summarizeTiles));
           vr.tiles += uint64_t(regions[ri].width / 8) * (regions[ri].height / 8);
           vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);
+          if (settings.maxVoxelError) {
+            const Stopwatch next;
+            findNextSurfaces(regionGeometry, view, *depth);
+            vr.nextSurfaceMs += next.ms();
+          }
         }
         vr.depthMs += stats.enterMs;
         vr.peelMs += stats.peelMs;
@@ -394,9 +405,12 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
         checkBudget(builder.finishExtraBytes());
         auto work = [&, depth]() {
           Stopwatch masks;
-          const TileChains chains = buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads));
+          const TileChains chains =
+              buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
           vr.masksMs += masks.ms();
           vr.tileMasks += chains.start.size();
+          vr.freeVoxelsLit += chains.freeVoxelsLit;
+          vr.voxelsDelayed += chains.voxelsDelayed;
           Stopwatch dag;
           builder.addRegion(chains);
           vr.dagMs += dag.ms();

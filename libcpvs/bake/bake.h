@@ -2,6 +2,7 @@
 // cpvs-bake's pipeline (docs/architecture.md): per light, per view, per region: depth maps -> tile chains -> DAG.
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,9 @@ struct BakeSettings {
   uint32_t regionSize = 1024;
   PeelSettings peel;
   GroundSheets ground = GroundSheets::Auto;  // close ground sheets into solids (libcpvs/scene/ground_sheet.h)
+  // Lossy bake (docs/lossy.md): each texel's shadow may start up to this many voxels behind its first surface,
+  // and anywhere in front of the next surface behind it. Unset: lossless (the default).
+  std::optional<uint32_t> maxVoxelError;
   // Memory budget in bytes (0: none). The region size is lowered until a region's buffers take at most a
   // quarter of it, and the bake stops with Error(RuntimeFailure) as soon as the process's resident memory
   // exceeds it (checked after every region), before the system would kill it. The library sets none by
@@ -67,6 +71,9 @@ struct ViewReport {
   uint64_t tiles = 0;                // 8x8 tiles rendered (regions outside a spot's cone not counted)
   uint64_t uniformTiles = 0;         // of those, the tiles whose slices came from planes, not texel by texel
   uint64_t summarizedTiles = 0;      // of those, the tiles whose chain came from two values (no texel written)
+  double nextSurfaceMs = 0;          // lossy bakes: finding each texel's next surface (raster/next_surface.h)
+  // Lossy bakes: voxels left lit at or past their exit, free (no receiver) and delayed (docs/lossy.md).
+  uint64_t freeVoxelsLit = 0, voxelsDelayed = 0;
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;
   uint64_t nodesBuilt = 0, nodesReused = 0;

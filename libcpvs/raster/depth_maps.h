@@ -54,6 +54,8 @@ struct DepthRegion {
   uint32_t resolution = 0;
   DepthTexels enter;
   DepthTexels exit;
+  // Lossy bakes only (raster/next_surface.h), else empty: the slice of the nearest surface at or past the exit.
+  DepthTexels next;
   // Per tile (row-major, rect.width / 8 per row), or empty: where summarized, that tile's enter and exit
   // texels hold nothing meaningful.
   std::vector<TileSummary> tiles;

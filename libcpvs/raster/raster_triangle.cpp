@@ -5,9 +5,10 @@
 namespace cpvs {
 namespace {
 
-// Snaps one (sub)triangle and appends it when it covers part of the region.
+// Snaps one (sub)triangle and appends it when it covers part of the region (or, with `dilate`, comes within that
+// many texels of a texel of it).
 void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const double (&v)[3], const TriangleSetup& s,
-                 bool closed, bool mirrored, const RegionRect& rect, int32_t masked) {
+                 bool closed, bool mirrored, const RegionRect& rect, int32_t masked, int32_t dilate) {
   RasterTriangle t;
   t.masked = masked;
   constexpr double kLimit = double(int64_t(1) << 60);
@@ -28,10 +29,10 @@ void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const d
   // Texel i's centre is at 256 i + 128.
   const auto first = [](int64_t lo) { return int32_t(std::clamp<int64_t>((lo - 128 + 255) >> 8, -1, 1 << 24)); };
   const auto last = [](int64_t hi) { return int32_t(std::clamp<int64_t>((hi - 128) >> 8, -1, 1 << 24)); };
-  t.i0 = std::max(0, first(std::min({t.x[0], t.x[1], t.x[2]})));
-  t.i1 = std::min(int32_t(rect.width) - 1, last(std::max({t.x[0], t.x[1], t.x[2]})));
-  t.j0 = std::max(0, first(std::min({t.y[0], t.y[1], t.y[2]})));
-  t.j1 = std::min(int32_t(rect.height) - 1, last(std::max({t.y[0], t.y[1], t.y[2]})));
+  t.i0 = std::max(0, first(std::min({t.x[0], t.x[1], t.x[2]})) - dilate);
+  t.i1 = std::min(int32_t(rect.width) - 1, last(std::max({t.x[0], t.x[1], t.x[2]})) + dilate);
+  t.j0 = std::max(0, first(std::min({t.y[0], t.y[1], t.y[2]})) - dilate);
+  t.j1 = std::min(int32_t(rect.height) - 1, last(std::max({t.y[0], t.y[1], t.y[2]})) + dilate);
   if (t.i0 > t.i1 || t.j0 > t.j1) return;
   t.q0 = s.q0;
   t.ku = s.ku;
@@ -48,7 +49,8 @@ void addTriangle(std::vector<RasterTriangle>& out, const double (&u)[3], const d
 }  // namespace
 
 std::vector<RasterTriangle> setUpRasterTriangles(const ViewGeometry& geometry, const LightView& view,
-                                                    const RegionRect& rect, std::vector<MaskedTriangle>& masked) {
+                                                    const RegionRect& rect, std::vector<MaskedTriangle>& masked,
+                                                    int32_t dilate) {
   const double n = view.resolution, ex = view.xMax - view.xMin, ey = view.yMax - view.yMin;
   const double nearClip = 0.5 * view.near;
   const bool mirrored = glm::determinant(glm::dmat3(view.viewFromWorld)) < 0;
@@ -70,7 +72,7 @@ std::vector<RasterTriangle> setUpRasterTriangles(const ViewGeometry& geometry, c
       masked.push_back({&(*geometry.masks)[size_t(geometry.maskOf[t])], setUpMaskInterpolation(view, p, uv)});
     }
     if (s.safe) {
-      addTriangle(out, s.u, s.v, s, closed, mirrored, rect, maskedIndex);
+      addTriangle(out, s.u, s.v, s, closed, mirrored, rect, maskedIndex, dilate);
       continue;
     }
     // Clip at d = near / 2, where the GL renderer's homogeneous clipping cuts it, and fan the polygon.
@@ -91,7 +93,7 @@ std::vector<RasterTriangle> setUpRasterTriangles(const ViewGeometry& geometry, c
     }
     for (int k = 1; k + 1 < m; ++k) {
       const double tu[3] = {u[0], u[k], u[k + 1]}, tv[3] = {v[0], v[k], v[k + 1]};
-      addTriangle(out, tu, tv, s, closed, mirrored, rect, maskedIndex);
+      addTriangle(out, tu, tv, s, closed, mirrored, rect, maskedIndex, dilate);
     }
   }
   return out;

@@ -127,8 +127,10 @@ void scan(const RasterTriangle& t, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
 }
 
 // The view's triangles that reach `rect`, snapped relative to its origin (perspective ones clipped at near / 2 and
-// fanned, as GL clips them); alpha-tested ones get an entry in `masked`.
+// fanned, as GL clips them); alpha-tested ones get an entry in `masked`. With `dilate` > 0, also those that come
+// within that many texels of it, with their texel box [i0, i1] x [j0, j1] grown as much (clamped to `rect`).
 std::vector<RasterTriangle> setUpRasterTriangles(const ViewGeometry& geometry, const LightView& view,
-                                                 const RegionRect& rect, std::vector<MaskedTriangle>& masked);
+                                                 const RegionRect& rect, std::vector<MaskedTriangle>& masked,
+                                                 int32_t dilate = 0);
 
 }  // namespace cpvs

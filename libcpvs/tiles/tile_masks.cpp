@@ -8,6 +8,7 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/named_values.h"
 #include "libcpvs/base/parallel.h"
+#include "libcpvs/raster/next_surface.h"
 
 namespace cpvs {
 
@@ -152,12 +153,26 @@ struct ChainBand {
   std::vector<uint32_t> start;
   std::vector<uint64_t> mask;
   std::vector<uint32_t> length;  // entries per tile of the band
+  uint64_t voxelsDelayed = 0, freeVoxelsLit = 0;
 };
 
-void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, uint32_t rowEnd, uint32_t tilesX,
-               ChainBand& band, std::vector<uint32_t>& darkFrom) {
-  uint32_t e[64], x[64];
+// Texel j's lossy windows (docs/lossy.md): free up to `freeEnd` (no receiver in front of it), and up to `end`
+// with the delay. Returns the voxels the chain's shadow start s leaves lit past the exit x: before freeEnd
+// (free) and after it (delayed, at most maxVoxelError).
+struct LossyWindow {
+  uint32_t freeEnd, end;
+};
+LossyWindow lossyWindow(uint32_t e, uint32_t x, uint32_t next, uint32_t maxVoxelError, uint32_t n) {
+  const uint32_t freeEnd = std::min(n, std::max(x, next > kNextSurfaceGuard ? next - kNextSurfaceGuard : 0));
+  return {freeEnd, uint32_t(std::min<uint64_t>(n, std::max<uint64_t>(freeEnd, uint64_t(e) + 1 + maxVoxelError)))};
+}
+
+void buildRows(const DepthRegion& depth, UndefinedMode mode, const std::optional<uint32_t>& maxVoxelError,
+               uint32_t rowBegin, uint32_t rowEnd, uint32_t tilesX, ChainBand& band, std::vector<uint32_t>& darkFrom) {
+  uint32_t e[64], x[64], exact[64], freeEnd[64];
   const uint32_t n = depth.resolution;
+  const bool lossy = maxVoxelError.has_value() && !depth.next.empty();
+  const auto nextAt = [&](uint32_t px, uint32_t py) { return depth.next[size_t(py) * depth.rect.width + px]; };
   std::vector<Entry> chain;
   band.length.reserve(size_t(rowEnd - rowBegin) * tilesX);
   band.start.reserve(2 * band.length.capacity());  // most tiles hold two entries: lit, then shadowed
@@ -168,7 +183,14 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
         const TileSummary& summary = depth.tiles[size_t(ty) * tilesX + tx];
         if (mode == UndefinedMode::None && summary.maxEnter < n)  // its exits would be e + 1, not the peel's
           throw Error(ErrorCategory::RuntimeFailure, "tile chains: mode none needs every texel of a tile that sees geometry");
-        const uint32_t length = summarizedChain(summary.maxEnter, summary.minExit, n, mode, band.start, band.mask);
+        uint32_t minExit = summary.minExit;
+        if (lossy && summary.maxEnter < n) {  // free up to the nearest next surface of its texels (no delay)
+          uint32_t nearest = n;
+          for (uint32_t j = 0; j < 64; ++j) nearest = std::min(nearest, nextAt(tx * 8 + (j & 7), ty * 8 + (j >> 3)));
+          minExit = lossyWindow(summary.maxEnter, summary.minExit, nearest, 0, n).freeEnd;
+        }
+        const uint32_t length = summarizedChain(summary.maxEnter, minExit, n, mode, band.start, band.mask);
+        if (lossy && length == 2) band.freeVoxelsLit += 64 * uint64_t(band.start.back() - std::min(band.start.back(), summary.minExit));
         band.length.push_back(length);
         darkFrom[size_t(ty) * tilesX + tx] = std::min(summary.maxEnter + 1, n);
         continue;
@@ -178,8 +200,30 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
         e[j] = depth.enterAt(px, py);
         x[j] = mode == UndefinedMode::None ? std::min(e[j] + 1, n) : depth.exitAt(px, py);
         if (e[j] >= n) x[j] = n;
+        if (lossy && e[j] < n) {
+          const LossyWindow w = lossyWindow(e[j], x[j], nextAt(px, py), *maxVoxelError, n);
+          exact[j] = x[j];
+          freeEnd[j] = w.freeEnd;
+          x[j] = w.end;
+        }
       }
       const uint32_t farthestEnter = buildChain(e, x, n, mode, chain);
+      if (lossy) {  // where the chain shadows each texel first (N: never), against its exit and its free window
+        uint64_t shadowed = 0;
+        const auto count = [&](uint64_t texels, uint32_t start) {
+          for (; texels; texels &= texels - 1) {
+            const uint32_t j = uint32_t(std::countr_zero(texels));
+            if (e[j] >= n) continue;
+            band.freeVoxelsLit += std::min(start, freeEnd[j]) - std::min(start, exact[j]);
+            band.voxelsDelayed += start - std::min(start, freeEnd[j]);
+          }
+        };
+        for (const Entry& entry : chain) {
+          count(entry.mask & ~shadowed, entry.start);
+          shadowed |= entry.mask;
+        }
+        count(~shadowed, n);
+      }
       for (const Entry& entry : chain) {
         band.start.push_back(entry.start);
         band.mask.push_back(entry.mask);
@@ -192,10 +236,15 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, uint32_t rowBegin, 
 
 }  // namespace
 
-TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads) {
+TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads,
+                           std::optional<uint32_t> maxVoxelError) {
   const RegionRect& rect = depth.rect;
   if (rect.width % 8 != 0 || rect.height % 8 != 0)
     throw Error(ErrorCategory::RuntimeFailure, "region size must be a multiple of 8 texels");
+  if (maxVoxelError && mode != UndefinedMode::Kampe)
+    throw Error(ErrorCategory::InvalidArgument, "a lossy bake (max voxel error) needs the undefined-voxel mode kampe");
+  if (maxVoxelError && !depth.next.empty() && depth.next.size() != depth.enter.size())
+    throw Error(ErrorCategory::RuntimeFailure, "tile chains: the region's next surfaces do not match its texels");
   TileChains chains;
   chains.rect = rect;
   chains.resolution = depth.resolution;
@@ -207,7 +256,7 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   threads = std::max(1u, std::min(threads, chains.tilesY));
   std::vector<ChainBand> bands(threads);
   parallelParts(chains.tilesY, threads, [&](unsigned part, size_t begin, size_t end) {
-    buildRows(depth, mode, uint32_t(begin), uint32_t(end), chains.tilesX, bands[part], chains.darkFrom);
+    buildRows(depth, mode, maxVoxelError, uint32_t(begin), uint32_t(end), chains.tilesX, bands[part], chains.darkFrom);
   });
 
   // Bands hold consecutive rows in order: the region's chains are their concatenation.
@@ -219,6 +268,8 @@ TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigne
   chains.first.reserve(tileCount + 1);
   chains.litUntil.reserve(tileCount);
   for (ChainBand& band : bands) {
+    chains.voxelsDelayed += band.voxelsDelayed;
+    chains.freeVoxelsLit += band.freeVoxelsLit;
     const uint32_t offset = uint32_t(chains.start.size());
     uint32_t at = 0;
     for (uint32_t length : band.length) {

@@ -1,6 +1,7 @@
 #pragma once
 // Per 8x8 texel tile, the visibility along depth as a chain of 64-bit masks (Kämpe et al. 2015, §3.4, docs/architecture.md).
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,10 @@ struct TileChains {
   // at the latest, which is never before darkFrom.
   std::vector<uint32_t> litUntil;
   std::vector<uint32_t> darkFrom;
+  // Lossy chains only (docs/lossy.md): voxels left lit at or past their texel's exit slice, in front of its next
+  // surface (free: no receiver there) and behind it (delayed: at most the max voxel error per texel). Counted
+  // from the chains: the DAG may still shadow some of them (past every darkFrom of a volume's footprint).
+  uint64_t freeVoxelsLit = 0, voxelsDelayed = 0;
 
   uint32_t tileIndex(uint32_t tx, uint32_t ty) const { return ty * tilesX + tx; }
   uint64_t maskAt(uint32_t tile, uint32_t slice) const;
@@ -51,8 +56,12 @@ struct TileChains {
 uint32_t mostAlignedSlice(uint32_t earliest, uint32_t latest);
 
 // Builds the chains of a region from its depth maps. Tiles are independent; `threads` > 1 splits rows
-// between threads (the result does not depend on it).
-TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads = 1);
+// between threads (the result does not depend on it). With `maxVoxelError` (lossy, mode kampe only) and the
+// region's next surfaces (raster/next_surface.h), each texel's shadow may start anywhere up to
+// max(exit, next - kNextSurfaceGuard, enter + 1 + maxVoxelError) (docs/lossy.md); a region without next
+// surfaces (all free, outside a spot light's cone) keeps its exact chains.
+TileChains buildTileChains(const DepthRegion& depth, UndefinedMode mode, unsigned threads = 1,
+                           std::optional<uint32_t> maxVoxelError = std::nullopt);
 
 // Min-max hierarchy over the tiles of a region: level 0 is per tile, level k covers 2^k x 2^k tiles.
 struct TileHierarchy {

@@ -49,6 +49,11 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                  "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits "
                  "are set early (never wrong, less compression)")
       ->capture_default_str();
+  app.add_option("--max-voxel-error", maxVoxelError,
+                 "Lossy bake (off by default): a shadow may start up to this many voxels behind the surface that "
+                 "casts it, and anywhere in the empty space in front of the next surface behind it (no receiver "
+                 "lies there). 0 keeps every answer on a surface the bake sees; docs/lossy.md")
+      ->type_name("VOXELS");
   app.add_option("--ground", ground,
                  "auto: an open mesh that is a height field spanning the scene (a terrain, a ground plane) is the "
                  "top of solid ground, so the voxels under it are free (docs/depth-maps.md); off: every open mesh "
@@ -82,6 +87,13 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
     settings.maxMemorySource = "--max-memory " + maxMemory;
   }
   settings.ground = forFlag("--ground", [&] { return parseGroundSheets(ground); });
+  if (maxVoxelError != -1) {
+    if (maxVoxelError < 0 || maxVoxelError > (int64_t(1) << 18))
+      throw Error(ErrorCategory::InvalidArgument, "--max-voxel-error must be a number of voxels in 0..262144");
+    if (settings.undefinedMode != UndefinedMode::Kampe)
+      throw Error(ErrorCategory::InvalidArgument, "--max-voxel-error needs --undefined kampe (the default)");
+    settings.maxVoxelError = uint32_t(maxVoxelError);
+  }
 }
 
 }  // namespace cpvs::tools

@@ -20,6 +20,7 @@ struct BakeShapeOptions {
   uint32_t maxPeels = 2;
   std::string maxMemory;  // empty: defaultMemoryBudget(); "none": no budget
   std::string ground = "auto";
+  int64_t maxVoxelError = -1;  // -1: lossless
 
   void addTo(CLI::App& app);
   // Sets those fields of `settings`. Throws Error(InvalidArgument) naming the flag.

@@ -1,0 +1,119 @@
+#include "libcpvs/raster/next_surface.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+
+#include "libcpvs/base/parallel.h"
+#include "libcpvs/raster/raster_triangle.h"
+#include "libcpvs/raster/slice_table.h"
+
+namespace cpvs {
+namespace {
+
+// Calls fn(j, i0, i1, exactBegin, exactEnd, rowQ) for each row j in [rowBegin, rowEnd) of the triangle grown by
+// `reach` texels: the texels [i0, i1) whose centre lies within `reach` texels (in x and in y) of a covered texel
+// centre, a superset of it, and among them the covered ones [exactBegin, exactEnd) (the coverage scanTriangle
+// decides).
+template <class Wide, class Fn>
+void scanGrown(const RasterTriangle& t, int32_t reach, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
+  const Edge<Wide> edges[3] = {{t.x[0], t.y[0], t.x[1], t.y[1]}, {t.x[1], t.y[1], t.x[2], t.y[2]},
+                               {t.x[2], t.y[2], t.x[0], t.y[0]}};
+  const int32_t jBegin = std::max(t.j0, rowBegin), jEnd = std::min(t.j1 + 1, rowEnd);
+  for (int32_t j = jBegin; j < jEnd; ++j) {
+    const Wide py = Wide(256) * j + 128;
+    int64_t lo = t.i0, hi = t.i1, exactLo = t.i0, exactHi = t.i1;
+    for (const Edge<Wide>& e : edges) {
+      const Wide w = e.a * 128 + e.b * py + e.c;
+      // Moving a texel centre by `reach` texels in x and in y changes E by at most 256 reach (|a| + |b|).
+      const Wide slack = Wide(256) * reach * ((e.a < 0 ? -e.a : e.a) + (e.b < 0 ? -e.b : e.b));
+      clipSpan<Wide>(w, e.a * 256, e.threshold - slack, lo, hi);
+      clipSpan<Wide>(w, e.a * 256, e.threshold, exactLo, exactHi);
+    }
+    if (lo > hi) continue;
+    if (exactLo > exactHi) exactLo = exactHi = lo - 1;  // nothing covered: an empty range
+    fn(j, int32_t(lo), int32_t(hi) + 1, int32_t(exactLo), int32_t(exactHi) + 1, t.q0 + t.kv * (double(t.y0 + j) + t.dv));
+  }
+}
+
+}  // namespace
+
+void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view, DepthRegion& region) {
+  const RegionRect& rect = region.rect;
+  const uint32_t n = region.resolution, width = rect.width;
+  const size_t texels = size_t(rect.width) * rect.height;
+  region.next.resize(texels);
+  std::fill(region.next.begin(), region.next.end(), n);
+  if (view.empty || regionGeometry.triangleCount() == 0) return;
+
+  std::vector<MaskedTriangle> masked;
+  const std::vector<RasterTriangle> triangles =
+      setUpRasterTriangles(regionGeometry, view, rect, masked, kNextSurfaceReach);
+  const DepthFunction depthOf(view);
+  const double keySign = depthOf.mode >= 2 ? -1.0 : 1.0;  // keys grow with depth, as the renderers compare them
+  SliceTable table;
+  table.build(view, depthOf);
+  constexpr double kNoThreshold = std::numeric_limits<double>::infinity();
+  constexpr float kInfinity = std::numeric_limits<float>::infinity();
+  // A surface counts for a texel from the first key of its exit slice on (a summarised tile: its minExit).
+  std::vector<double> threshold(texels);
+  std::vector<float> exitKey(texels);  // the least float key at or past the threshold: a key in the exit slice
+  std::vector<float> nearest(texels, kInfinity);
+  const uint32_t tilesX = width / 8;
+  for (uint32_t j = 0; j < rect.height; ++j)
+    for (uint32_t i = 0; i < width; ++i) {
+      const size_t at = size_t(j) * width + i;
+      const uint32_t x = region.summarized(i / 8, j / 8) ? region.tiles[size_t(j / 8) * tilesX + i / 8].minExit
+                                                         : region.exit[at];
+      threshold[at] = x >= n ? kNoThreshold : table.bound[x];
+      float key = float(threshold[at]);
+      if (double(key) < threshold[at]) key = std::nextafter(key, kInfinity);
+      exitKey[at] = key;
+    }
+  constexpr uint32_t kBandRows = 32;
+  const uint32_t bands = (rect.height + kBandRows - 1) / kBandRows;
+  parallelFor(bands, [&](size_t b) {
+    const int32_t r0 = int32_t(b * kBandRows), r1 = int32_t(std::min<size_t>(rect.height, (b + 1) * kBandRows));
+    for (const RasterTriangle& t : triangles) {
+      // A lookup from a receiver on this plane reaches texel c at a depth no deeper than the plane's at c's
+      // centre (the bias puts every texel centre of its footprint behind the point, docs/query.md "Bias"), and
+      // at most `spread` in front of it: half the footprint plus the receiver's own texel, each at the plane's
+      // slope, and the margin's quarter voxel scaled by the tilt (under a quarter of the same slope plus one).
+      const double spread = (std::abs(t.ku) + std::abs(t.kv)) * (kNextSurfaceReach + 1.25);
+      const auto row = [&](int32_t j, int32_t i0, int32_t i1, int32_t exactBegin, int32_t exactEnd, double rowQ) {
+        const size_t rowStart = size_t(j) * width;
+        for (int32_t i = i0; i < i1; ++i) {
+          const size_t at = rowStart + size_t(i);
+          const double q = rowQ + t.ku * (double(t.x0 + i) + t.du);
+          // In front of the exit at c's centre: its lookups at c land where the chain is exact.
+          if (keySign * std::clamp(q, t.qMin, t.qMax) < threshold[at]) continue;
+          const double nearQ = std::clamp(keySign > 0 ? q - spread : q + spread, t.qMin, t.qMax);
+          const float nearKey = float(keySign * nearQ);
+          const float key = double(nearKey) < threshold[at] ? exitKey[at] : nearKey;
+          if (key >= nearest[at]) continue;
+          if (t.masked >= 0 && i >= exactBegin && i < exactEnd &&
+              !masked[size_t(t.masked)].blocksAt(t.x0 + i, t.y0 + j))
+            continue;
+          nearest[at] = key;
+        }
+      };
+      bool fast = true;
+      for (int k = 0; k < 3; ++k) fast = fast && std::llabs(t.x[k]) < kFastLimit && std::llabs(t.y[k]) < kFastLimit;
+      if (fast)
+        scanGrown<int64_t>(t, kNextSurfaceReach, r0, r1, row);
+      else
+        scanGrown<__int128>(t, kNextSurfaceReach, r0, r1, row);
+    }
+    for (int32_t j = r0; j < r1; ++j) {
+      uint32_t hint = 0;
+      for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+        if (nearest[at] == kInfinity) continue;
+        hint = table.slice(nearest[at], hint);
+        region.next[at] = std::min(n, hint);
+      }
+    }
+  }, 1);
+}
+
+}  // namespace cpvs
