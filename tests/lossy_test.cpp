@@ -13,6 +13,7 @@
 #include "formats/cpvs/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/dag/dag_builder.h"
+#include "libcpvs/dag/leaf_table.h"
 #include "libcpvs/raster/next_surface.h"
 #include "libcpvs/tiles/tile_masks.h"
 #include "support/test_dags.h"
@@ -113,6 +114,75 @@ TEST(LossyChains, LosslessChainsIgnoreTheNextLayerAndOtherModesRefuseTheBound) {
   EXPECT_THROW(buildTileChains(depth, UndefinedMode::None, 1, 0u), Error);
 }
 
+TEST(LeafTable, EdgeTexelsAreThoseWithADifferentNeighbour) {
+  const uint64_t leftHalf = 0x0f0f0f0f0f0f0f0full;  // columns 0-3 shadowed
+  EXPECT_EQ(edgeTexels(leftHalf), 0x1818181818181818ull);
+  EXPECT_EQ(edgeTexels(0xffffull), 0xffff00ull);  // rows 0-1 shadowed: rows 1 and 2
+  EXPECT_EQ(edgeTexels(0), 0u);
+  EXPECT_EQ(edgeTexels(~uint64_t(0)), 0u);
+  EXPECT_EQ(edgeTexels(uint64_t(1) << 9), 0x20702ull);  // texel (1, 1) and its four neighbours
+}
+
+TEST(LeafTable, AnswersWithinTheBoundFewestFlipsFirstAndAlwaysTheSame) {
+  const auto bit = [](int i) { return uint64_t(1) << i; };
+  const uint64_t a = 0x0f0f0f0f0f0f0f0full;
+  const uint64_t oneOff = a ^ bit(4);             // texel (4, 0): on the edge
+  const uint64_t twoOff = a ^ bit(4) ^ bit(27);   // and (3, 3)
+  LeafTable lossless;
+  EXPECT_EQ(lossless.intern(a), 0u);
+  EXPECT_EQ(lossless.intern(oneOff), 1u);
+  LeafTable one(1);
+  EXPECT_EQ(one.intern(a), 0u);
+  EXPECT_EQ(one.intern(oneOff), 0u);
+  EXPECT_EQ(one.intern(oneOff), 0u);
+  EXPECT_EQ(one.intern(twoOff), 1u);  // two flips: a leaf of its own
+  EXPECT_EQ(one.intern(0xff00ff00ff00ff00ull), 2u);
+  EXPECT_EQ(one.merged(), 1u);
+  LeafTable two(2);
+  EXPECT_EQ(two.intern(a), 0u);
+  EXPECT_EQ(two.intern(twoOff), 0u);
+  // c is three flips from a (stored), q two from a and one from c: the one-flip answer wins.
+  const uint64_t c = a ^ bit(4) ^ bit(12) ^ bit(20), q = a ^ bit(4) ^ bit(12);
+  EXPECT_EQ(two.intern(c), 1u);
+  EXPECT_EQ(two.intern(q), 1u);
+  EXPECT_EQ(two.merged(), 2u);
+  EXPECT_THROW(LeafTable(3), Error);
+}
+
+// Every 8x8 slice of a DAG built with edge merging differs from the lossless one in at most K texels, each on
+// a shadow edge of the lossless slice; node reuse changes nothing with it either.
+TEST(LossyChains, EdgeMergingKeepsEverySliceWithinTheBound) {
+  const uint32_t n = 64;
+  for (uint32_t seed = 1; seed <= 3; ++seed) {
+    const TileChains chains = buildTileChains(syntheticWithNext(n, seed), UndefinedMode::Kampe, 1, 4u);
+    const ShadowDag exact = buildDag(chains, true);
+    for (uint32_t k : {1u, 2u}) {
+      DagBuildStats stats;
+      const ShadowDag merged = buildDag(chains, true, &stats, k);
+      const ShadowDag mergedWithoutReuse = buildDag(chains, false, nullptr, k);
+      EXPECT_EQ(merged.nodes, mergedWithoutReuse.nodes);
+      EXPECT_EQ(merged.leaves, mergedWithoutReuse.leaves);
+      EXPECT_GT(stats.leavesMerged, 0u) << seed;
+      const DagView a = merged.view(), b = exact.view();
+      uint64_t overBound = 0, offEdge = 0;
+      for (uint32_t z = 0; z < n; ++z)
+        for (uint32_t ty = 0; ty < n / 8; ++ty)
+          for (uint32_t tx = 0; tx < n / 8; ++tx) {
+            uint64_t lossless = 0, lossy = 0;
+            for (uint32_t j = 0; j < 64; ++j) {
+              const uint32_t x = tx * 8 + (j & 7), y = ty * 8 + (j >> 3);
+              lossless |= uint64_t(b.shadowed(x, y, z)) << j;
+              lossy |= uint64_t(a.shadowed(x, y, z)) << j;
+            }
+            overBound += std::popcount(lossless ^ lossy) > int(k);
+            offEdge += ((lossless ^ lossy) & ~edgeTexels(lossless)) != 0;
+          }
+      EXPECT_EQ(overBound, 0u) << seed;
+      EXPECT_EQ(offEdge, 0u) << seed;
+    }
+  }
+}
+
 // Two open quads under a sun straight down, the upper one smaller, over nothing: behind the upper quad the next
 // surface is the lower one (its own enter slice where it is seen), behind the lower one and beside both there
 // is none. Sloped planes count from their near side (the steep ridge of the ground-and-ridge world).
@@ -203,10 +273,17 @@ protected:
 TEST_F(LossyBake, SmallerDeterministicReadableAndExactOnSurfacesAtZero) {
   const std::string lossless = bake("lossless", ""), zero = bake("zero", " --max-voxel-error 0");
   const std::string eight = bake("eight", " --max-voxel-error 8"), eightOne = bake("eight-j1", " --max-voxel-error 8 -j 1");
-  const std::string l = read(lossless), z = read(zero), e = read(eight);
+  const std::string edges = bake("edges", " --max-voxel-error 8 --max-edge-error 2");
+  const std::string edgesOne = bake("edges-j1", " --max-voxel-error 8 --max-edge-error 2 -j 1");
+  const std::string l = read(lossless), z = read(zero), e = read(eight), m = read(edges);
   EXPECT_LT(z.size(), l.size());
   EXPECT_LT(e.size(), z.size());
+  EXPECT_LT(m.size(), e.size());
   EXPECT_EQ(e, read(eightOne));
+  EXPECT_EQ(m, read(edgesOne));
+  const nlohmann::json edgeReport = nlohmann::json::parse(read(edges + ".json"));
+  EXPECT_GT(edgeReport["lights"][0]["views"][0]["leaves_merged"].get<uint64_t>(), 0u);
+  EXPECT_EQ(nlohmann::json::parse(orThrow(CpvsFile::open(edges))->settingsJson()).at("max_edge_error").get<uint32_t>(), 2u);
 
   for (const std::string& file : {zero, eight}) {
     const test::ToolResult info = runTool(toolPath("cpvs-info") + " " + file + " --json");
@@ -235,11 +312,13 @@ TEST_F(LossyBake, SmallerDeterministicReadableAndExactOnSurfacesAtZero) {
 }
 
 TEST_F(LossyBake, RefusesABoundItCannotKeep) {
-  for (const char* bad : {" --max-voxel-error -2", " --max-voxel-error 1e9", " --max-voxel-error 4 --undefined none"}) {
+  for (const char* bad : {" --max-voxel-error -2", " --max-voxel-error 1e9", " --max-voxel-error 4 --undefined none",
+                          " --max-edge-error 3", " --max-edge-error -1"}) {
+    const std::string flag = std::string(bad).substr(1, std::string(bad).find(' ', 1) - 1);
     const test::ToolResult r =
         runTool(toolPath("cpvs-bake") + " " + scene() + " -o " + tempDir() + "/bad.cpvs -r 256 --quiet" + std::string(bad));
-    EXPECT_NE(r.exitCode, 0) << bad;
-    EXPECT_NE(r.output.find("--max-voxel-error"), std::string::npos) << r.output;
+    EXPECT_EQ(r.exitCode, 1) << bad;
+    EXPECT_NE(r.output.find(flag), std::string::npos) << r.output;
   }
 }
 

@@ -48,6 +48,7 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
                       {"input_hash", hex64(inputHash)}};
   if (settings.voxelSize > 0) j["voxel_size"] = settings.voxelSize;
   if (settings.maxVoxelError) j["max_voxel_error"] = *settings.maxVoxelError;
+  if (settings.maxEdgeError) j["max_edge_error"] = settings.maxEdgeError;
   j["crop_to_cone"] = settings.cropToCone;
   // The rasterisers agree on all but a few texels, not on every byte.
   j["backend"] = rasterBackendName(settings.backend);
@@ -90,9 +91,14 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   if (settings.voxelSize > 0) XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
   const uint64_t more[] = {uint64_t(settings.cropToCone), uint64_t(settings.backend)};
   XXH3_64bits_update(state, more, sizeof more);
-  if (settings.maxVoxelError) {  // lossless bakes keep the hash they had before the option existed
+  // Lossless bakes keep the hash they had before the lossy options existed.
+  if (settings.maxVoxelError) {
     const uint64_t lossy[] = {0x6c6f737379ull, *settings.maxVoxelError};
     XXH3_64bits_update(state, lossy, sizeof lossy);
+  }
+  if (settings.maxEdgeError) {
+    const uint64_t edges[] = {0x6564676573ull, settings.maxEdgeError};
+    XXH3_64bits_update(state, edges, sizeof edges);
   }
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
@@ -339,7 +345,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       }
       const uint32_t regionSize = std::min({settings.regionSize, renderer->maxRegionSize(), view.resolution});
       const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
-      DagBuilder builder(view.resolution, regionSize, settings.nodeReuse);
+      DagBuilder builder(view.resolution, regionSize, settings.nodeReuse, settings.maxEdgeError);
       const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
       // Uniform tiles may be summarised unless someone wants every texel's slices, or mode none (whose exits are
       // every texel's e + 1) builds the chains.
@@ -439,6 +445,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       vr.dagMs += finish.ms();
       vr.nodesBuilt = builder.stats().nodesBuilt;
       vr.nodesReused = builder.stats().nodesReused;
+      vr.leavesMerged = builder.stats().leavesMerged;
     }
     describeDag(bakedView.dag, vr);
     baked.views.push_back(std::move(bakedView));

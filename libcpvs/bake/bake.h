@@ -40,6 +40,9 @@ struct BakeSettings {
   // Lossy bake (docs/lossy.md): each texel's shadow may start up to this many voxels behind its first surface,
   // and anywhere in front of the next surface behind it. Unset: lossless (the default).
   std::optional<uint32_t> maxVoxelError;
+  // Lossy leaves (docs/lossy.md, "Edge merging"): a leaf mask may be answered by one stored before it that
+  // differs in at most this many texels on its shadow edges (0, the default: none; at most 2).
+  uint32_t maxEdgeError = 0;
   // Memory budget in bytes (0: none). The region size is lowered until a region's buffers take at most a
   // quarter of it, and the bake stops with Error(RuntimeFailure) as soon as the process's resident memory
   // exceeds it (checked after every region), before the system would kill it. The library sets none by
@@ -74,6 +77,7 @@ struct ViewReport {
   double nextSurfaceMs = 0;          // lossy bakes: finding each texel's next surface (raster/next_surface.h)
   // Lossy bakes: voxels left lit at or past their exit, free (no receiver) and delayed (docs/lossy.md).
   uint64_t freeVoxelsLit = 0, voxelsDelayed = 0;
+  uint64_t leavesMerged = 0;         // edge merging: distinct leaf masks answered by another leaf
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;
   uint64_t nodesBuilt = 0, nodesReused = 0;

@@ -45,6 +45,10 @@ uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const st
     const uint64_t lossy[] = {0x6c6f737379ull, *settings.maxVoxelError};
     XXH3_64bits_update(state, lossy, sizeof lossy);
   }
+  if (settings.maxEdgeError) {
+    const uint64_t edges[] = {0x6564676573ull, settings.maxEdgeError};
+    XXH3_64bits_update(state, edges, sizeof edges);
+  }
   const double cone[] = {double(light.type), light.type == LightType::Spot ? light.outerConeAngle : 0.0};
   XXH3_64bits_update(state, cone, sizeof cone);
   for (size_t i = 0; i < views.size(); ++i) {

@@ -59,6 +59,7 @@ BakedFromCheck checkBakedFrom(const Scene& scene, const CpvsFile& file) {
     bake.cropToCone = settings.value("crop_to_cone", false);
     bake.voxelSize = settings.value("voxel_size", 0.0);
     if (settings.contains("max_voxel_error")) bake.maxVoxelError = settings.at("max_voxel_error").get<uint32_t>();
+    bake.maxEdgeError = settings.value("max_edge_error", 0u);
     std::vector<Light> lights;
     for (const CpvsFile::LightEntry& entry : file.lights()) lights.push_back(entry.light);
     check.sceneHash = bakeInputHash(flatten(scene, bake.ground), lights, bake);

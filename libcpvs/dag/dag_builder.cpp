@@ -12,8 +12,9 @@ namespace {
 uint32_t log2u(uint32_t v) { return uint32_t(std::countr_zero(v)); }
 }  // namespace
 
-DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse)
-    : resolution_(resolution), regionSize_(std::min(regionSize, resolution)), nodeReuse_(nodeReuse) {
+DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse, uint32_t maxEdgeFlips)
+    : resolution_(resolution), regionSize_(std::min(regionSize, resolution)), nodeReuse_(nodeReuse),
+      leafTable_(maxEdgeFlips) {
   if (resolution < 8 || !std::has_single_bit(resolution) || !std::has_single_bit(regionSize_) || regionSize_ < 8)
     throw Error(ErrorCategory::RuntimeFailure, "DAG resolution and region size must be powers of two of at least 8");
   leafLevel_ = log2u(resolution) - 3;
@@ -180,6 +181,7 @@ ShadowDag DagBuilder::finish() {
   for (bool added : regionAdded_)
     if (!added) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);
+  stats_.leavesMerged = leafTable_.merged();
   // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
   for (NodeTable& table : tables_) table.releaseIndex();
   leafParents_.releaseIndex();
@@ -215,8 +217,8 @@ uint64_t DagBuilder::finishExtraBytes() const {
   return needed > released ? needed - released : 0;
 }
 
-ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats) {
-  DagBuilder builder(chains.resolution, chains.rect.width, nodeReuse);
+ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats, uint32_t maxEdgeFlips) {
+  DagBuilder builder(chains.resolution, chains.rect.width, nodeReuse, maxEdgeFlips);
   builder.addRegion(chains);
   ShadowDag dag = builder.finish();
   if (stats) *stats = builder.stats();

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "libcpvs/dag/leaf_parent_table.h"
+#include "libcpvs/dag/leaf_table.h"
 #include "libcpvs/dag/node_table.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -16,12 +17,14 @@ struct DagBuildStats {
   uint64_t nodesBuilt = 0;       // interned (built) nodes, duplicates included
   uint64_t nodesReused = 0;      // volumes that took their Z-neighbour's node without being built (§3.2)
   uint64_t homogeneous = 0;      // volumes answered by the min-max hierarchy
+  uint64_t leavesMerged = 0;     // edge merging: distinct masks answered by another leaf (leaf_table.h)
 };
 
 class DagBuilder {
 public:
-  // regionSize: edge of the regions fed to addRegion (a power of two, at most N).
-  DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse);
+  // regionSize: edge of the regions fed to addRegion (a power of two, at most N). maxEdgeFlips: the leaves'
+  // lossy bound (leaf_table.h), 0 for a lossless DAG.
+  DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse, uint32_t maxEdgeFlips = 0);
   ~DagBuilder();
 
   // Adds the subtrees of one region. Regions may come in any order, but the same order gives the same bytes:
@@ -72,6 +75,6 @@ private:
 };
 
 // Builds a whole view from one region (N <= region size); convenience for tests and small bakes.
-ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats = nullptr);
+ShadowDag buildDag(const TileChains& chains, bool nodeReuse, DagBuildStats* stats = nullptr, uint32_t maxEdgeFlips = 0);
 
 }  // namespace cpvs

@@ -58,6 +58,22 @@ public:
     }
   }
 
+  // The id of the item equal(id) confirms, among those with this hash; UINT32_MAX when there is none.
+  template <class Equal>
+  uint32_t find(uint64_t hash, Equal&& equal) const {
+    const uint32_t tag = tagOf(hash);
+    const uint32_t idMask = idBits_ >= 32 ? UINT32_MAX : (1u << idBits_) - 1;
+    const size_t mask = slots_.size() - 1;
+    for (size_t i = size_t(hash) & mask;; i = (i + 1) & mask) {
+      const uint32_t slot = slots_[i];
+      if (slot == 0) return UINT32_MAX;
+      if ((slot & ~idMask) == tag && equal((slot & idMask) - 1)) return (slot & idMask) - 1;
+    }
+  }
+
+  // Brings the slot a search for this hash starts at into the cache.
+  void prefetch(uint64_t hash) const { __builtin_prefetch(slots_.data() + (size_t(hash) & (slots_.size() - 1))); }
+
   void release() { std::vector<uint32_t>().swap(slots_); }
   uint64_t bytes() const { return slots_.capacity() * 4; }
 

@@ -1,6 +1,6 @@
 #pragma once
-// Hash-consing of DAG nodes and leaf masks: one table per level; every hash hit is confirmed by comparing
-// the whole node (a hash alone would corrupt shadows on a collision). A node's offset is where it was appended,
+// Hash-consing of DAG nodes: one table per level (leaf masks: leaf_table.h); every hash hit is confirmed by
+// comparing the whole node (a hash alone would corrupt shadows on a collision). A node's offset is where it was appended,
 // so the index decides nothing about the bytes: it is kept small (hash_index.h, 4 bytes a slot) and is released
 // once no more nodes come.
 #include <cstdint>
@@ -53,31 +53,6 @@ private:
   MappedArray<uint32_t> words_;  // every node once, in the order they were added
   HashIndex index_;              // by word offset
   uint64_t size_ = 0;
-};
-
-class LeafTable {
-public:
-  uint32_t intern(uint64_t mask) {
-    if (index_.full(leaves_.size(), leaves_.size())) {
-      index_.rebuild(leaves_.size(), leaves_.size(), [&](auto&& insert) {
-        for (size_t i = 0; i < leaves_.size(); ++i) insert(uint32_t(i), hashOf(leaves_[i]));
-      });
-    }
-    const uint32_t newIndex = uint32_t(leaves_.size());
-    const uint32_t index = index_.findOrInsert(hashOf(mask), newIndex, [&](uint32_t at) { return leaves_[at] == mask; });
-    if (index == newIndex) leaves_.push_back(mask);
-    return index;
-  }
-  const std::vector<uint64_t>& leaves() const { return leaves_; }
-  std::vector<uint64_t>& leaves() { return leaves_; }
-  void releaseIndex() { index_.release(); }
-  uint64_t indexBytes() const { return index_.bytes(); }
-
-private:
-  static uint64_t hashOf(uint64_t mask) { return XXH3_64bits(&mask, sizeof mask); }
-
-  std::vector<uint64_t> leaves_;
-  HashIndex index_;  // by leaf index
 };
 
 }  // namespace cpvs

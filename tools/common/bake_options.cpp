@@ -2,6 +2,7 @@
 
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/memory_limit.h"
+#include "libcpvs/dag/leaf_table.h"
 #include "tools/common/cli.h"
 
 namespace cpvs::tools {
@@ -54,6 +55,11 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                  "casts it, and anywhere in the empty space in front of the next surface behind it (no receiver "
                  "lies there). 0 keeps every answer on a surface the bake sees; docs/lossy.md")
       ->type_name("VOXELS");
+  app.add_option("--max-edge-error", maxEdgeError,
+                 "Lossy leaves (off by default): an 8x8 texel slice of a light's view may be answered by one baked "
+                 "before it that differs in at most this many texels (0, 1 or 2), each on a shadow edge; "
+                 "docs/lossy.md")
+      ->type_name("TEXELS");
   app.add_option("--ground", ground,
                  "auto: an open mesh that is a height field spanning the scene (a terrain, a ground plane) is the "
                  "top of solid ground, so the voxels under it are free (docs/depth-maps.md); off: every open mesh "
@@ -94,6 +100,9 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
       throw Error(ErrorCategory::InvalidArgument, "--max-voxel-error needs --undefined kampe (the default)");
     settings.maxVoxelError = uint32_t(maxVoxelError);
   }
+  if (maxEdgeError < 0 || maxEdgeError > int64_t(LeafTable::kMaxEdgeFlips))
+    throw Error(ErrorCategory::InvalidArgument, "--max-edge-error must be 0, 1 or 2 texels");
+  settings.maxEdgeError = uint32_t(maxEdgeError);
 }
 
 }  // namespace cpvs::tools

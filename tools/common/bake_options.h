@@ -21,6 +21,7 @@ struct BakeShapeOptions {
   std::string maxMemory;  // empty: defaultMemoryBudget(); "none": no budget
   std::string ground = "auto";
   int64_t maxVoxelError = -1;  // -1: lossless
+  int64_t maxEdgeError = 0;
 
   void addTo(CLI::App& app);
   // Sets those fields of `settings`. Throws Error(InvalidArgument) naming the flag.

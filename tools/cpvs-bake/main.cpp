@@ -97,7 +97,8 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"bytes", v.bytes},
                        {"shadow_map_bytes", v.shadowMapBytes},
                        {"free_voxels_lit", v.freeVoxelsLit},
-                       {"voxels_delayed", v.voxelsDelayed}});
+                       {"voxels_delayed", v.voxelsDelayed},
+                       {"leaves_merged", v.leavesMerged}});
     }
     const char* cache = l.cache == LightReport::Cache::Hit ? "hit" : l.cache == LightReport::Cache::Miss ? "miss" : "off";
     lights.push_back({{"name", l.name},
@@ -125,7 +126,8 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
             {"max_memory_bytes", settings.maxMemoryBytes},
             {"max_memory_source", settings.maxMemorySource},
             {"ground", groundSheetsName(settings.ground)},
-            {"max_voxel_error", settings.maxVoxelError ? nlohmann::json(*settings.maxVoxelError) : nlohmann::json()}}},
+            {"max_voxel_error", settings.maxVoxelError ? nlohmann::json(*settings.maxVoxelError) : nlohmann::json()},
+            {"max_edge_error", settings.maxEdgeError}}},
           {"renderer", report.renderer},
           {"triangles", report.sceneTriangles},
           {"ground_sheets", groundSheetsJson(report.groundSheets)},

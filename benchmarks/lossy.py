@@ -1,0 +1,121 @@
+#!/usr/bin/env python3
+"""Bytes against error for lossless and lossy bakes (docs/lossy.md): a sun's file size and its misclassified
+facing pairs against the reference rays, at several resolutions and --max-voxel-error bounds.
+
+    python3 benchmarks/lossy.py [--bin build/bin] [--out out/lossy] [--json docs/lossy/bytes-vs-error.json]
+                                [--scenes foliage,city] [--lossless 4k,8k,16k,32k,64k]
+                                [--lossy 32k:0,0e2,16e2 --lossy 64k:0,0e2,16e2,32e2] [--points 200000] [--threads 2]
+
+A lossy setting is D (--max-voxel-error D) or DeK (--max-voxel-error D --max-edge-error K).
+
+Scenes: `foliage` is `cpvs-scenegen foliage` (1,606 instanced trees of alpha-tested leaf cards) with its own
+sun; `city` is the closed city of the bake-scale benchmark (`cpvs-scenegen city --triangles 100000`) under
+`--sun 0.4,-1,0.3`. Each scene gets `cpvs-sample` points once; every bake is queried at them with
+`cpvs-query --reference` (unfiltered lookups against Embree rays, alpha-aware), which gives the misclassified
+facing pairs and both lit fractions. Bytes and errors do not depend on the machine; wall times (one run each,
+not alternated) and the load average are recorded as a guide. Writes --json and prints a markdown table.
+Python 3 standard library only."""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from machine import machine_info  # noqa: E402
+from uniform_tiles import load_average  # noqa: E402
+
+SCENES = {
+    "foliage": {"generate": ["foliage"], "light": ["--lights", "sun"]},
+    "city": {"generate": ["city", "--triangles", "100000"], "light": ["--sun", "0.4,-1,0.3"]},
+}
+
+
+def head_commit():
+    here = os.path.dirname(os.path.abspath(__file__))
+    run = lambda *cmd: subprocess.run(["git", *cmd], capture_output=True, text=True, cwd=here).stdout.strip()
+    return run("rev-parse", "--short", "HEAD") + ("-dirty" if run("status", "--porcelain", "--untracked-files=no") else "")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--bin", default="build/bin")
+    parser.add_argument("--out", default="out/lossy")
+    parser.add_argument("--json", default="docs/lossy/bytes-vs-error.json")
+    parser.add_argument("--scenes", default="foliage,city")
+    parser.add_argument("--lossless", default="4k,8k,16k,32k,64k")
+    parser.add_argument("--lossy", action="append", help="RES:D,DeK,... (repeatable)")
+    parser.add_argument("--points", type=int, default=200000)
+    parser.add_argument("--threads", type=int, default=2)
+    a = parser.parse_args()
+    lossy = a.lossy or ["32k:0,0e2,16e2", "64k:0,0e2,16e2,32e2"]
+    os.makedirs(a.out, exist_ok=True)
+    tool = lambda name: os.path.join(a.bin, name)
+    result = {"commit": head_commit(), "machine": machine_info(), "load_before": load_average(),
+              "points": a.points, "threads": a.threads, "runs": []}
+    plan = [(res, None) for res in a.lossless.split(",") if res]
+    for spec in lossy:
+        res, _, bounds = spec.partition(":")
+        plan += [(res, tuple(int(v) for v in (d.split("e") + ["0"])[:2])) for d in bounds.split(",") if d]
+    for name in a.scenes.split(","):
+        scene = os.path.join(a.out, name + ".glb")
+        points = os.path.join(a.out, name + "-points.csv")
+        if not os.path.exists(scene):
+            subprocess.run([tool("cpvs-scenegen")] + SCENES[name]["generate"] + ["-o", scene], check=True)
+        if not os.path.exists(points):
+            subprocess.run([tool("cpvs-sample"), scene, "-o", points, "-n", str(a.points)], check=True)
+        for res, bound in plan:
+            tag = "%s-%s-%s" % (name, res, "lossless" if bound is None else "d%de%d" % bound)
+            out = os.path.join(a.out, tag)
+            cmd = [tool("cpvs-bake"), scene, "-o", out + ".cpvs", "-r", res, "-j", str(a.threads), "--quiet",
+                   "--report", out + ".json"] + SCENES[name]["light"]
+            if bound is not None:
+                cmd += ["--max-voxel-error", str(bound[0])] + (["--max-edge-error", str(bound[1])] if bound[1] else [])
+            load = load_average()
+            start = time.monotonic()
+            subprocess.run(cmd, check=True)
+            wall = time.monotonic() - start
+            subprocess.run([tool("cpvs-query"), out + ".cpvs", "--points", points, "-o", out + "-vis.csv",
+                            "--reference", scene, "--report", out + "-query.json", "--timing-rounds", "0",
+                            "--quiet"], check=True)
+            with open(out + ".json") as f:
+                view = json.load(f)["lights"][0]["views"][0]
+            with open(out + "-query.json") as f:
+                ref = json.load(f)["lights"][0]["reference"]
+            run = {"scene": name, "resolution": res, "max_voxel_error": None if bound is None else bound[0],
+                   "max_edge_error": 0 if bound is None else bound[1], "command": " ".join(cmd),
+                   "bytes": os.path.getsize(out + ".cpvs"), "wall_s": wall, "load_before": load,
+                   "phases_ms": view["phases_ms"], "free_voxels_lit": view.get("free_voxels_lit", 0),
+                   "voxels_delayed": view.get("voxels_delayed", 0), "leaves_merged": view.get("leaves_merged", 0),
+                   "facing_points": ref["facing_points"],
+                   "misclassified_facing": ref["misclassified_facing"],
+                   "misclassified_uniform": ref["misclassified_uniform"],
+                   "lit_fraction": ref["cpvs_lit_fraction"], "reference_lit_fraction": ref["reference_lit_fraction"]}
+            result["runs"].append(run)
+            print("%s: %d bytes, %.3f %% misclassified facing, %.1f s" % (
+                tag, run["bytes"], 100 * run["misclassified_facing"], wall), flush=True)
+            os.remove(out + "-vis.csv")
+    result["load_after"] = load_average()
+    os.makedirs(os.path.dirname(a.json) or ".", exist_ok=True)
+    with open(a.json, "w") as f:
+        json.dump(result, f, indent=1)
+    print("\nMachine: %s, %s CPUs; commit %s; load %.2f before, %.2f after; %d sample points per scene\n" % (
+        result["machine"]["model"], result["machine"]["cpus"], result["commit"], result["load_before"],
+        result["load_after"], a.points))
+    print("| scene | sun at | --max-voxel-error | --max-edge-error | bytes | misclassified facing pairs | "
+          "lit fraction (rays) | voxels delayed | leaves merged | bake wall (s) | next-surface pass (s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in result["runs"]:
+        lossless = r["max_voxel_error"] is None
+        print("| %s | %s | %s | %s | %.1f MB | %.3f %% | %.2f %% (%.2f %%) | %s | %s | %.1f | %s |" % (
+            r["scene"], r["resolution"], "lossless" if lossless else r["max_voxel_error"],
+            r["max_edge_error"] or "", r["bytes"] / 1e6, 100 * r["misclassified_facing"], 100 * r["lit_fraction"],
+            100 * r["reference_lit_fraction"], "" if lossless else "{:,}".format(r["voxels_delayed"]),
+            "{:,}".format(r["leaves_merged"]) if r["max_edge_error"] else "", r["wall_s"],
+            "" if lossless else "%.1f" % (r["phases_ms"].get("next_surface", 0) / 1000)))
+
+
+if __name__ == "__main__":
+    main()
