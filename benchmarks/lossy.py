@@ -8,6 +8,23 @@ facing pairs against the reference rays, at several resolutions and --max-voxel-
 
 A lossy setting is D (--max-voxel-error D) or DeK (--max-voxel-error D --max-edge-error K).
 
+    python3 benchmarks/lossy.py --changed [--out out/lossy] [--json docs/lossy/bytes-vs-error.json]
+
+adds to each lossy run of --json the answers that differ from the lossless bake's at the same resolution
+(unfiltered cpvs-query at the same points; only facing pairs can differ), from the bakes left in --out.
+
+    python3 benchmarks/lossy.py --alternate RES:SETTING [--scenes foliage] [--rounds 2]
+                                [--json docs/lossy/bake-cost.json]
+
+bakes lossless and with SETTING (D or DeK) in turn, --rounds times: wall and CPU seconds, peak RSS (wait4) and the
+report's phases of each, with the load average before and after each bake.
+
+    python3 benchmarks/lossy.py --lookups FILE.cpvs,FILE.cpvs,... --points P.csv [--rounds 2]
+                                [--json docs/lossy/lookups.json]
+
+times cpvs-query's lookups on each file (hard and 9x9 PCF, --timing-rounds 7), the files taken in turn
+(alternating), --rounds times: are lookups on lossy files as fast as on lossless ones.
+
 Scenes: `foliage` is `cpvs-scenegen foliage` (1,606 instanced trees of alpha-tested leaf cards) with its own
 sun; `city` is the closed city of the bake-scale benchmark (`cpvs-scenegen city --triangles 100000`) under
 `--sun 0.4,-1,0.3`. Each scene gets `cpvs-sample` points once; every bake is queried at them with
@@ -39,6 +56,17 @@ def head_commit():
     return run("rev-parse", "--short", "HEAD") + ("-dirty" if run("status", "--porcelain", "--untracked-files=no") else "")
 
 
+def save(a, result, more=""):
+    """Writes --json with the load average after, and prints the machine line above the table."""
+    result["load_after"] = load_average()
+    os.makedirs(os.path.dirname(a.json) or ".", exist_ok=True)
+    with open(a.json, "w") as f:
+        json.dump(result, f, indent=1)
+    print("\nMachine: %s, %s CPUs; commit %s; load %.2f before, %.2f after%s\n" % (
+        result["machine"]["model"], result["machine"]["cpus"], result["commit"], result["load_before"],
+        result["load_after"], more))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--bin", default="build/bin")
@@ -48,8 +76,19 @@ def main():
     parser.add_argument("--lossless", default="4k,8k,16k,32k,64k")
     parser.add_argument("--lossy", action="append", help="RES:D,DeK,... (repeatable)")
     parser.add_argument("--points", type=int, default=200000)
+    parser.add_argument("--points-file", default="", help="with --lookups: the points to look up")
     parser.add_argument("--threads", type=int, default=2)
+    parser.add_argument("--lookups", default="", help="FILE,FILE,...: time the lookups on these files instead")
+    parser.add_argument("--rounds", type=int, default=2)
+    parser.add_argument("--changed", action="store_true", help="add answers changed against lossless to --json")
+    parser.add_argument("--alternate", default="", help="RES:SETTING: time lossless and lossy bakes in turn")
     a = parser.parse_args()
+    if a.lookups:
+        return lookups(a)
+    if a.changed:
+        return changed(a)
+    if a.alternate:
+        return alternate(a)
     lossy = a.lossy or ["32k:0,0e2,16e2", "64k:0,0e2,16e2,32e2"]
     os.makedirs(a.out, exist_ok=True)
     tool = lambda name: os.path.join(a.bin, name)
@@ -97,13 +136,7 @@ def main():
             print("%s: %d bytes, %.3f %% misclassified facing, %.1f s" % (
                 tag, run["bytes"], 100 * run["misclassified_facing"], wall), flush=True)
             os.remove(out + "-vis.csv")
-    result["load_after"] = load_average()
-    os.makedirs(os.path.dirname(a.json) or ".", exist_ok=True)
-    with open(a.json, "w") as f:
-        json.dump(result, f, indent=1)
-    print("\nMachine: %s, %s CPUs; commit %s; load %.2f before, %.2f after; %d sample points per scene\n" % (
-        result["machine"]["model"], result["machine"]["cpus"], result["commit"], result["load_before"],
-        result["load_after"], a.points))
+    save(a, result, "; %d sample points per scene" % a.points)
     print("| scene | sun at | --max-voxel-error | --max-edge-error | bytes | misclassified facing pairs | "
           "lit fraction (rays) | voxels delayed | leaves merged | bake wall (s) | next-surface pass (s) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -115,6 +148,110 @@ def main():
             100 * r["reference_lit_fraction"], "" if lossless else "{:,}".format(r["voxels_delayed"]),
             "{:,}".format(r["leaves_merged"]) if r["max_edge_error"] else "", r["wall_s"],
             "" if lossless else "%.1f" % (r["phases_ms"].get("next_surface", 0) / 1000)))
+
+
+def alternate(a):
+    """Lossless and lossy bakes of one scene in turn: what the lossy options cost or save in time and memory."""
+    from bake_scale import measured  # noqa: E402
+    res, _, setting = a.alternate.partition(":")
+    d, _, k = setting.partition("e")
+    name = a.scenes.split(",")[0]
+    scene = os.path.join(a.out, name + ".glb")
+    if not os.path.exists(scene):
+        os.makedirs(a.out, exist_ok=True)
+        subprocess.run([os.path.join(a.bin, "cpvs-scenegen")] + SCENES[name]["generate"] + ["-o", scene], check=True)
+    lossy = ["--max-voxel-error", d] + (["--max-edge-error", k] if k and k != "0" else [])
+    result = {"commit": head_commit(), "machine": machine_info(), "scene": name, "resolution": res,
+              "setting": setting, "load_before": load_average(), "runs": []}
+    for rnd in range(a.rounds):
+        for label, extra in (("lossless", []), ("lossy " + setting, lossy)):
+            out = os.path.join(a.out, "alternate")
+            cmd = [os.path.join(a.bin, "cpvs-bake"), scene, "-o", out + ".cpvs", "-r", res, "-j", str(a.threads),
+                   "--quiet", "--report", out + ".json"] + SCENES[name]["light"] + extra
+            load = load_average()
+            run = measured(cmd)
+            with open(out + ".json") as f:
+                report = json.load(f)
+            phases = {}
+            for view in report["lights"][0]["views"]:
+                for key, ms in view["phases_ms"].items():
+                    phases[key] = phases.get(key, 0.0) + ms / 1000.0
+            run.update({"round": rnd, "bake": label, "bytes": report["file_bytes"], "phases_s": phases,
+                        "load_before": load, "load_after": load_average()})
+            result["runs"].append(run)
+    save(a, result, "; %s sun at %s, -j %d" % (name, res, a.threads))
+    print("| bake | wall s | CPU s | peak RSS | bytes | depth s | next surface s | masks s | DAG s | load before / after |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for r in result["runs"]:
+        p = r["phases_s"]
+        print("| %s | %.1f | %.1f | %.2f GB | %s | %.1f | %.1f | %.1f | %.1f | %.2f / %.2f |" % (
+            r["bake"], r["wall_s"], r["cpu_s"], r["peak_rss_bytes"] / 1e9, "{:,}".format(r["bytes"]),
+            p.get("depth", 0), p.get("next_surface", 0), p.get("masks", 0), p.get("dag", 0), r["load_before"],
+            r["load_after"]))
+
+
+def answers(a, cpvs, points):
+    out = os.path.join(a.out, "answers.csv")
+    subprocess.run([os.path.join(a.bin, "cpvs-query"), cpvs, "--points", points, "-o", out, "--timing-rounds", "0",
+                    "--quiet"], check=True)
+    with open(out) as f:
+        rows = f.read().split("\n")
+    os.remove(out)
+    return rows
+
+
+def changed(a):
+    """Per lossy run, the points whose answer differs from the lossless bake's at the same resolution."""
+    with open(a.json) as f:
+        result = json.load(f)
+    lossless = {}
+    for r in result["runs"]:
+        if r["max_voxel_error"] is None:
+            continue
+        tag = "%s-%s-d%de%d" % (r["scene"], r["resolution"], r["max_voxel_error"], r["max_edge_error"])
+        points = os.path.join(a.out, r["scene"] + "-points.csv")
+        key = (r["scene"], r["resolution"])
+        if key not in lossless:
+            lossless[key] = answers(a, os.path.join(a.out, "%s-%s-lossless.cpvs" % key), points)
+        mine = answers(a, os.path.join(a.out, tag + ".cpvs"), points)
+        base = lossless[key]
+        r["answers_changed"] = sum(1 for x, y in zip(base[1:], mine[1:]) if x != y)
+        print("%s: %d answers differ from lossless (%.3f %% of %d facing pairs)" % (
+            tag, r["answers_changed"], 100 * r["answers_changed"] / r["facing_points"], r["facing_points"]))
+    with open(a.json, "w") as f:
+        json.dump(result, f, indent=1)
+
+
+def lookups(a):
+    """Throughput of cpvs-query on each file, hard and 9x9 PCF, files alternating."""
+    files = a.lookups.split(",")
+    points = a.points_file
+    result = {"commit": head_commit(), "machine": machine_info(), "load_before": load_average(), "points": points,
+              "runs": []}
+    for rnd in range(a.rounds):
+        for path in files:
+            for pcf in (1, 9):
+                report = os.path.join(a.out, "lookups.json")
+                load = load_average()
+                subprocess.run([os.path.join(a.bin, "cpvs-query"), path, "--points", points, "--pcf", str(pcf),
+                                "-o", os.path.join(a.out, "lookups.csv"), "--report", report, "--timing-rounds", "7",
+                                "--quiet"], check=True)
+                with open(report) as f:
+                    r = json.load(f)
+                run = {"round": rnd, "file": path, "bytes": os.path.getsize(path), "pcf": pcf,
+                       "lookups_per_s": r["lookups_per_s"], "load_before": load}
+                result["runs"].append(run)
+                print("round %d %s pcf %d: %.3g lookups/s" % (rnd, path, pcf, run["lookups_per_s"]), flush=True)
+    save(a, result)
+    print("| file | bytes | " + " | ".join("round %d hard | round %d 9x9" % (r, r) for r in range(a.rounds)) + " |")
+    print("|---|---|" + "---|---|" * a.rounds)
+    for path in files:
+        cells = []
+        for rnd in range(a.rounds):
+            for pcf in (1, 9):
+                v = [x for x in result["runs"] if x["file"] == path and x["round"] == rnd and x["pcf"] == pcf][0]
+                cells.append("%.3g /s" % v["lookups_per_s"])
+        print("| %s | %.1f MB | %s |" % (os.path.basename(path), os.path.getsize(path) / 1e6, " | ".join(cells)))
 
 
 if __name__ == "__main__":

@@ -57,8 +57,8 @@ ShadowDag syntheticDag(uint32_t n, uint32_t seed) {
   return buildDag(buildTileChains(d, UndefinedMode::Kampe), true);
 }
 
-// The TorusKnot under a sun and a spot at N = 128 (every voxel on the GPU too) and 256 (one bake each per
-// process); empty with the reason where no depth renderer is available.
+// The TorusKnot under a sun and a spot at N = 128 (every voxel on the GPU too; lossless and lossy) and 256 (one
+// bake each per process); empty with the reason where no depth renderer is available.
 const std::vector<NamedDag>& bakedDags(std::string& why) {
   static std::string failure;
   static const std::vector<NamedDag> dags = [] {
@@ -67,14 +67,20 @@ const std::vector<NamedDag>& bakedDags(std::string& why) {
       Scene scene = importGltf(test::sourcePath("data/scenes/TorusKnot/torusknot.gltf"));
       scene.lights = {test::sunLight("sun", {0.3, -1.0, 0.2}),
                       test::spotLight("spot", {5, 60, 0}, {0, -1, 0}, 0.6, 150)};
-      for (uint32_t n : {128u, 256u}) {
+      // A lossy bake (docs/lossy.md) is an ordinary DAG: the walk reads it unchanged.
+      for (const auto& [n, lossy] : {std::pair{128u, false}, std::pair{256u, false}, std::pair{128u, true}}) {
         BakeSettings settings;
         settings.resolution = n;
         settings.threads = 1;
+        if (lossy) {
+          settings.maxVoxelError = 4;
+          settings.maxEdgeError = 2;
+        }
         const CpvsContent content = bakeScene(scene, settings);
         for (const BakedLight& light : content.lights)
           for (size_t v = 0; v < light.views.size(); ++v)
-            out.push_back({"TorusKnot " + light.light.name + " view " + std::to_string(v), light.views[v].dag, n <= 128});
+            out.push_back({"TorusKnot " + light.light.name + (lossy ? " lossy" : "") + " view " + std::to_string(v),
+                           light.views[v].dag, n <= 128});
       }
     } catch (const Error& e) {
       if (e.category() != ErrorCategory::NotSupported) throw;

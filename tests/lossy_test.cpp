@@ -146,6 +146,7 @@ TEST(LeafTable, AnswersWithinTheBoundFewestFlipsFirstAndAlwaysTheSame) {
   EXPECT_EQ(two.intern(c), 1u);
   EXPECT_EQ(two.intern(q), 1u);
   EXPECT_EQ(two.merged(), 2u);
+  EXPECT_EQ(two.flipped(), 3u);
   EXPECT_THROW(LeafTable(3), Error);
 }
 
@@ -282,7 +283,10 @@ TEST_F(LossyBake, SmallerDeterministicReadableAndExactOnSurfacesAtZero) {
   EXPECT_EQ(e, read(eightOne));
   EXPECT_EQ(m, read(edgesOne));
   const nlohmann::json edgeReport = nlohmann::json::parse(read(edges + ".json"));
-  EXPECT_GT(edgeReport["lights"][0]["views"][0]["leaves_merged"].get<uint64_t>(), 0u);
+  const nlohmann::json& edgeView = edgeReport["lights"][0]["views"][0];
+  EXPECT_GT(edgeView["leaves_merged"].get<uint64_t>(), 0u);
+  EXPECT_GE(edgeView["edge_texels_flipped"].get<uint64_t>(), edgeView["leaves_merged"].get<uint64_t>());
+  EXPECT_LE(edgeView["edge_texels_flipped"].get<uint64_t>(), 2 * edgeView["leaves_merged"].get<uint64_t>());
   EXPECT_EQ(nlohmann::json::parse(orThrow(CpvsFile::open(edges))->settingsJson()).at("max_edge_error").get<uint32_t>(), 2u);
 
   for (const std::string& file : {zero, eight}) {

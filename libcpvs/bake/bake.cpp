@@ -59,6 +59,19 @@ std::string settingsJson(const BakeSettings& settings, uint64_t inputHash, const
 
 }  // namespace
 
+std::vector<uint64_t> lossySettingWords(const BakeSettings& settings) {
+  std::vector<uint64_t> words;
+  if (settings.maxVoxelError) {
+    words.push_back(0x6c6f737379ull);  // "lossy"
+    words.push_back(*settings.maxVoxelError);
+  }
+  if (settings.maxEdgeError) {
+    words.push_back(0x6564676573ull);  // "edges"
+    words.push_back(settings.maxEdgeError);
+  }
+  return words;
+}
+
 uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings) {
   XXH3_state_t* state = XXH3_createState();
   XXH3_64bits_reset(state);
@@ -91,15 +104,8 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   if (settings.voxelSize > 0) XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
   const uint64_t more[] = {uint64_t(settings.cropToCone), uint64_t(settings.backend)};
   XXH3_64bits_update(state, more, sizeof more);
-  // Lossless bakes keep the hash they had before the lossy options existed.
-  if (settings.maxVoxelError) {
-    const uint64_t lossy[] = {0x6c6f737379ull, *settings.maxVoxelError};
-    XXH3_64bits_update(state, lossy, sizeof lossy);
-  }
-  if (settings.maxEdgeError) {
-    const uint64_t edges[] = {0x6564676573ull, settings.maxEdgeError};
-    XXH3_64bits_update(state, edges, sizeof edges);
-  }
+  const std::vector<uint64_t> lossy = lossySettingWords(settings);
+  if (!lossy.empty()) XXH3_64bits_update(state, lossy.data(), lossy.size() * sizeof(uint64_t));
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
   return hash;
@@ -446,6 +452,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       vr.nodesBuilt = builder.stats().nodesBuilt;
       vr.nodesReused = builder.stats().nodesReused;
       vr.leavesMerged = builder.stats().leavesMerged;
+      vr.edgeTexelsFlipped = builder.stats().edgeTexelsFlipped;
     }
     describeDag(bakedView.dag, vr);
     baked.views.push_back(std::move(bakedView));

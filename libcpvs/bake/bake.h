@@ -78,6 +78,7 @@ struct ViewReport {
   // Lossy bakes: voxels left lit at or past their exit, free (no receiver) and delayed (docs/lossy.md).
   uint64_t freeVoxelsLit = 0, voxelsDelayed = 0;
   uint64_t leavesMerged = 0;         // edge merging: distinct leaf masks answered by another leaf
+  uint64_t edgeTexelsFlipped = 0;    // and their texels that differ from their answers, summed
   std::vector<uint64_t> nodesPerLevel;
   uint64_t uniqueLeaves = 0;
   uint64_t nodesBuilt = 0, nodesReused = 0;
@@ -124,6 +125,10 @@ struct BakeCallbacks {
 // bytes writeCpvs(bakeScene(...)) would return. Returns the file size.
 uint64_t bakeSceneTo(const Scene& scene, const BakeSettings& settings, const CpvsWriter::WriteAt& writeAt,
                      BakeReport* report = nullptr, const BakeCallbacks& callbacks = {});
+
+// The lossy settings as words for a hash (empty for a lossless bake, so its hashes stay what they were before
+// the lossy options existed): the input hash and the bake cache's key both take them.
+std::vector<uint64_t> lossySettingWords(const BakeSettings& settings);
 
 // Hash of what determines a bake's result: the flattened geometry, the lights and the settings.
 uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lights, const BakeSettings& settings);

@@ -41,14 +41,8 @@ uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const st
   XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
   const uint8_t more[] = {uint8_t(settings.cropToCone), uint8_t(settings.backend)};
   XXH3_64bits_update(state, more, sizeof more);
-  if (settings.maxVoxelError) {
-    const uint64_t lossy[] = {0x6c6f737379ull, *settings.maxVoxelError};
-    XXH3_64bits_update(state, lossy, sizeof lossy);
-  }
-  if (settings.maxEdgeError) {
-    const uint64_t edges[] = {0x6564676573ull, settings.maxEdgeError};
-    XXH3_64bits_update(state, edges, sizeof edges);
-  }
+  const std::vector<uint64_t> lossy = lossySettingWords(settings);
+  if (!lossy.empty()) XXH3_64bits_update(state, lossy.data(), lossy.size() * sizeof(uint64_t));
   const double cone[] = {double(light.type), light.type == LightType::Spot ? light.outerConeAngle : 0.0};
   XXH3_64bits_update(state, cone, sizeof cone);
   for (size_t i = 0; i < views.size(); ++i) {

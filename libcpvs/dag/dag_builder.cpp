@@ -182,6 +182,7 @@ ShadowDag DagBuilder::finish() {
     if (!added) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: finish() before every region was added");
   const Result root = buildTop(0, 0, 0, 0);
   stats_.leavesMerged = leafTable_.merged();
+  stats_.edgeTexelsFlipped = leafTable_.flipped();
   // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
   for (NodeTable& table : tables_) table.releaseIndex();
   leafParents_.releaseIndex();

@@ -18,6 +18,7 @@ struct DagBuildStats {
   uint64_t nodesReused = 0;      // volumes that took their Z-neighbour's node without being built (§3.2)
   uint64_t homogeneous = 0;      // volumes answered by the min-max hierarchy
   uint64_t leavesMerged = 0;     // edge merging: distinct masks answered by another leaf (leaf_table.h)
+  uint64_t edgeTexelsFlipped = 0;  // and their texels that differ from their answers
 };
 
 class DagBuilder {

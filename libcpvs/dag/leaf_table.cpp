@@ -97,6 +97,7 @@ uint32_t LeafTable::intern(uint64_t mask) {
   aliasMasks_.push_back(mask);
   aliasLeaf_.push_back(near);
   ++merged_;
+  flipped_ += uint64_t(std::popcount(mask ^ leaves_[near]));
   return near;
 }
 

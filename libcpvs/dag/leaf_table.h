@@ -22,7 +22,8 @@ public:
 
   const std::vector<uint64_t>& leaves() const { return leaves_; }
   std::vector<uint64_t>& leaves() { return leaves_; }
-  uint64_t merged() const { return merged_; }  // distinct masks answered by another leaf
+  uint64_t merged() const { return merged_; }    // distinct masks answered by another leaf
+  uint64_t flipped() const { return flipped_; }  // their texels that differ from their answers, summed
   void releaseIndex();
   uint64_t indexBytes() const;
 
@@ -37,7 +38,7 @@ private:
   std::vector<uint64_t> aliasMasks_;
   std::vector<uint32_t> aliasLeaf_;
   HashIndex aliasIndex_;  // by alias index
-  uint64_t merged_ = 0;
+  uint64_t merged_ = 0, flipped_ = 0;
 };
 
 // The texels of `mask` on one of its shadow edges: those whose right, left, lower or upper neighbour within the

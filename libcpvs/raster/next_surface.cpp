@@ -18,9 +18,10 @@ namespace {
 // decides).
 template <class Wide, class Fn>
 void scanGrown(const RasterTriangle& t, int32_t reach, int32_t rowBegin, int32_t rowEnd, Fn&& fn) {
+  const int32_t jBegin = std::max(t.j0, rowBegin), jEnd = std::min(t.j1 + 1, rowEnd);
+  if (jBegin >= jEnd) return;  // most triangles miss a band: skip them before setting up their edges
   const Edge<Wide> edges[3] = {{t.x[0], t.y[0], t.x[1], t.y[1]}, {t.x[1], t.y[1], t.x[2], t.y[2]},
                                {t.x[2], t.y[2], t.x[0], t.y[0]}};
-  const int32_t jBegin = std::max(t.j0, rowBegin), jEnd = std::min(t.j1 + 1, rowEnd);
   for (int32_t j = jBegin; j < jEnd; ++j) {
     const Wide py = Wide(256) * j + 128;
     int64_t lo = t.i0, hi = t.i1, exactLo = t.i0, exactHi = t.i1;
@@ -76,6 +77,7 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
   parallelFor(bands, [&](size_t b) {
     const int32_t r0 = int32_t(b * kBandRows), r1 = int32_t(std::min<size_t>(rect.height, (b + 1) * kBandRows));
     for (const RasterTriangle& t : triangles) {
+      if (t.j1 < r0 || t.j0 >= r1) continue;
       // A lookup from a receiver on this plane reaches texel c at a depth no deeper than the plane's at c's
       // centre (the bias puts every texel centre of its footprint behind the point, docs/query.md "Bias"), and
       // at most `spread` in front of it: half the footprint plus the receiver's own texel, each at the plane's

@@ -98,7 +98,8 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"shadow_map_bytes", v.shadowMapBytes},
                        {"free_voxels_lit", v.freeVoxelsLit},
                        {"voxels_delayed", v.voxelsDelayed},
-                       {"leaves_merged", v.leavesMerged}});
+                       {"leaves_merged", v.leavesMerged},
+                       {"edge_texels_flipped", v.edgeTexelsFlipped}});
     }
     const char* cache = l.cache == LightReport::Cache::Hit ? "hit" : l.cache == LightReport::Cache::Miss ? "miss" : "off";
     lights.push_back({{"name", l.name},
