@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <vector>
 
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/raster/raster_triangle.h"
@@ -48,30 +49,58 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
   std::fill(region.next.begin(), region.next.end(), n);
   if (view.empty || regionGeometry.triangleCount() == 0) return;
 
+  // Kept between the regions a thread renders: allocating them anew cost a page fault per 4 KiB every region.
+  // Bound to references here: the workers below must see this thread's copies, not their own.
+  struct Scratch {
+    SliceTable table;
+    std::vector<double> threshold, chunkMin;
+    std::vector<float> nearest;
+  };
+  thread_local Scratch scratch;
+  SliceTable& table = scratch.table;
+  std::vector<double>&threshold = scratch.threshold, &chunkMin = scratch.chunkMin;
+  std::vector<float>& nearest = scratch.nearest;
+  const DepthFunction depthOf(view);
+  if (!table.matches(view, depthOf.mode)) table.build(view, depthOf);
+  const double keySign = depthOf.mode >= 2 ? -1.0 : 1.0;  // keys grow with depth, as the renderers compare them
+  constexpr float kInfinity = std::numeric_limits<float>::infinity();
+  // A surface counts for a texel from the first key of its exit slice on (a summarised tile: its minExit).
+  // Texels whose exit is N (nothing seen, or inside a solid to the far plane) need no next surface. Per row and
+  // 8 texels, the least threshold (infinite where none is needed): a triangle wholly in front of it there (its
+  // keys along a row are monotone, so its two ends say) is skipped without visiting the texels, which spares
+  // most first surfaces their own texels.
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  const uint32_t chunks = width / 8;
+  threshold.assign(texels, kNone);
+  chunkMin.assign(size_t(rect.height) * chunks, kNone);
+  nearest.assign(texels, kInfinity);
+  // The least float key at or past a threshold: a key in the exit slice.
+  const auto exitKey = [](double threshold) {
+    const float key = float(threshold);
+    return double(key) < threshold ? std::nextafter(key, kInfinity) : key;
+  };
+  bool anyNeeded = false;
+  for (uint32_t j = 0; j < rect.height; ++j) {
+    for (uint32_t tx = 0; tx < chunks; ++tx) {
+      const bool summarized = region.summarized(tx, j / 8);
+      const uint32_t tileExit = summarized ? region.tiles[size_t(j / 8) * chunks + tx].minExit : n;
+      double least = kNone;
+      for (uint32_t i = tx * 8; i < tx * 8 + 8; ++i) {
+        const size_t at = size_t(j) * width + i;
+        const uint32_t x = summarized ? tileExit : region.exit[at];
+        if (x >= n) continue;
+        threshold[at] = table.bound[x];
+        least = std::min(least, threshold[at]);
+      }
+      chunkMin[size_t(j) * chunks + tx] = least;
+      anyNeeded = anyNeeded || least != kNone;
+    }
+  }
+  if (!anyNeeded) return;
+
   std::vector<MaskedTriangle> masked;
   const std::vector<RasterTriangle> triangles =
       setUpRasterTriangles(regionGeometry, view, rect, masked, kNextSurfaceReach);
-  const DepthFunction depthOf(view);
-  const double keySign = depthOf.mode >= 2 ? -1.0 : 1.0;  // keys grow with depth, as the renderers compare them
-  SliceTable table;
-  table.build(view, depthOf);
-  constexpr double kNoThreshold = std::numeric_limits<double>::infinity();
-  constexpr float kInfinity = std::numeric_limits<float>::infinity();
-  // A surface counts for a texel from the first key of its exit slice on (a summarised tile: its minExit).
-  std::vector<double> threshold(texels);
-  std::vector<float> exitKey(texels);  // the least float key at or past the threshold: a key in the exit slice
-  std::vector<float> nearest(texels, kInfinity);
-  const uint32_t tilesX = width / 8;
-  for (uint32_t j = 0; j < rect.height; ++j)
-    for (uint32_t i = 0; i < width; ++i) {
-      const size_t at = size_t(j) * width + i;
-      const uint32_t x = region.summarized(i / 8, j / 8) ? region.tiles[size_t(j / 8) * tilesX + i / 8].minExit
-                                                         : region.exit[at];
-      threshold[at] = x >= n ? kNoThreshold : table.bound[x];
-      float key = float(threshold[at]);
-      if (double(key) < threshold[at]) key = std::nextafter(key, kInfinity);
-      exitKey[at] = key;
-    }
   constexpr uint32_t kBandRows = 32;
   const uint32_t bands = (rect.height + kBandRows - 1) / kBandRows;
   parallelFor(bands, [&](size_t b) {
@@ -85,19 +114,27 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
       const double spread = (std::abs(t.ku) + std::abs(t.kv)) * (kNextSurfaceReach + 1.25);
       const auto row = [&](int32_t j, int32_t i0, int32_t i1, int32_t exactBegin, int32_t exactEnd, double rowQ) {
         const size_t rowStart = size_t(j) * width;
-        for (int32_t i = i0; i < i1; ++i) {
-          const size_t at = rowStart + size_t(i);
-          const double q = rowQ + t.ku * (double(t.x0 + i) + t.du);
-          // In front of the exit at c's centre: its lookups at c land where the chain is exact.
-          if (keySign * std::clamp(q, t.qMin, t.qMax) < threshold[at]) continue;
-          const double nearQ = std::clamp(keySign > 0 ? q - spread : q + spread, t.qMin, t.qMax);
-          const float nearKey = float(keySign * nearQ);
-          const float key = double(nearKey) < threshold[at] ? exitKey[at] : nearKey;
-          if (key >= nearest[at]) continue;
-          if (t.masked >= 0 && i >= exactBegin && i < exactEnd &&
-              !masked[size_t(t.masked)].blocksAt(t.x0 + i, t.y0 + j))
-            continue;
-          nearest[at] = key;
+        const double* least = &chunkMin[size_t(j) * chunks];
+        const auto keyAt = [&](int32_t i) {
+          return keySign * std::clamp(rowQ + t.ku * (double(t.x0 + i) + t.du), t.qMin, t.qMax);
+        };
+        for (int32_t c = i0 / 8; c * 8 < i1; ++c) {
+          const int32_t a = std::max(i0, c * 8), b = std::min(i1, c * 8 + 8);
+          if (std::max(keyAt(a), keyAt(b - 1)) < least[c]) continue;
+          for (int32_t i = a; i < b; ++i) {
+            const size_t at = rowStart + size_t(i);
+            const double q = rowQ + t.ku * (double(t.x0 + i) + t.du);
+            // In front of the exit at c's centre: its lookups at c land where the chain is exact.
+            if (keySign * std::clamp(q, t.qMin, t.qMax) < threshold[at]) continue;
+            const double nearQ = std::clamp(keySign > 0 ? q - spread : q + spread, t.qMin, t.qMax);
+            const float nearKey = float(keySign * nearQ);
+            const float key = double(nearKey) < threshold[at] ? exitKey(threshold[at]) : nearKey;
+            if (key >= nearest[at]) continue;
+            if (t.masked >= 0 && i >= exactBegin && i < exactEnd &&
+                !masked[size_t(t.masked)].blocksAt(t.x0 + i, t.y0 + j))
+              continue;
+            nearest[at] = key;
+          }
         }
       };
       bool fast = true;
