@@ -156,9 +156,8 @@ struct ChainBand {
   uint64_t voxelsDelayed = 0, freeVoxelsLit = 0;
 };
 
-// Texel j's lossy windows (docs/lossy.md): free up to `freeEnd` (no receiver in front of it), and up to `end`
-// with the delay. Returns the voxels the chain's shadow start s leaves lit past the exit x: before freeEnd
-// (free) and after it (delayed, at most maxVoxelError).
+// A texel's lossy window (docs/lossy.md): its shadow may start anywhere before `freeEnd` without changing an
+// answer on a surface (no receiver lies in front of the next surface's guard), and up to `end` with the delay.
 struct LossyWindow {
   uint32_t freeEnd, end;
 };
