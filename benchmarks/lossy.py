@@ -25,7 +25,8 @@ report's phases of each, with the load average before and after each bake.
 times cpvs-query's lookups on each file (hard and 9x9 PCF, --timing-rounds 7), the files taken in turn
 (alternating), --rounds times: are lookups on lossy files as fast as on lossless ones.
 
-Scenes: `foliage` is `cpvs-scenegen foliage` (1,606 instanced trees of alpha-tested leaf cards) with its own
+With --scene-file, a scene of your own (e.g. data/scenes/JapaneseBridgeGarden/scene.glb, named by its folder)
+under --sun instead. Scenes: `foliage` is `cpvs-scenegen foliage` (1,606 instanced trees of alpha-tested leaf cards) with its own
 sun; `city` is the closed city of the bake-scale benchmark (`cpvs-scenegen city --triangles 100000`) under
 `--sun 0.4,-1,0.3`. Each scene gets `cpvs-sample` points once; every bake is queried at them with
 `cpvs-query --reference` (unfiltered lookups against Embree rays, alpha-aware), which gives the misclassified
@@ -73,6 +74,8 @@ def main():
     parser.add_argument("--out", default="out/lossy")
     parser.add_argument("--json", default="docs/lossy/bytes-vs-error.json")
     parser.add_argument("--scenes", default="foliage,city")
+    parser.add_argument("--scene-file", default="", help="a glTF scene of your own instead of --scenes (with --sun)")
+    parser.add_argument("--sun", default="0.35,-1,0.45", help="with --scene-file: the sun's direction")
     parser.add_argument("--lossless", default="4k,8k,16k,32k,64k")
     parser.add_argument("--lossy", action="append", help="RES:D,DeK,... (repeatable)")
     parser.add_argument("--points", type=int, default=200000)
@@ -98,8 +101,12 @@ def main():
     for spec in lossy:
         res, _, bounds = spec.partition(":")
         plan += [(res, tuple(int(v) for v in (d.split("e") + ["0"])[:2])) for d in bounds.split(",") if d]
+    if a.scene_file:
+        name = os.path.splitext(os.path.basename(os.path.dirname(os.path.abspath(a.scene_file))))[0]
+        SCENES[name] = {"path": a.scene_file, "light": ["--sun", a.sun]}
+        a.scenes = name
     for name in a.scenes.split(","):
-        scene = os.path.join(a.out, name + ".glb")
+        scene = SCENES[name].get("path") or os.path.join(a.out, name + ".glb")
         points = os.path.join(a.out, name + "-points.csv")
         if not os.path.exists(scene):
             subprocess.run([tool("cpvs-scenegen")] + SCENES[name]["generate"] + ["-o", scene], check=True)
