@@ -74,11 +74,6 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
   threshold.assign(texels, kNone);
   chunkMin.assign(size_t(rect.height) * chunks, kNone);
   nearest.assign(texels, kInfinity);
-  // The least float key at or past a threshold: a key in the exit slice.
-  const auto exitKey = [](double threshold) {
-    const float key = float(threshold);
-    return double(key) < threshold ? std::nextafter(key, kInfinity) : key;
-  };
   bool anyNeeded = false;
   for (uint32_t j = 0; j < rect.height; ++j) {
     for (uint32_t tx = 0; tx < chunks; ++tx) {
@@ -121,18 +116,32 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
         for (int32_t c = i0 / 8; c * 8 < i1; ++c) {
           const int32_t a = std::max(i0, c * 8), b = std::min(i1, c * 8 + 8);
           if (std::max(keyAt(a), keyAt(b - 1)) < least[c]) continue;
+          if (t.masked < 0) {
+            // Branch-free, so that the compiler vectorises it: a candidate in front of the exit is +inf, one
+            // reaching in front of it takes the threshold rounded to float, whose slice is at most the exit's
+            // and so gives the same window (findNextSurfaces' contract: `next` only matters above exit + guard).
+            const double* thresholdAt = &threshold[rowStart];
+            float* nearestAt = &nearest[rowStart];
+            for (int32_t i = a; i < b; ++i) {
+              const double q = rowQ + t.ku * (double(t.x0 + i) + t.du);
+              const double centre = keySign * std::clamp(q, t.qMin, t.qMax);
+              const float nearKey = float(keySign * std::clamp(q - keySign * spread, t.qMin, t.qMax));
+              const double limit = thresholdAt[i];
+              float key = double(nearKey) < limit ? float(limit) : nearKey;
+              key = centre < limit ? kInfinity : key;
+              nearestAt[i] = std::min(nearestAt[i], key);
+            }
+            continue;
+          }
           for (int32_t i = a; i < b; ++i) {
             const size_t at = rowStart + size_t(i);
             const double q = rowQ + t.ku * (double(t.x0 + i) + t.du);
             // In front of the exit at c's centre: its lookups at c land where the chain is exact.
             if (keySign * std::clamp(q, t.qMin, t.qMax) < threshold[at]) continue;
-            const double nearQ = std::clamp(keySign > 0 ? q - spread : q + spread, t.qMin, t.qMax);
-            const float nearKey = float(keySign * nearQ);
-            const float key = double(nearKey) < threshold[at] ? exitKey(threshold[at]) : nearKey;
+            const float nearKey = float(keySign * std::clamp(q - keySign * spread, t.qMin, t.qMax));
+            const float key = double(nearKey) < threshold[at] ? float(threshold[at]) : nearKey;
             if (key >= nearest[at]) continue;
-            if (t.masked >= 0 && i >= exactBegin && i < exactEnd &&
-                !masked[size_t(t.masked)].blocksAt(t.x0 + i, t.y0 + j))
-              continue;
+            if (i >= exactBegin && i < exactEnd && !masked[size_t(t.masked)].blocksAt(t.x0 + i, t.y0 + j)) continue;
             nearest[at] = key;
           }
         }

@@ -19,10 +19,13 @@ inline constexpr uint32_t kNextSurfaceGuard = 2;
 
 // Fills region.next: for each texel, the slice of the nearest surface (any triangle, either facing) whose depth
 // at the texel's centre lies at or past the texel's exit slice, among the triangles that cover the texel or a
-// texel beside it (kNextSurfaceReach; a triangle's plane is extended to the texels beside it). An alpha-tested
-// triangle counts on texels it covers only where its mask blocks, and on the texels beside them always.
-// N where there is none. A summarised tile's texels count from its minExit. `regionGeometry`: the view's
-// triangles culled to the region with their one-texel guard band (cullToRegion), as the renderer got them.
+// texel beside it (kNextSurfaceReach; a triangle's plane is extended to the texels beside it), each counted
+// from its near side (the depth a lookup from a receiver on it can reach). An alpha-tested triangle counts on
+// texels it covers only where its mask blocks, and on the texels beside them always. N where there is none.
+// Where a counted surface reaches in front of the exit, the slice may be anything up to the exit's: the chains
+// use max(exit, next - kNextSurfaceGuard), which is then the exit. A summarised tile's texels count from its
+// minExit. `regionGeometry`: the view's triangles culled to the region with their one-texel guard band
+// (cullToRegion), as the renderer got them.
 void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view, DepthRegion& region);
 
 }  // namespace cpvs
