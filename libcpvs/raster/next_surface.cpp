@@ -117,9 +117,9 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
           const int32_t a = std::max(i0, c * 8), b = std::min(i1, c * 8 + 8);
           if (std::max(keyAt(a), keyAt(b - 1)) < least[c]) continue;
           if (t.masked < 0) {
-            // Branch-free, so that the compiler vectorises it: a candidate in front of the exit is +inf, one
-            // reaching in front of it takes the threshold rounded to float, whose slice is at most the exit's
-            // and so gives the same window (findNextSurfaces' contract: `next` only matters above exit + guard).
+            // Without branches (GCC 12 does not vectorise it as written; a SIMD copy is left to do): a candidate
+            // in front of the exit is +inf, one reaching in front of it takes the threshold rounded to float,
+            // whose slice is at most the exit's and so gives the same window (see the header).
             const double* thresholdAt = &threshold[rowStart];
             float* nearestAt = &nearest[rowStart];
             for (int32_t i = a; i < b; ++i) {
