@@ -419,6 +419,38 @@ TEST(Preview, AShadowTechniqueIsOneClassBehindShadowPass) {
   EXPECT_NE(halved.milliseconds("shading"), 0.0) << "the renderer's own passes still ran";
 }
 
+// The DAGs go to the GPU only when the GPU walk first runs: the CPU runtime, the rays and the shadow-map
+// techniques never read them there, so a file larger than the GPU allows per buffer still previews with them.
+TEST(Preview, TheDagsAreUploadedOnlyForTheGpuWalk) {
+  Baked& b = *bake("TinyUploads", importGltf(sourcePath("data/scenes/Tiny/tiny.gltf")), 256);
+  REQUIRE_RENDERER(b);
+  const size_t before = b.renderer->staticUploadBytes();
+  size_t dagBytes = 0;
+  for (const LightShadow& l : b.renderer->lights())
+    for (const DagView& v : l.dags()) dagBytes += (v.nodes.size() + 1) / 2 * 4 + v.leaves.size() * 8;
+  ASSERT_GT(dagBytes, 0u);
+  FrameSettings settings;
+  settings.width = 64;
+  settings.height = 48;
+  const PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.5);
+  FrameSettings cpu;
+  cpu.shadows = ShadowMode::Cpu;
+  b.renderer->warmUp(cpu);
+  for (ShadowMode mode : {ShadowMode::Cpu, ShadowMode::None}) {
+    settings.shadows = mode;
+    b.renderer->render(camera, settings);
+    EXPECT_EQ(b.renderer->staticUploadBytes(), before) << shadowModeName(mode);
+  }
+  settings.shadows = ShadowMode::Gpu;
+  b.renderer->render(camera, settings);
+  const size_t withDags = b.renderer->staticUploadBytes();
+  ASSERT_GT(withDags, before);
+  EXPECT_GE(withDags - before, dagBytes) << "the walk's buffers hold the DAGs (two node units a word)";
+  EXPECT_LE(withDags - before, dagBytes + 4096);
+  b.renderer->render(camera, settings);
+  EXPECT_EQ(b.renderer->staticUploadBytes(), withDags) << "once";
+}
+
 // The filtered reference (rays over each pair's PCF footprint) measures what 9 x 9 PCF estimates: the CPU
 // runtime's filtered answers are closer to it than to one hard ray per pair, and more rays bring it closer.
 TEST(Preview, FootprintRaysAreTheReferenceForFilteredLookups) {

@@ -59,6 +59,7 @@ private:
 }  // namespace
 
 std::unique_ptr<ShadowPass> makeCpvsGpuShadows(RendererResources& resources) {
+  resources.uploadDags();
   return std::make_unique<CpvsGpuShadows>(*resources.context, resources.lights.size());
 }
 

@@ -255,6 +255,8 @@ void PreviewRenderer::warmUp(const FrameSettings& like) {
     FrameSettings tiny;
     tiny.width = w;
     tiny.height = h;
+    // The GPU walk only when it will be used: it needs the DAGs on the GPU.
+    if (like.shadows != ShadowMode::Gpu) tiny.shadows = ShadowMode::None;
     render(defaultCamera(bounds, 1.0), tiny);
     // The shadow-map modes' programs and their map array at the frame's map size.
     if (like.shadows == ShadowMode::ShadowMap || like.shadows == ShadowMode::LightCluster) {

@@ -190,16 +190,24 @@ void RendererResources::uploadLights() {
   GLint maxBlock = 0;
   gl().GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
   maxStorageBlock = maxBlock > 0 ? size_t(uint32_t(maxBlock)) : size_t(1) << 27;
-  requireStorage(std::max(records.nodes.size() * 4, records.leaves.size() * 8), "the DAGs");
   lightReals = gl::createStorageBuffer(c, records.lightReals.data(), records.lightReals.size() * 8);
   lightWords = gl::createStorageBuffer(c, records.lightWords.data(), records.lightWords.size() * 4);
   lightWordsData_ = records.lightWords;
   viewReals = gl::createStorageBuffer(c, records.viewReals.data(), records.viewReals.size() * 8);
   viewWords = gl::createStorageBuffer(c, records.viewWords.data(), records.viewWords.size() * 4);
+  staticBytes += records.bytes() - (records.nodes.size() * 4 + records.leaves.size() * 8);
+  shadowBytes = records.bytes();
+}
+
+void RendererResources::uploadDags() {
+  if (dagNodes) return;
+  const GpuSceneRecords records = packGpuScene(lights);
+  requireStorage(std::max(records.nodes.size() * 4, records.leaves.size() * 8), "the DAGs",
+                 "--shadows cpu looks them up from the file instead");
+  const gl::Context& c = *context;  // current: the GPU technique is made while a frame renders
   dagNodes = gl::createStorageBuffer(c, records.nodes.data(), records.nodes.size() * 4);
   dagLeaves = gl::createStorageBuffer(c, records.leaves.data(), records.leaves.size() * 8);
-  staticBytes += records.bytes();
-  shadowBytes = records.bytes();
+  staticBytes += records.nodes.size() * 4 + records.leaves.size() * 8;
 }
 
 void RendererResources::setDisabledLights(const std::vector<uint32_t>& disabled) {
@@ -255,11 +263,11 @@ std::vector<glm::vec4> RendererResources::readTarget(int attachment, uint32_t w,
   return out;
 }
 
-void RendererResources::requireStorage(size_t bytes, const std::string& what) const {
+void RendererResources::requireStorage(size_t bytes, const std::string& what, const std::string& hint) const {
   if (bytes <= maxStorageBlock) return;
   throw Error(ErrorCategory::RuntimeFailure, what + " need a " + std::to_string(bytes >> 20) + " MiB storage buffer; " +
                                                  context->description() + " allows " +
-                                                 std::to_string(maxStorageBlock >> 20) + " MiB (a smaller --size helps)");
+                                                 std::to_string(maxStorageBlock >> 20) + " MiB (" + hint + ")");
 }
 
 const ShadowReference& RendererResources::rays() {

@@ -75,7 +75,7 @@ public:
   std::vector<glm::vec4> readTarget(int attachment, uint32_t width, uint32_t height) const;
   // Throws Error(RuntimeFailure) when one storage buffer would exceed what the context allows (beyond it a
   // shader's reads and writes would silently go wrong).
-  void requireStorage(size_t bytes, const std::string& what) const;
+  void requireStorage(size_t bytes, const std::string& what, const std::string& hint = "a smaller --size helps") const;
   // Embree over the scene, built on first use (the ray-traced technique and --compare).
   const ShadowReference& rays();
   // The lights' disabled flags as uploaded; re-uploaded when they change.
@@ -103,7 +103,10 @@ public:
   std::vector<std::vector<uint32_t>> castingTrianglesOfInstance;
   GLuint baseColorArray = 0;              // one layer per Scene::textures entry (a 1-layer white array when none)
   GLuint maskHeaders = 0, maskBytes = 0;  // the coverage masks gbuffer.frag cuts with (kMaskHeaders, kMaskBytes)
-  GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0, dagNodes = 0, dagLeaves = 0;
+  GLuint lightReals = 0, lightWords = 0, viewReals = 0, viewWords = 0;
+  // The DAGs, uploaded by uploadDags() when the GPU walk first needs them (0 until then): the other shadow
+  // techniques never read them, and a GPU may not hold them (llvmpipe allows 128 MiB per buffer).
+  GLuint dagNodes = 0, dagLeaves = 0;
   // G-buffer targets: position, normal, base colour, depth.
   uint32_t targetWidth = 0, targetHeight = 0;
   GLuint framebuffer = 0, targets[4] = {};
@@ -115,6 +118,12 @@ private:
   void uploadMasks(const Scene& scene);
   void uploadLights();
 
+public:
+  // Uploads the DAGs once (counted in staticBytes). Throws Error(RuntimeFailure) when they exceed the GPU's
+  // storage-block size.
+  void uploadDags();
+
+private:
   std::optional<ShadowReference> reference_;
   std::vector<uint32_t> lightWordsData_;  // as uploaded; the disabled flags change between frames
   std::vector<uint32_t> disabled_;        // the flags last uploaded
