@@ -119,7 +119,8 @@ uint64_t sceneInputHash(const Scene& scene, const BakeSettings& requested) {
 
 uint64_t regionMemoryBytes(uint32_t regionSize) {
   // llvmpipe's colour, depth and stencil targets and read-back (about 40 bytes a texel, docs/depth-maps.md),
-  // the enter/exit maps (8) and tile chains (up to about 16).
+  // the enter/exit maps (8) and tile chains (up to about 16). A lossy bake's next-surface layer and its pass
+  // (16 more, raster/next_surface.cpp) fit in the GL targets' share, which the CPU rasteriser does not use.
   constexpr uint64_t kBytesPerTexel = 64;
   return uint64_t(regionSize) * regionSize * kBytesPerTexel;
 }
