@@ -11,7 +11,8 @@ A lossy setting is D (--max-voxel-error D) or DeK (--max-voxel-error D --max-edg
     python3 benchmarks/lossy.py --changed [--out out/lossy] [--json docs/lossy/bytes-vs-error.json]
 
 adds to each lossy run of --json the answers that differ from the lossless bake's at the same resolution
-(unfiltered cpvs-query at the same points; only facing pairs can differ), from the bakes left in --out.
+(cpvs-query at the same points, unfiltered or with --pcf K; only facing pairs can differ), from the bakes left in
+--out.
 
     python3 benchmarks/lossy.py --alternate RES:SETTING [--scenes foliage] [--rounds 2]
                                 [--json docs/lossy/bake-cost.json]
@@ -84,6 +85,7 @@ def main():
     parser.add_argument("--lookups", default="", help="FILE,FILE,...: time the lookups on these files instead")
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--changed", action="store_true", help="add answers changed against lossless to --json")
+    parser.add_argument("--pcf", type=int, default=1, help="with --changed: the lookups' PCF kernel")
     parser.add_argument("--alternate", default="", help="RES:SETTING: time lossless and lossy bakes in turn")
     a = parser.parse_args()
     if a.lookups:
@@ -200,7 +202,7 @@ def alternate(a):
 def answers(a, cpvs, points):
     out = os.path.join(a.out, "answers.csv")
     subprocess.run([os.path.join(a.bin, "cpvs-query"), cpvs, "--points", points, "-o", out, "--timing-rounds", "0",
-                    "--quiet"], check=True)
+                    "--pcf", str(a.pcf), "--quiet"], check=True)
     with open(out) as f:
         rows = f.read().split("\n")
     os.remove(out)
@@ -222,9 +224,15 @@ def changed(a):
             lossless[key] = answers(a, os.path.join(a.out, "%s-%s-lossless.cpvs" % key), points)
         mine = answers(a, os.path.join(a.out, tag + ".cpvs"), points)
         base = lossless[key]
-        r["answers_changed"] = sum(1 for x, y in zip(base[1:], mine[1:]) if x != y)
-        print("%s: %d answers differ from lossless (%.3f %% of %d facing pairs)" % (
-            tag, r["answers_changed"], 100 * r["answers_changed"] / r["facing_points"], r["facing_points"]))
+        key = "answers_changed" if a.pcf == 1 else "answers_changed_pcf%d" % a.pcf
+        pairs = [(float(x), float(y)) for x, y in zip(base[1:], mine[1:]) if x.strip() and y.strip()]
+        r[key] = sum(1 for x, y in pairs if x != y)
+        if a.pcf > 1:  # filtered answers: how much they move, and the mean visibility (light leaking is +)
+            r[key + "_by_more_than_0.1"] = sum(1 for x, y in pairs if abs(x - y) > 0.1)
+            r[key + "_mean_abs"] = sum(abs(x - y) for x, y in pairs) / len(pairs)
+            r[key + "_mean_visibility"] = [sum(x for x, _ in pairs) / len(pairs), sum(y for _, y in pairs) / len(pairs)]
+        print("%s: %d answers differ from lossless at %dx%d PCF (%.3f %% of %d facing pairs)" % (
+            tag, r[key], a.pcf, a.pcf, 100 * r[key] / r["facing_points"], r["facing_points"]))
     with open(a.json, "w") as f:
         json.dump(result, f, indent=1)
 
