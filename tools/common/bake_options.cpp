@@ -53,7 +53,8 @@ void BakeShapeOptions::addTo(CLI::App& app) {
   app.add_option("--max-voxel-error", maxVoxelError,
                  "Lossy bake (off by default): a shadow may start up to this many voxels behind the surface that "
                  "casts it, and anywhere in the empty space in front of the next surface behind it (no receiver "
-                 "lies there). 0 keeps every answer on a surface the bake sees; docs/lossy.md")
+                 "lies there). 0 keeps nearly every unfiltered answer on a surface (wide PCF reads some of the empty "
+                 "space); docs/lossy.md")
       ->type_name("VOXELS");
   app.add_option("--max-edge-error", maxEdgeError,
                  "Lossy leaves (off by default): an 8x8 texel slice of a light's view may be answered by one baked "
