@@ -150,7 +150,7 @@ std::vector<uint32_t> reorderLeaves(const LeafParentNodes& leafParents, std::vec
 // Units a node takes in the stored form once its references are final (unit offsets or leaf indices).
 uint64_t storedUnits(const uint32_t (&refs)[8], unsigned count) {
   uint64_t units = 1;
-  for (unsigned k = 0; k < count; ++k) units += refs[k] > 0xFFFFu ? 2 : 1;
+  for (unsigned k = 0; k < count; ++k) units += referenceUnits(refs[k]);
   return units;
 }
 
@@ -176,19 +176,7 @@ MappedArray<uint16_t> encodeLevel(Nodes& nodes, std::vector<uint32_t>& place, si
     const uint64_t at = cursor;
     place[k] = uint32_t(at);
     uint64_t next = at + 1;
-    uint32_t stored = 0;
-    for (unsigned c = 0, r = 0; c < 8; ++c) {
-      const uint32_t code = wordCodeOf(header, c);
-      if (code != uint32_t(ChildCode::Ref)) {
-        stored |= code << (2 * c);
-        continue;
-      }
-      const uint32_t target = refs[r++];
-      out[next++] = uint16_t(target);
-      if (target > 0xFFFFu) out[next++] = uint16_t(target >> 16);
-      stored |= (target > 0xFFFFu ? 3u : 2u) << (2 * c);
-    }
-    out[at] = uint16_t(stored);
+    out[at] = uint16_t(storeNode(header, [&](unsigned k) { return refs[k]; }, [&](uint16_t unit) { out[next++] = unit; }));
     cursor = next;
     if (i >= discardAt) {
       nodes.discardBefore(i);

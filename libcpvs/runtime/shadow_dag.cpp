@@ -118,21 +118,11 @@ Result<ShadowDag> encodeDag(uint32_t resolution, ChildCode rootCode, std::span<c
       position[i] = uint32_t(out.size());
       const size_t headerAt = out.size();
       out.push_back(0);
-      uint32_t stored = 0;
-      for (unsigned c = 0, k = 1; c < 8; ++c) {
-        const uint32_t code = wordCodeOf(header, c);
-        if (code != uint32_t(ChildCode::Ref)) {
-          stored |= code << (2 * c);
-          continue;
-        }
-        const uint32_t ref = words[i + k];
-        const uint32_t target = leafParent ? (reorder ? leafIndex[ref] : ref) : childPosition[ref];
-        ++k;
-        out.push_back(uint16_t(target));
-        if (target > 0xFFFFu) out.push_back(uint16_t(target >> 16));
-        stored |= (target > 0xFFFFu ? 3u : 2u) << (2 * c);
-      }
-      out[headerAt] = uint16_t(stored);
+      const auto targetOf = [&](unsigned k) {
+        const uint32_t ref = words[i + 1 + k];
+        return leafParent ? (reorder ? leafIndex[ref] : ref) : childPosition[ref];
+      };
+      out[headerAt] = uint16_t(storeNode(header, targetOf, [&](uint16_t unit) { out.push_back(unit); }));
     }
     childPosition.swap(position);
   }

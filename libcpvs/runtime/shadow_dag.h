@@ -101,6 +101,16 @@ inline uint32_t readRef(const uint16_t* nodes, uint32_t offset, uint32_t header,
   return uint32_t(nodes[at]) | ((uint32_t(nodes[at + wide]) << 16) & (0u - wide));
 }
 
+// Writing a reference: one unit below 2^16 (code 2), else two, low half first (code 3). Calls put(unit) per
+// unit and returns the child's 2-bit code for the node's header. The one place the encoders take the rule from.
+inline unsigned referenceUnits(uint32_t target) { return target > 0xFFFFu ? 2u : 1u; }
+template <class Put>
+uint32_t storeReference(uint32_t target, Put&& put) {
+  put(uint16_t(target));
+  if (target > 0xFFFFu) put(uint16_t(target >> 16));
+  return 1u + referenceUnits(target);
+}
+
 inline uint32_t DagView::child(uint32_t offset, uint32_t header, unsigned c, uint32_t size) const {
   return childBase[std::countr_zero(size)] + readRef(nodes.data(), offset, header, c);
 }
@@ -108,6 +118,17 @@ inline uint32_t DagView::child(uint32_t offset, uint32_t header, unsigned c, uin
 // --- Build form (u32 words) ---
 
 inline uint32_t wordCodeOf(uint32_t header, unsigned child) { return (header >> (2 * child)) & 3u; }
+// A node in the stored form from its build-form header: the k-th reference becomes targetOf(k), written with
+// storeReference through put(unit); returns the stored header. The encoders of both forms' sources use it.
+template <class TargetOf, class Put>
+uint32_t storeNode(uint32_t header, TargetOf&& targetOf, Put&& put) {
+  uint32_t stored = 0;
+  for (unsigned c = 0, k = 0; c < 8; ++c) {
+    const uint32_t code = wordCodeOf(header, c);
+    stored |= (code == uint32_t(ChildCode::Ref) ? storeReference(targetOf(k++), put) : code) << (2 * c);
+  }
+  return stored;
+}
 // Index among the node's reference words of child `child` (which must be a reference).
 inline unsigned refSlot(uint32_t header, unsigned child) {
   const uint32_t refBits = header & 0xAAAAu;  // the high bit of each 2-bit code marks a reference
