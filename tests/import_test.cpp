@@ -10,10 +10,12 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <tiny_gltf.h>
 #define STB_IMAGE_WRITE_STATIC
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
 
+#include "formats/gltf/accessor_types.h"
 #include "formats/gltf/gltf_import.h"
 #include "formats/io/png_image.h"
 #include "libcpvs/base/error.h"
@@ -721,6 +723,24 @@ TEST(ImportGltf, BaseColourTexturesOnlyWhenAsked) {
 
 // ---------------------------------------------------------------------------------------------------------
 // Malformed input: every case is an Error(InputInvalid) that names the file, never a crash
+
+// One table of accessor formats for the importer and the Draco decoder: glTF 2.0's six component types (INT and
+// DOUBLE are OpenGL's, not glTF's) and seven element types.
+TEST(ImportGltf, AccessorFormatsAreGltfs) {
+  EXPECT_EQ(gltf::componentSize(5120), 1u);  // BYTE
+  EXPECT_EQ(gltf::componentSize(5123), 2u);  // UNSIGNED_SHORT
+  EXPECT_EQ(gltf::componentSize(5125), 4u);  // UNSIGNED_INT
+  EXPECT_EQ(gltf::componentSize(5126), 4u);  // FLOAT
+  EXPECT_EQ(gltf::componentSize(5124), 0u);  // INT
+  EXPECT_EQ(gltf::componentSize(5130), 0u);  // DOUBLE
+  EXPECT_STREQ(gltf::componentTypeName(5124), "INT");
+  EXPECT_EQ(gltf::componentCount(TINYGLTF_TYPE_VEC3), 3u);
+  EXPECT_EQ(gltf::componentCount(TINYGLTF_TYPE_MAT4), 16u);
+  EXPECT_EQ(gltf::componentCount(-1), 0u);
+  EXPECT_TRUE(gltf::isMatrixType(TINYGLTF_TYPE_MAT2));
+  EXPECT_FALSE(gltf::isMatrixType(TINYGLTF_TYPE_VEC4));
+  EXPECT_STREQ(gltf::typeName(TINYGLTF_TYPE_MAT3), "MAT3");
+}
 
 TEST(ImportMalformed, GeneratedFiles) {
   const std::string dir = test::tempDir();

@@ -11,6 +11,7 @@
 #include <draco/compression/decode.h>
 #include <meshoptimizer.h>
 
+#include "formats/gltf/accessor_types.h"
 #include "libcpvs/base/error.h"
 
 namespace cpvs::gltf {
@@ -144,28 +145,6 @@ std::string hexByte(unsigned char byte) {
 template <typename T>
 void storeLittleEndian(unsigned char* to, T value) {
   std::memcpy(to, &value, sizeof value);  // glTF is little-endian, and so is every target cpvs builds for
-}
-
-size_t componentSize(int componentType) {
-  switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;  // INT and DOUBLE are not glTF accessor types
-  }
-}
-
-size_t componentCount(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    default: return 0;  // matrices are never Draco attributes
-  }
 }
 
 // One point's attribute value converted to the accessor's component type, written at `to`.
@@ -399,7 +378,9 @@ void decodeDracoPrimitive(const std::string& path, const std::string& where, con
     if (index < 0 || size_t(index) >= model.accessors.size())
       fail(path, where + ": " + name + " accessor " + std::to_string(index) + " does not exist");
     tinygltf::Accessor& accessor = model.accessors[size_t(index)];
-    const size_t elementSize = componentCount(accessor.type) * componentSize(accessor.componentType);
+    // Draco fills scalars and vectors, never matrices.
+    const size_t elementSize =
+        isMatrixType(accessor.type) ? 0 : componentCount(accessor.type) * componentSize(accessor.componentType);
     if (elementSize == 0)
       fail(path, where + ": " + name + " accessor " + std::to_string(index) + " has a type or componentType that Draco cannot fill");
     if (accessor.count > kMaxElements || accessor.count * elementSize > kMaxDecodedBytes)

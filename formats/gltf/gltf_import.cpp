@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
+#include "formats/gltf/accessor_types.h"
 #include "formats/gltf/compressed_geometry.h"
 #include "formats/gltf/untrusted_input.h"
 #include "libcpvs/base/error.h"
@@ -30,6 +31,11 @@
 
 namespace cpvs {
 namespace {
+
+using gltf::componentCount;
+using gltf::componentSize;
+using gltf::componentTypeName;
+using gltf::typeName;
 
 static_assert(std::endian::native == std::endian::little, "glTF buffers are read in place as little-endian");
 
@@ -162,60 +168,6 @@ std::vector<std::string> lines(const std::string& text) {
   for (std::string line; std::getline(stream, line);)
     if (!trimmed(line).empty()) result.push_back(trimmed(line));
   return result;
-}
-
-size_t componentSize(int componentType) {
-  switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_INT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return 8;
-    default: return 0;
-  }
-}
-
-const char* componentTypeName(int componentType) {
-  switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE: return "BYTE";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "UNSIGNED_BYTE";
-    case TINYGLTF_COMPONENT_TYPE_SHORT: return "SHORT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "UNSIGNED_SHORT";
-    case TINYGLTF_COMPONENT_TYPE_INT: return "INT";
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "UNSIGNED_INT";
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "FLOAT";
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: return "DOUBLE";
-    default: return "unknown";
-  }
-}
-
-size_t componentCount(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return 1;
-    case TINYGLTF_TYPE_VEC2: return 2;
-    case TINYGLTF_TYPE_VEC3: return 3;
-    case TINYGLTF_TYPE_VEC4: return 4;
-    case TINYGLTF_TYPE_MAT2: return 4;
-    case TINYGLTF_TYPE_MAT3: return 9;
-    case TINYGLTF_TYPE_MAT4: return 16;
-    default: return 0;
-  }
-}
-
-const char* typeName(int type) {
-  switch (type) {
-    case TINYGLTF_TYPE_SCALAR: return "SCALAR";
-    case TINYGLTF_TYPE_VEC2: return "VEC2";
-    case TINYGLTF_TYPE_VEC3: return "VEC3";
-    case TINYGLTF_TYPE_VEC4: return "VEC4";
-    case TINYGLTF_TYPE_MAT2: return "MAT2";
-    case TINYGLTF_TYPE_MAT3: return "MAT3";
-    case TINYGLTF_TYPE_MAT4: return "MAT4";
-    default: return "unknown";
-  }
 }
 
 const char* modeName(int mode) {
@@ -1338,7 +1290,10 @@ private:
     const size_t components = componentCount(source.type);
     const size_t size = componentSize(source.componentType);
     const size_t elementSize = components * size;
-    if (elementSize == 0) fail(what + ": accessor has an unknown type or componentType");
+    if (elementSize == 0)
+      fail(what + ": accessor " + std::to_string(index) + " is " + typeName(source.type) + " of componentType " +
+           componentTypeName(source.componentType) + " (" + std::to_string(source.componentType) +
+           "), which is not a glTF 2.0 accessor format");
     if (source.count > kMaxElements) fail(what + ": count " + std::to_string(source.count) + " is too large");
     if (source.bufferView < 0 && source.count > kMaxZeroInitialisedElements)
       fail(what + ": count " + std::to_string(source.count) + " without a bufferView is too large");
