@@ -67,6 +67,45 @@ float toFloatT(double t) {
   return float(t);
 }
 
+// A ray as Embree takes it: the origin relative to the scene's centre (Embree holds the scene in float around
+// it), [max(0, tnear), tfar] in float, every mask bit on; the rest zero.
+RTCRay embreeRay(const glm::dvec3& relativeOrigin, const glm::dvec3& direction, double tnear, double tfar) {
+  RTCRay r{};
+  r.org_x = float(relativeOrigin.x);
+  r.org_y = float(relativeOrigin.y);
+  r.org_z = float(relativeOrigin.z);
+  r.dir_x = float(direction.x);
+  r.dir_y = float(direction.y);
+  r.dir_z = float(direction.z);
+  r.tnear = float(std::max(0.0, tnear));
+  r.tfar = toFloatT(tfar);
+  r.mask = 0xFFFFFFFFu;
+  return r;
+}
+
+RTCRayHit embreeRayHit(const glm::dvec3& relativeOrigin, const glm::dvec3& direction, double tnear, double tfar) {
+  RTCRayHit rh{};
+  rh.ray = embreeRay(relativeOrigin, direction, tnear, tfar);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  return rh;
+}
+
+// Lane i of a 16-ray packet, with its lane number as id.
+void setLane(RTCRay16& packet, int i, const RTCRay& r) {
+  packet.org_x[i] = r.org_x;
+  packet.org_y[i] = r.org_y;
+  packet.org_z[i] = r.org_z;
+  packet.dir_x[i] = r.dir_x;
+  packet.dir_y[i] = r.dir_y;
+  packet.dir_z[i] = r.dir_z;
+  packet.tnear[i] = r.tnear;
+  packet.tfar[i] = r.tfar;
+  packet.time[i] = r.time;
+  packet.mask[i] = r.mask;
+  packet.id[i] = unsigned(i);
+  packet.flags[i] = r.flags;
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const WorldGeometry& geometry) : impl_(std::make_unique<Impl>()) {
@@ -152,17 +191,7 @@ std::optional<RayHit> EmbreeScene::firstHit(const Ray& ray, double tmin, double 
   const glm::dvec3 o = ray.origin - center_;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRayHit rh{};
-  rh.ray.org_x = float(o.x);
-  rh.ray.org_y = float(o.y);
-  rh.ray.org_z = float(o.z);
-  rh.ray.dir_x = float(ray.direction.x);
-  rh.ray.dir_y = float(ray.direction.y);
-  rh.ray.dir_z = float(ray.direction.z);
-  rh.ray.tnear = float(std::max(0.0, tmin));
-  rh.ray.tfar = toFloatT(tmax);
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  RTCRayHit rh = embreeRayHit(o, ray.direction, tmin, tmax);
   rtcIntersect1(impl_->scene, &context, &rh);
   throwIfFailed("tracing a ray");
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
@@ -173,16 +202,7 @@ bool EmbreeScene::occluded(const glm::dvec3& origin, const glm::dvec3& direction
   const glm::dvec3 o = origin - center_;
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  RTCRay r{};
-  r.org_x = float(o.x);
-  r.org_y = float(o.y);
-  r.org_z = float(o.z);
-  r.dir_x = float(direction.x);
-  r.dir_y = float(direction.y);
-  r.dir_z = float(direction.z);
-  r.tnear = 0.0f;
-  r.tfar = toFloatT(tmax);
-  r.mask = 0xFFFFFFFFu;
+  RTCRay r = embreeRay(o, direction, 0.0, tmax);
   rtcOccluded1(impl_->scene, &context, &r);
   throwIfFailed("tracing a shadow ray");
   return r.tfar < 0.0f;
@@ -197,17 +217,7 @@ std::vector<RayHit> EmbreeScene::allHits(const Ray& ray, double tmin, double tma
   c.closedCount = uint32_t(std::min<size_t>(closedTriangleCount_, UINT32_MAX));
   c.closedOnly = closedOnly;
   const glm::dvec3 o = ray.origin - center_;
-  RTCRayHit rh{};
-  rh.ray.org_x = float(o.x);
-  rh.ray.org_y = float(o.y);
-  rh.ray.org_z = float(o.z);
-  rh.ray.dir_x = float(ray.direction.x);
-  rh.ray.dir_y = float(ray.direction.y);
-  rh.ray.dir_z = float(ray.direction.z);
-  rh.ray.tnear = float(std::max(0.0, tmin));
-  rh.ray.tfar = toFloatT(tmax);
-  rh.ray.mask = 0xFFFFFFFFu;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  RTCRayHit rh = embreeRayHit(o, ray.direction, tmin, tmax);
   rtcIntersect1(impl_->scene, &c.context, &rh);
   throwIfFailed("collecting hits along a ray");
 
@@ -272,19 +282,7 @@ std::vector<std::optional<RayHit>> EmbreeScene::firstHits(std::span<const Ray> r
         const size_t r = first + size_t(i);
         valid[i] = r < rays.size() ? -1 : 0;
         const Ray& ray = rays[std::min(r, rays.size() - 1)];
-        const glm::dvec3 o = ray.origin - center_;
-        rh.ray.org_x[i] = float(o.x);
-        rh.ray.org_y[i] = float(o.y);
-        rh.ray.org_z[i] = float(o.z);
-        rh.ray.dir_x[i] = float(ray.direction.x);
-        rh.ray.dir_y[i] = float(ray.direction.y);
-        rh.ray.dir_z[i] = float(ray.direction.z);
-        rh.ray.tnear[i] = float(std::max(0.0, tmin));
-        rh.ray.tfar[i] = toFloatT(tmax);
-        rh.ray.time[i] = 0.0f;
-        rh.ray.mask[i] = 0xFFFFFFFFu;
-        rh.ray.id[i] = unsigned(i);
-        rh.ray.flags[i] = 0;
+        setLane(rh.ray, i, embreeRay(ray.origin - center_, ray.direction, tmin, tmax));
         rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
       }
       RTCIntersectContext context;
@@ -323,19 +321,7 @@ std::vector<uint8_t> EmbreeScene::occludedBatch(std::span<const Ray> rays, std::
         valid[i] = r < rays.size() ? -1 : 0;
         const size_t rr = std::min(r, rays.size() - 1);
         const Ray& ray = rays[rr];
-        const glm::dvec3 o = ray.origin - center_;
-        ray16.org_x[i] = float(o.x);
-        ray16.org_y[i] = float(o.y);
-        ray16.org_z[i] = float(o.z);
-        ray16.dir_x[i] = float(ray.direction.x);
-        ray16.dir_y[i] = float(ray.direction.y);
-        ray16.dir_z[i] = float(ray.direction.z);
-        ray16.tnear[i] = 0.0f;
-        ray16.tfar[i] = toFloatT(limit(rr));
-        ray16.time[i] = 0.0f;
-        ray16.mask[i] = 0xFFFFFFFFu;
-        ray16.id[i] = unsigned(i);
-        ray16.flags[i] = 0;
+        setLane(ray16, i, embreeRay(ray.origin - center_, ray.direction, 0.0, limit(rr)));
       }
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
