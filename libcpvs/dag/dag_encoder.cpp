@@ -176,7 +176,8 @@ MappedArray<uint16_t> encodeLevel(Nodes& nodes, std::vector<uint32_t>& place, si
     const uint64_t at = cursor;
     place[k] = uint32_t(at);
     uint64_t next = at + 1;
-    out[at] = uint16_t(storeNode(header, [&](unsigned k) { return refs[k]; }, [&](uint16_t unit) { out[next++] = unit; }));
+    const auto put = [&](uint16_t unit) { out[next++] = unit; };
+    out[at] = uint16_t(storeNode(header, [&](unsigned k) { return refs[k]; }, put));
     cursor = next;
     if (i >= discardAt) {
       nodes.discardBefore(i);

@@ -1,8 +1,8 @@
 #pragma once
 // Hash-consing of DAG nodes: one table per level (leaf masks: leaf_table.h); every hash hit is confirmed by
-// comparing the whole node (a hash alone would corrupt shadows on a collision). A node's offset is where it was appended,
-// so the index decides nothing about the bytes: it is kept small (hash_index.h, 4 bytes a slot) and is released
-// once no more nodes come.
+// comparing the whole node (a hash alone would corrupt shadows on a collision). A node's offset is where it was
+// appended, so the index decides nothing about the bytes: it is kept small (hash_index.h, 4 bytes a slot) and is
+// released once no more nodes come.
 #include <cstdint>
 #include <cstring>
 #include <utility>

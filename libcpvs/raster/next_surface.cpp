@@ -35,7 +35,8 @@ void scanGrown(const RasterTriangle& t, int32_t reach, int32_t rowBegin, int32_t
     }
     if (lo > hi) continue;
     if (exactLo > exactHi) exactLo = exactHi = lo - 1;  // nothing covered: an empty range
-    fn(j, int32_t(lo), int32_t(hi) + 1, int32_t(exactLo), int32_t(exactHi) + 1, t.q0 + t.kv * (double(t.y0 + j) + t.dv));
+    const double rowQ = t.q0 + t.kv * (double(t.y0 + j) + t.dv);
+    fn(j, int32_t(lo), int32_t(hi) + 1, int32_t(exactLo), int32_t(exactHi) + 1, rowQ);
   }
 }
 

@@ -189,7 +189,8 @@ void buildRows(const DepthRegion& depth, UndefinedMode mode, const std::optional
           minExit = lossyWindow(summary.maxEnter, summary.minExit, nearest, 0, n).freeEnd;
         }
         const uint32_t length = summarizedChain(summary.maxEnter, minExit, n, mode, band.start, band.mask);
-        if (lossy && length == 2) band.freeVoxelsLit += 64 * uint64_t(band.start.back() - std::min(band.start.back(), summary.minExit));
+        if (lossy && length == 2)  // each texel's exit is at least minExit: an upper bound
+          band.freeVoxelsLit += 64 * uint64_t(band.start.back() - std::min(band.start.back(), summary.minExit));
         band.length.push_back(length);
         darkFrom[size_t(ty) * tilesX + tx] = std::min(summary.maxEnter + 1, n);
         continue;
