@@ -642,6 +642,32 @@ TEST(ImportGltf, MatrixTransformAndLightDefaults) {
   expectNear(spot.direction, {0, 0, -1});
 }
 
+TEST(ImportGltf, SpecularGlossinessMaterialsShowTheirDiffuseColour) {
+  GltfBuilder gltf = quadScene();
+  gltf.root()["materials"] = json::array(
+      {{{"pbrMetallicRoughness", {{"baseColorFactor", {1.0, 1.0, 1.0, 0.75}}}},
+        {"extensions", {{"KHR_materials_pbrSpecularGlossiness", {{"diffuseFactor", {0.8, 0.09, 0.08, 1.0}},
+                                                                 {"glossinessFactor", 0.2}}}}}}});
+  gltf.root()["extensionsUsed"] = json::array({"KHR_materials_pbrSpecularGlossiness"});
+  gltf.root()["meshes"][0]["primitives"][0]["material"] = 0;
+  const std::string dir = test::tempDir();
+  const Scene scene = importGltf(gltf.write(dir, "specgloss"));
+  // The colour from diffuseFactor; the alpha (what alpha testing reads) stays the metallic-roughness factor's.
+  EXPECT_EQ(scene.meshes[0].baseColor, glm::vec4(0.8f, 0.09f, 0.08f, 0.75f));
+  // A malformed diffuseFactor names the material and the member.
+  gltf.root()["materials"][0]["extensions"]["KHR_materials_pbrSpecularGlossiness"]["diffuseFactor"] = {0.5, 0.5};
+  const std::string bad = gltf.write(dir, "specgloss-bad");
+  try {
+    importGltf(bad);
+    FAIL() << "accepted a diffuseFactor of two numbers";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("material 0 KHR_materials_pbrSpecularGlossiness.diffuseFactor is not an array "
+                                         "of 4 numbers"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ImportGltf, CamerasAndBaseColours) {
   GltfBuilder gltf = quadScene();
   gltf.root()["materials"] = json::array({{{"pbrMetallicRoughness", {{"baseColorFactor", {0.5, 0.25, 1.0, 1.0}}}}}});

@@ -305,7 +305,11 @@ TEST(Preview, LightListsEqualBruteForceAndMissNoLight) {
 
 // ---- reference images -----------------------------------------------------------------------------------
 
-// Rendered the way cpvs-view writes a PNG (automatic exposure, the overlay drawn over the tone-mapped image).
+// Rendered the way cpvs-view writes a PNG by default: the camera on the side the strongest light lights, the
+// automatic exposure with the default fill, the overlay drawn over the tone-mapped image.
+// The references were rewritten on purpose when the fill (a sky over a grey ground and a light at the eye, 0.15
+// of the base colour, in place of a flat 4 %) and that camera came: every image changed, the Tiny scene's now
+// seen from its lit side, the shade in each showing its colours and forms.
 RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   FrameSettings settings;
   settings.width = settings.height = 256;
@@ -315,9 +319,13 @@ RgbImage renderImage(Baked& b, ShadowMode mode, Overlay overlay) {
   settings.shadowMaps.size = 256;
   settings.shadowMaps.casterCulling = CasterCulling::VoxelGrid;  // changes no pixel (tests/culling_test.cpp)
   settings.shadowMaps.clusters = 3;
-  PreviewCamera camera = defaultCamera(sceneBounds(b.scene), 1.0);
+  std::vector<Light> lights;
+  for (const LightShadow& light : b.renderer->lights()) lights.push_back(light.light());
+  const Bounds bounds = sceneBounds(b.scene);
+  const PreviewCamera camera = defaultCamera(bounds, 1.0, {0, 1, 0}, PreviewCamera{}.yfov, litSide(lights, bounds));
   const Frame f = b.renderer->render(camera, settings);
-  return withOverlay(f, toneMapped(f, f.radiance, autoExposure(f.radiance)), overlay);
+  const ExposedFrame exposed = autoExposed(f, f.radiance, Fill{});
+  return withOverlay(f, toneMapped(f, f.radiance, exposed.exposure, exposed.fill), overlay);
 }
 
 // Compares with tests/golden/preview/NAME.png: at most 0.5 % of the pixels may differ by more than 4 of 255 in
@@ -624,6 +632,62 @@ TEST(PreviewImages, AutoExposureExposesMiddleGreyAndKeepsTheBrightestOffWhite) {
   EXPECT_EQ(autoExposure(std::vector<glm::vec4>(4, grey(0.0f))), 1.0);
 }
 
+// Three pixels in the shade (no light reaches them): facing up, facing down and a wall facing the eye.
+Frame shadedPixels() {
+  Frame f;
+  f.width = 3;
+  f.height = 1;
+  f.eye = glm::dvec3(0.0, 0.0, 10.0);
+  f.positions.assign(3, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
+  f.normals = {glm::vec4(0, 1, 0, 0), glm::vec4(0, -1, 0, 0), glm::vec4(0, 0, 1, 0)};
+  f.baseColors.assign(3, glm::vec4(0.5f, 0.25f, 1.0f, 1.0f));
+  f.radiance.assign(3, glm::vec4(0.0f, 0.0f, 0.0f, 1.0f));
+  return f;
+}
+
+TEST(PreviewImages, TheFillKeepsTheShadeReadableAndShowsItsForm) {
+  const Frame f = shadedPixels();
+  const Fill fill;  // the default: 0.15, +Y up
+  const glm::dvec3 colour(0.5, 0.25, 1.0);
+  // Facing up: the whole sky, the eye at 90 degrees; facing down: the ground; the wall: half of each, and the eye.
+  const glm::dvec3 up = fillRadiance(f, 0, fill), down = fillRadiance(f, 1, fill), wall = fillRadiance(f, 2, fill);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(up[c], 0.15 * kSkyShare * colour[c], 1e-12);
+    EXPECT_NEAR(down[c], 0.15 * kSkyShare * kGroundShade * colour[c], 1e-12);
+    EXPECT_NEAR(wall[c], 0.15 * (kSkyShare * (0.5 + 0.5 * kGroundShade) + (1 - kSkyShare)) * colour[c], 1e-12);
+  }
+  // The image: with the fill the three differ and none is black; without it all three are black.
+  const RgbImage filled = toneMapped(f, f.radiance, 1.0, fill), dark = toneMapped(f, f.radiance, 1.0, Fill{0.0});
+  for (uint32_t x = 0; x < 3; ++x) {
+    EXPECT_EQ(dark.at(x, 0)[2], 0) << x;
+    EXPECT_GT(filled.at(x, 0)[2], 30) << x;  // the blue channel of a blue-ish surface in the shade
+  }
+  EXPECT_NE(filled.at(0, 0)[2], filled.at(1, 0)[2]);
+  EXPECT_NE(filled.at(0, 0)[2], filled.at(2, 0)[2]);
+  // The background gets none.
+  Frame background = f;
+  background.positions[0].w = 0.0f;
+  EXPECT_EQ(fillRadiance(background, 0, fill), glm::dvec3(0.0));
+}
+
+TEST(PreviewImages, AutoExposureWithTheFillKeepsItsRatioToTheLights) {
+  Frame f = shadedPixels();
+  f.radiance[0] = glm::vec4(2.0f, 2.0f, 2.0f, 1.0f);  // the one lit pixel
+  // Without a fill: the exposure of the lights alone, as before the fill existed.
+  const ExposedFrame none = autoExposed(f, f.radiance, Fill{0.0}, 1.0);
+  EXPECT_EQ(none.exposure, autoExposure(f.radiance) * 2.0);
+  EXPECT_EQ(none.fill.strength, 0.0);
+  // With one: lights and fill scaled alike, so the shade stays the same fraction of the lit.
+  const Fill fill;
+  const ExposedFrame with = autoExposed(f, f.radiance, fill, 0.0);
+  EXPECT_NEAR(with.fill.strength / with.exposure, fill.strength / autoExposure(f.radiance), 1e-12);
+  // The image with its fill is exposed as a whole: exposing it again changes nothing.
+  std::vector<glm::vec4> exposedImage(f.radiance.size());
+  for (size_t i = 0; i < exposedImage.size(); ++i)
+    exposedImage[i] = glm::vec4(glm::dvec3(f.radiance[i]) * with.exposure + fillRadiance(f, i, with.fill), 1.0);
+  EXPECT_NEAR(autoExposure(exposedImage), 1.0, 1e-6);
+}
+
 // ---- framing --------------------------------------------------------------------------------------------
 
 TEST(PreviewCamera, DefaultFramingFitsTheBoxCentredAndTight) {
@@ -652,6 +716,45 @@ TEST(PreviewCamera, DefaultFramingFitsTheBoxCentredAndTight) {
         EXPECT_NEAR(low.y + high.y, 0.0, 1e-9);
         EXPECT_NEAR(low.x + high.x, 0.0, 1e-9);
       }
+}
+
+TEST(PreviewCamera, TheDefaultCameraLooksFromTheSideTheStrongestLightLights) {
+  const Bounds box{{-10, 0, -10}, {10, 4, 10}};
+  const glm::dvec3 up(0, 1, 0);
+  Light sun;  // travels toward -X and down: lights the +X side
+  sun.direction = glm::normalize(glm::dvec3(-1, -1, 0));
+  sun.intensity = 2.0f;
+  // Toward the light (+X), turned 45 degrees counter-clockwise seen from above (toward -Z).
+  const glm::dvec3 side = litSide(std::vector<Light>{sun}, box, up);
+  EXPECT_NEAR(side.x, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(side.y, 0.0, 1e-12);
+  EXPECT_NEAR(side.z, -std::sqrt(0.5), 1e-12);
+  const PreviewCamera camera = defaultCamera(box, 1.5, up, 0.8, side);
+  EXPECT_GT(glm::dot(camera.eye - box.center(), side), 0.0);
+  EXPECT_GT(glm::dot(camera.eye - box.center(), up), 0.0);
+  // No light, or the strongest straight above: the default side.
+  EXPECT_EQ(litSide({}, box, up), kDefaultSide);
+  Light overhead = sun;
+  overhead.direction = glm::normalize(glm::dvec3(0.1, -1, 0));
+  EXPECT_EQ(litSide(std::vector<Light>{overhead}, box, up), kDefaultSide);
+  // A point light giving more illuminance at the centre wins over the sun (5 cd at 1 m: 5 lux against 2).
+  Light point;
+  point.type = LightType::Point;
+  point.position = box.center() + glm::dvec3(0, 0, 1);  // +Z of the centre
+  point.intensity = 5.0f;
+  const glm::dvec3 pointSide = litSide(std::vector<Light>{sun, point}, box, up);
+  EXPECT_NEAR(pointSide.x, std::sqrt(0.5), 1e-12);  // +Z turned toward +X
+  EXPECT_NEAR(pointSide.z, std::sqrt(0.5), 1e-12);
+  // ... but not beyond its range, nor a spot whose cone misses the centre.
+  point.range = 0.5;
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, point}, box, up).z, -std::sqrt(0.5), 1e-12);
+  Light spot = point;
+  spot.type = LightType::Spot;
+  spot.range = 100;
+  spot.direction = glm::dvec3(0, 0, 1);  // away from the centre
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).z, -std::sqrt(0.5), 1e-12);
+  spot.direction = glm::dvec3(0, 0, -1);  // at it
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).z, std::sqrt(0.5), 1e-12);
 }
 
 // ---- against the rays -----------------------------------------------------------------------------------

@@ -40,6 +40,7 @@ using gltf::typeName;
 static_assert(std::endian::native == std::endian::little, "glTF buffers are read in place as little-endian");
 
 constexpr const char* kLightsExtension = "KHR_lights_punctual";
+constexpr const char* kSpecularGlossinessExtension = "KHR_materials_pbrSpecularGlossiness";
 // A node's or material's `extras` member that, set to false, keeps it from casting shadows (docs/alpha.md).
 constexpr const char* kCastsShadowsExtra = "cpvs_casts_shadows";
 // An accessor without a bufferView is all zeros (plus sparse values); its count costs memory but no file
@@ -911,19 +912,33 @@ private:
   }
 
   // The base colour factor of a primitive's material (white without one; a factor outside [0, 1] is clamped
-  // with a warning: colours only matter to cpvs-view).
+  // with a warning: colours only matter to cpvs-view). A material in the specular-glossiness model
+  // (KHR_materials_pbrSpecularGlossiness, which supersedes the metallic-roughness block where present) shows
+  // its diffuseFactor's colour; the alpha stays the metallic-roughness factor's, which alpha testing reads.
   glm::vec4 baseColorOf(const tinygltf::Primitive& primitive, const std::string& where) {
     if (primitive.material < 0) return glm::vec4(1.0f);
     if (size_t(primitive.material) >= model_.materials.size())
       fail(where + ": material " + std::to_string(primitive.material) + " does not exist");
-    const std::vector<double>& f = model_.materials[size_t(primitive.material)].pbrMetallicRoughness.baseColorFactor;
+    const tinygltf::Material& material = model_.materials[size_t(primitive.material)];
+    const std::string what = where + ": material " + std::to_string(primitive.material);
+    const auto clamped = [&](double value, const std::string& name) {
+      if (!(value >= 0.0 && value <= 1.0)) warn(what + " " + name + " is not in [0, 1]; clamped");
+      return std::isfinite(value) ? float(std::clamp(value, 0.0, 1.0)) : 1.0f;
+    };
+    const std::vector<double>& f = material.pbrMetallicRoughness.baseColorFactor;
     glm::vec4 color(1.0f);
-    for (size_t c = 0; c < 4 && c < f.size(); ++c) {
-      if (!(f[c] >= 0.0 && f[c] <= 1.0))
-        warn(where + ": material " + std::to_string(primitive.material) + " baseColorFactor[" + std::to_string(c) +
-             "] is not in [0, 1]; clamped");
-      color[int(c)] = std::isfinite(f[c]) ? float(std::clamp(f[c], 0.0, 1.0)) : 1.0f;
-    }
+    for (size_t c = 0; c < 4 && c < f.size(); ++c)
+      color[int(c)] = clamped(f[c], "baseColorFactor[" + std::to_string(c) + "]");
+    const auto specularGlossiness = material.extensions.find(kSpecularGlossinessExtension);
+    if (specularGlossiness == material.extensions.end() || !specularGlossiness->second.IsObject() ||
+        !specularGlossiness->second.Has("diffuseFactor"))
+      return color;
+    const tinygltf::Value& diffuse = specularGlossiness->second.Get("diffuseFactor");
+    const std::string name = std::string(kSpecularGlossinessExtension) + ".diffuseFactor";
+    if (!diffuse.IsArray() || diffuse.ArrayLen() != 4) fail(what + " " + name + " is not an array of 4 numbers");
+    for (int c = 0; c < 3; ++c)
+      color[c] = clamped(finiteNumber(diffuse.Get(c), what + " " + name + "[" + std::to_string(c) + "]"),
+                         name + "[" + std::to_string(c) + "]");
     return color;
   }
 

@@ -21,12 +21,43 @@ PreviewCamera cameraFromScene(const Camera& camera) {
   return c;
 }
 
-PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up, double yfov) {
+glm::dvec3 litSide(std::span<const Light> lights, const Bounds& bounds, const glm::dvec3& up) {
+  const glm::dvec3 u = glm::normalize(up), centre = bounds.center();
+  double strongest = 0;
+  glm::dvec3 toLight(0.0);
+  for (const Light& light : lights) {
+    const double colour = 0.2126 * light.color.r + 0.7152 * light.color.g + 0.0722 * light.color.b;
+    double illuminance = double(light.intensity) * colour;
+    glm::dvec3 toward = -light.direction;
+    if (light.type != LightType::Directional) {
+      toward = light.position - centre;
+      const double d = glm::length(toward);
+      const bool inside = light.type != LightType::Spot ||
+                          glm::dot(-toward, light.direction) >= d * glm::length(light.direction) *
+                                                                     std::cos(light.outerConeAngle);
+      illuminance = d > 0 && d <= light.range && inside ? illuminance / (d * d) : 0.0;
+    }
+    if (std::isfinite(illuminance) && illuminance > strongest && glm::length(toward) > 0) {
+      strongest = illuminance;
+      toLight = glm::normalize(toward);
+    }
+  }
+  const glm::dvec3 across = toLight - glm::dot(toLight, u) * u;
+  if (strongest <= 0 || glm::length(across) < std::sin(glm::radians(20.0))) return kDefaultSide;
+  // Turned 45 degrees about up (Rodrigues' formula for a vector perpendicular to the axis).
+  const glm::dvec3 a = glm::normalize(across);
+  return std::cos(M_PI / 4) * a + std::sin(M_PI / 4) * glm::cross(u, a);
+}
+
+PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up, double yfov,
+                            const glm::dvec3& towardEye) {
   PreviewCamera c;
   c.up = glm::normalize(up);
   c.yfov = yfov;
-  // A direction from the scene toward the eye: +X+Z in the plane perpendicular to up, raised by half its length.
-  glm::dvec3 side = glm::dvec3(1.0, 0.0, 1.0) - glm::dot(glm::dvec3(1.0, 0.0, 1.0), c.up) * c.up;
+  // A direction from the scene toward the eye: `towardEye` in the plane perpendicular to up, raised by half its
+  // length.
+  glm::dvec3 side = towardEye - glm::dot(towardEye, c.up) * c.up;
+  if (glm::length(side) < 1e-6) side = kDefaultSide - glm::dot(kDefaultSide, c.up) * c.up;
   if (glm::length(side) < 1e-6) side = glm::dvec3(1.0, 1.0, 0.0) - glm::dot(glm::dvec3(1.0, 1.0, 0.0), c.up) * c.up;
   const glm::dvec3 back = glm::normalize(glm::normalize(side) + 0.5 * c.up);
   const glm::dvec3 right = glm::normalize(glm::cross(c.up, back)), cameraUp = glm::cross(back, right);

@@ -93,7 +93,32 @@ double autoExposure(const std::vector<glm::vec4>& radiance) {
   return std::min(middleGrey, kBrightestAfterExposure / bright);
 }
 
-RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure) {
+glm::dvec3 fillRadiance(const Frame& frame, size_t i, const Fill& fill) {
+  if (fill.strength <= 0 || frame.positions[i].w == 0.0f) return glm::dvec3(0.0);
+  const glm::dvec3 normal(frame.normals[i]), position(frame.positions[i]);
+  const double normalLength = glm::length(normal);
+  const glm::dvec3 n = normalLength > 0 ? normal / normalLength : glm::dvec3(0.0);
+  const glm::dvec3 toEye = frame.eye - position;
+  const double eyeLength = glm::length(toEye);
+  const double facingEye = eyeLength > 0 ? std::max(0.0, glm::dot(n, toEye) / eyeLength) : 1.0;
+  const double sky = glm::mix(kGroundShade, 1.0, 0.5 + 0.5 * glm::dot(n, fill.up));
+  return fill.strength * (kSkyShare * sky + (1.0 - kSkyShare) * facingEye) * glm::dvec3(frame.baseColors[i]);
+}
+
+ExposedFrame autoExposed(const Frame& frame, const std::vector<glm::vec4>& radiance, const Fill& fill, double stops) {
+  const double lights = autoExposure(radiance);
+  double scale = std::exp2(stops);
+  if (fill.strength > 0) {
+    std::vector<glm::vec4> combined(radiance.size(), glm::vec4(0.0f));
+    for (size_t i = 0; i < radiance.size(); ++i)
+      if (radiance[i].w != 0.0f)
+        combined[i] = glm::vec4(glm::dvec3(radiance[i]) * lights + fillRadiance(frame, i, fill), 1.0);
+    scale *= autoExposure(combined);
+  }
+  return {lights * scale, Fill{fill.strength * scale, fill.up}};
+}
+
+RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure, const Fill& fill) {
   RgbImage image;
   image.width = frame.width;
   image.height = frame.height;
@@ -102,17 +127,17 @@ RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, 
     for (uint32_t x = 0; x < frame.width; ++x) {
       const size_t i = frame.pixel(x, y);
       uint8_t* out = image.at(x, frame.height - 1 - y);
+      const glm::dvec3 fillHere = fillRadiance(frame, i, fill);
       for (int c = 0; c < 3; ++c) {
-        const double linear = radiance[i].w == 0.0f
-                                  ? kBackground
-                                  : exposure * radiance[i][c] + kAmbient * frame.baseColors[i][c];
+        const double linear = radiance[i].w == 0.0f ? kBackground : exposure * radiance[i][c] + fillHere[c];
         out[c] = srgb8(aces(linear));
       }
     }
   return image;
 }
 
-ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure) {
+ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
+                     const Fill& fill) {
   ExrImage image;
   image.width = frame.width;
   image.height = frame.height;
@@ -122,8 +147,8 @@ ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance,
     for (uint32_t x = 0; x < frame.width; ++x) {
       const size_t i = frame.pixel(x, y);
       float* out = &image.pixels[(size_t(frame.height - 1 - y) * frame.width + x) * 4];
-      for (int c = 0; c < 3; ++c)
-        out[c] = radiance[i].w == 0.0f ? 0.0f : float(radiance[i][c] + kAmbient / exposure * frame.baseColors[i][c]);
+      const glm::dvec3 fillHere = fillRadiance(frame, i, fill) / exposure;
+      for (int c = 0; c < 3; ++c) out[c] = radiance[i].w == 0.0f ? 0.0f : float(radiance[i][c] + fillHere[c]);
       out[3] = radiance[i].w;
     }
   return image;
@@ -205,7 +230,9 @@ RayErrors errorsAgainstRays(const Frame& frame, double exposure) {
   });
   for (uint8_t w : wrong) e.wrongPixels += w;
   if (e.pairs) e.meanAbsoluteDifference /= double(e.pairs);
-  const RgbImage a = toneMapped(frame, frame.radiance, exposure), b = toneMapped(frame, frame.rayRadiance, exposure);
+  const Fill none{0.0};
+  const RgbImage a = toneMapped(frame, frame.radiance, exposure, none);
+  const RgbImage b = toneMapped(frame, frame.rayRadiance, exposure, none);
   double sum = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
     const double d = (double(a.pixels[i]) - double(b.pixels[i])) / 255.0;

@@ -14,9 +14,21 @@
 
 namespace cpvs {
 
-// Ambient light added after exposure, as a fraction of each pixel's base colour, so that shadowed geometry
-// stays readable.
-inline constexpr double kAmbient = 0.04;
+// The fill: light that is none of the baked lights, so that what they leave in shadow keeps its form and
+// colour (docs/viewer.md, "The fill"). It is added after exposure, as a fraction of each pixel's base colour,
+// so its strength is relative to the exposed image whatever the lights' units:
+//   fill = strength * base colour * (kSkyShare * sky(n) + (1 - kSkyShare) * max(0, n . v))
+// with sky(n) a hemisphere light: 1 for a normal pointing up, kGroundShade for one pointing down, linear in
+// n . up between (an overcast sky over a grey ground), and n . v a light at the eye (v toward the camera), so
+// walls facing different ways in the shade still differ. Never shadowed, never compared against the rays.
+struct Fill {
+  double strength = 0.15;  // 0: no fill (the lights alone)
+  glm::dvec3 up{0.0, 1.0, 0.0};  // the scene's up axis (unit)
+};
+inline constexpr double kSkyShare = 0.6;
+inline constexpr double kGroundShade = 0.35;
+// The fill of pixel i (after exposure, linear), 0 for a background pixel.
+glm::dvec3 fillRadiance(const Frame& frame, size_t i, const Fill& fill);
 
 // The 99th percentile of the lit pixels' luminance is exposed to at most this (0.92 after the ACES curve), so
 // the brightest surfaces keep their shading.
@@ -25,11 +37,25 @@ inline constexpr double kBrightestAfterExposure = 2.0;
 // 99th percentile) to 0.18, or the smaller one that exposes that percentile to kBrightestAfterExposure; 1 when
 // no pixel is lit.
 double autoExposure(const std::vector<glm::vec4>& radiance);
-// exposure * radiance + kAmbient * base colour, tone-mapped (ACES fit) and sRGB-encoded; the background dark
-// grey. Rows flipped: row 0 of the image is the top.
-RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure);
-// Linear R, G, B, A (A = covered): radiance + (kAmbient / exposure) * base colour; row 0 the top.
-ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure);
+// What the automatic exposure gives a frame with its fill: `exposure` multiplies the lights' radiance, `fill` is
+// the fill as added after it (its strength scaled alike).
+struct ExposedFrame {
+  double exposure = 1;
+  Fill fill;
+};
+// autoExposure of the lights alone, then autoExposure again of that image with the fill added, scaling both
+// (so the lit and shaded parts keep their ratio and the whole image is exposed, the fill included), times
+// 2^stops. Without a fill (strength 0): autoExposure(radiance) * 2^stops, as before the fill existed.
+ExposedFrame autoExposed(const Frame& frame, const std::vector<glm::vec4>& radiance, const Fill& fill,
+                         double stops = 0);
+
+// exposure * radiance + fill, tone-mapped (ACES fit) and sRGB-encoded; the background dark grey. Rows flipped:
+// row 0 of the image is the top.
+RgbImage toneMapped(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
+                    const Fill& fill = {});
+// Linear R, G, B, A (A = covered): radiance + fill / exposure; row 0 the top.
+ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
+                     const Fill& fill = {});
 
 // The overlay drawn over a tone-mapped image (returned unchanged for Overlay::None). Difference needs the
 // frame's rayVisibility.
@@ -46,7 +72,8 @@ LightListStats lightListStats(const Frame& frame, size_t lightCount);
 
 // Against the ray-traced frame (needs compareWithRays): a pair is wrong when its visibility and the ray's fall
 // on different sides of 1/2; a pixel is wrong when any of its pairs is. RMSE over the tone-mapped sRGB values
-// (0..1, every channel of every pixel) of the two frames with the same exposure.
+// (0..1, every channel of every pixel) of the two frames with the same exposure and no fill (the lights alone:
+// the fill is the same on both sides and only the shadows are compared).
 struct RayErrors {
   uint64_t pairs = 0, wrongPairs = 0;
   size_t coveredPixels = 0, wrongPixels = 0;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -39,7 +40,7 @@ struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
   std::string shadows = "gpu", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
   uint32_t shadowMapSize = 512, minShadowMapSize = 16, clusters = 10, rays = 1, compareRays = 1;
-  double fov = 0, exposure = 0, exposureScale = 0;
+  double fov = 0, exposure = 0, exposureScale = 0, ambient = Fill{}.strength;
   int pcf = 9, orbit = 0;
   unsigned threads = 0;
   bool compare = false, noSceneCheck = false, quiet = false, window = false;
@@ -116,14 +117,14 @@ std::vector<PreviewCamera> orbit(const PreviewCamera& base, int n) {
 }
 
 void writeImage(const std::string& path, const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
-                Overlay overlay) {
+                const Fill& fill, Overlay overlay) {
   const std::string ext = std::filesystem::path(path).extension().string();
   if (ext == ".exr" || ext == ".EXR") {
-    writeExr(path, linearImage(frame, radiance, exposure));
+    writeExr(path, linearImage(frame, radiance, exposure, fill));
     return;
   }
   tools::AtomicFile out(path);
-  out.write(encodePng(withOverlay(frame, toneMapped(frame, radiance, exposure), overlay)));
+  out.write(encodePng(withOverlay(frame, toneMapped(frame, radiance, exposure, fill), overlay)));
   out.commit();
 }
 
@@ -180,14 +181,20 @@ void checkOutputs(const Options& o) {
   if (!(std::fabs(o.exposure) <= 64)) throw Error(ErrorCategory::InvalidArgument, "--exposure: stops in -64..64");
   if (!(o.exposureScale >= 0 && o.exposureScale <= 1e30))
     throw Error(ErrorCategory::InvalidArgument, "--exposure-scale: a positive multiplier");
+  if (!(o.ambient >= 0 && o.ambient <= 100))
+    throw Error(ErrorCategory::InvalidArgument, "--ambient: a strength in 0..100 (0: no fill)");
   if (o.window && !tools::previewWindowBuilt())
     throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
 }
 
-// The camera: a glTF camera, the command line's, or a default framing.
-PreviewCamera chooseCamera(const Options& o, const Scene& scene, double aspect) {
+glm::dvec3 upOf(const Options& o) {
+  return o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
+}
+
+// The camera: a glTF camera, the command line's, or a default framing from the side the strongest light lights.
+PreviewCamera chooseCamera(const Options& o, const Scene& scene, std::span<const Light> lights, double aspect) {
   const Bounds bounds = sceneBounds(scene);
-  const glm::dvec3 up = o.up.empty() ? glm::dvec3(0, 1, 0) : tools::forFlag("--up", [&] { return vec3Of("--up", o.up); });
+  const glm::dvec3 up = upOf(o);
   PreviewCamera camera;
   if (!o.cameraName.empty()) {
     const Camera* found = nullptr;
@@ -205,7 +212,7 @@ PreviewCamera chooseCamera(const Options& o, const Scene& scene, double aspect) 
     camera.target = vec3Of("--target", o.target);
     camera.up = up;
   } else {
-    camera = defaultCamera(bounds, aspect, up);
+    camera = defaultCamera(bounds, aspect, up, PreviewCamera{}.yfov, litSide(lights, bounds, up));
   }
   if (o.fov > 0) camera.yfov = o.fov * M_PI / 180.0;
   tools::forFlag("--eye/--target/--up/--fov", [&] { checkCamera(camera); });
@@ -266,6 +273,9 @@ void addOptions(CLI::App& app, Options& o) {
                                    "filtered quantity PCF estimates");
   app.add_option("--compare-rays", o.compareRays, "--compare's reference: rays per pair as for --rays (default 1)");
   app.add_option("--exposure", o.exposure, "Exposure in stops over the automatic one (default 0)");
+  app.add_option("--ambient", o.ambient, "Strength of the fill (a sky over a grey ground and a light at the eye, "
+                                         "never shadowed) as a fraction of the base colour after exposure; 0 "
+                                         "turns it off, showing the lights alone (default 0.3)");
   app.add_option("--exposure-scale", o.exposureScale,
                  "A fixed exposure (radiance multiplier) instead of the automatic one, e.g. to compare views");
   app.add_option("--path", o.path, "Render a camera path: a JSON array of {\"eye\", \"target\", \"up\"?, \"fov\"?}");
@@ -318,9 +328,14 @@ int run(int argc, char** argv) {
     std::fprintf(stderr, "cpvs-view: warning: cannot check that %s was baked from %s: %s\n", o.file.c_str(),
                  o.scene.c_str(), check.reason.c_str());
   std::vector<LightShadow> lights;
-  for (const CpvsFile::LightEntry& entry : file->lights()) lights.push_back(orThrow(lightShadowOf(entry)));
+  std::vector<Light> lightModels;
+  for (const CpvsFile::LightEntry& entry : file->lights()) {
+    lights.push_back(orThrow(lightShadowOf(entry)));
+    lightModels.push_back(lights.back().light());
+  }
 
-  const PreviewCamera camera = chooseCamera(o, scene, double(settings.width) / settings.height);
+  const PreviewCamera camera = chooseCamera(o, scene, lightModels, double(settings.width) / settings.height);
+  const Fill fill{o.ambient, glm::normalize(upOf(o))};
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
   if (o.orbit > 0) cameras = orbit(camera, o.orbit);
@@ -339,19 +354,20 @@ int run(int argc, char** argv) {
     window.exposureStops = o.exposure;
     window.exposureScale = o.exposureScale;
     window.screenshot = o.screenshot;
+    window.fill = fill;
     tools::runPreviewWindow(renderer, camera, settings, window);
     return 0;
   }
   renderer.warmUp(settings);
-  ViewReport report(o.scene, o.file, renderer, settings, overlay, check);
-  double exposure = 0;
+  ViewReport report(o.scene, o.file, renderer, settings, overlay, o.ambient, check);
+  ExposedFrame exposed{o.exposureScale, fill};
   for (size_t i = 0; i < cameras.size(); ++i) {
     const Frame frame = renderer.render(cameras[i], settings);
-    if (i == 0)  // one exposure per path
-      exposure = o.exposureScale > 0 ? o.exposureScale : autoExposure(frame.radiance) * std::exp2(o.exposure);
+    if (i == 0 && o.exposureScale <= 0)  // one exposure per path
+      exposed = autoExposed(frame, frame.radiance, fill, o.exposure);
     const std::string image = animated ? framePath(o.frames, i) : o.output;
-    writeImage(image, frame, frame.radiance, exposure, overlay);
-    report.addFrame(image, cameras[i], frame, exposure);
+    writeImage(image, frame, frame.radiance, exposed.exposure, exposed.fill, overlay);
+    report.addFrame(image, cameras[i], frame, exposed.exposure);
     if (!o.quiet) printFrameLine(image, frame, settings, renderer.lights().size(), report);
   }
   if (reportFile) {

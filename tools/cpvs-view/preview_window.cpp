@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -227,7 +228,7 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
   GLuint texture = 0, framebuffer = 0;
   gl.GenTextures(1, &texture);
   gl.GenFramebuffers(1, &framebuffer);
-  double exposure = 0;
+  std::optional<ExposedFrame> exposed;
   bool shot = false;
   while (!glfwWindowShouldClose(window)) {
     if (state.dirty) {
@@ -236,10 +237,11 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
       // again afterwards, released first so that the GL dispatch really switches back.
       glfwMakeContextCurrent(nullptr);
       const Frame frame = renderer.render(state.camera, state.settings);
-      if (exposure == 0)  // the first frame's, kept: switching shadows off must not re-expose the image
-        exposure = options.exposureScale > 0 ? options.exposureScale
-                                             : autoExposure(frame.radiance) * std::exp2(options.exposureStops);
-      RgbImage image = withOverlay(frame, toneMapped(frame, frame.radiance, exposure), state.overlay);
+      if (!exposed)  // the first frame's, kept: switching shadows off must not re-expose the image
+        exposed = options.exposureScale > 0 ? ExposedFrame{options.exposureScale, options.fill}
+                                            : autoExposed(frame, frame.radiance, options.fill, options.exposureStops);
+      RgbImage image = withOverlay(frame, toneMapped(frame, frame.radiance, exposed->exposure, exposed->fill),
+                                   state.overlay);
       glfwMakeContextCurrent(window);
       // Rows bottom-up for GL.
       std::vector<uint8_t> rows(image.pixels.size());

@@ -5,6 +5,7 @@
 
 #include "libcpvs/preview/camera.h"
 #include "libcpvs/preview/frame.h"
+#include "libcpvs/preview/frame_image.h"
 #include "libcpvs/preview/preview_renderer.h"
 
 namespace cpvs::tools {
@@ -14,6 +15,7 @@ struct WindowOptions {
   Overlay overlay = Overlay::None;
   double exposureStops = 0;
   double exposureScale = 0;  // > 0: fixed, instead of the first frame's automatic exposure
+  Fill fill;
   std::string screenshot;  // when set: write the window's pixels (PNG) after the first frame, then close
 };
 

@@ -59,13 +59,13 @@ json shadowMapsJson(const ShadowMapFrame& maps, const ShadowMapSettings& setting
 }  // namespace
 
 ViewReport::ViewReport(const std::string& scene, const std::string& file, const PreviewRenderer& renderer,
-                       const FrameSettings& settings, Overlay overlay, const BakedFromCheck& check)
+                       const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check)
     : renderer_(renderer), settings_(settings) {
   report_ = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", scene}, {"cpvs", file},
              {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
              {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
              {"rays_per_pair", settings.shadows == ShadowMode::RayTraced ? json(settings.raysPerSide * settings.raysPerSide) : json(nullptr)},
-             {"overlay", overlayName(overlay)}, {"lights", renderer.lights().size()},
+             {"overlay", overlayName(overlay)}, {"ambient", ambient}, {"lights", renderer.lights().size()},
              {"clusters", settings.shadows == ShadowMode::LightCluster ? json(settings.shadowMaps.clusters) : json(nullptr)},
              {"scene_triangles", renderer.sceneTriangles()},
              {"baked_from", {{"checked", check.checked}, {"matches", check.matches}, {"reason", check.reason}}}};

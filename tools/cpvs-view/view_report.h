@@ -20,7 +20,7 @@ namespace cpvs::tools {
 class ViewReport {
 public:
   ViewReport(const std::string& scene, const std::string& file, const PreviewRenderer& renderer,
-             const FrameSettings& settings, Overlay overlay, const BakedFromCheck& check);
+             const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check);
   // Adds a frame; returns its light-list figures and (with --compare) its error against the rays.
   void addFrame(const std::string& image, const PreviewCamera& camera, const Frame& frame, double exposure);
   // The last frame's figures, for the summary line on stderr.
