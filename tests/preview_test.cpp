@@ -805,7 +805,7 @@ TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
   std::ifstream report(dir + "/report.json");
   const std::string text((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
   for (const char* key : {"\"gbuffer\"", "\"tile_bounds\"", "\"light_lists\"", "\"shadows\"", "\"shading\"",
-                          "\"mean_lights_per_tile\"", "\"uploaded_bytes\"", "\"matches\": true"})
+                          "\"mean_lights_per_tile\"", "\"uploaded_bytes\"", "\"matches\": true", "\"ambient\": 0.15"})
     EXPECT_NE(text.find(key), std::string::npos) << key << " missing from the report:\n" << text;
 
   // Another scene: refused with exit code 2, naming both files; nothing written.
@@ -822,8 +822,20 @@ TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
   const test::ToolResult excluded = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/nobox.cpvs -q -o " + dir +
                                             "/nobox.png --size 32x32 --exclude-mesh Box");
   EXPECT_EQ(excluded.exitCode, 0) << excluded.output;
+  // --ambient 0: the lights alone, so no pixel brighter than with the default fill and some darker.
+  ASSERT_EQ(runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -q -o " + dir +
+                    "/dark.png --size 64x48 --pcf 3 --ambient 0 --exposure-scale 1").exitCode, 0);
+  ASSERT_EQ(runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -q -o " + dir +
+                    "/filled.png --size 64x48 --pcf 3 --exposure-scale 1").exitCode, 0);
+  const RgbImage dark = readPng(dir + "/dark.png"), filled = readPng(dir + "/filled.png");
+  size_t darker = 0;
+  for (size_t i = 0; i < dark.pixels.size(); ++i) {
+    ASSERT_LE(dark.pixels[i], filled.pixels[i]) << i;
+    darker += dark.pixels[i] < filled.pixels[i];
+  }
+  EXPECT_GT(darker, dark.pixels.size() / 10);
   // Usage errors: exit code 1.
-  for (const char* args : {" --size 0x10", " --pcf 4", " --shadows fast", " --overlay heat", " -o x.jpg"}) {
+  for (const char* args : {" --size 0x10", " --pcf 4", " --shadows fast", " --overlay heat", " -o x.jpg", " --ambient -1"}) {
     const test::ToolResult bad = runTool(toolPath("cpvs-view") + " " + scene + " " + dir + "/tiny.cpvs -o " + dir +
                                          "/bad.png" + args);
     EXPECT_EQ(bad.exitCode, 1) << args << ": " << bad.output;
