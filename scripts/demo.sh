@@ -15,7 +15,8 @@ rm -rf "$out"
 mkdir -p "$out"
 
 # The scene is authored with -Y up, so a sun that travels "down" travels toward +Y. The spot (40 cd) lights
-# the corner of the arcades that faces the preview's camera, on the side the sun leaves in shadow.
+# the corner of the arcades the sun leaves in shadow; the preview looks from the side the sun lights (its
+# default camera, docs/viewer.md), through the arcades into their shade.
 lights=(--sun 0.35,1,0.25 --spot 9,-6,9,-5,6.5,-5,0.7,30,40)
 
 echo
