@@ -40,12 +40,16 @@ struct WalkSet {
   WalkSet from(size_t first) const { return {x + first, y + first, z + first, offset + first, out + first}; }
 };
 
-// Storage for a WalkSet (per thread: one LightShadow serves many threads).
+// Slots a WalkSet needs past its walks: the AVX-512 walks compact sixteen lanes at a time with a full 16-lane
+// store (dag_walks_avx512.cpp), which may write up to 15 slots past the last walk kept.
+inline constexpr size_t kWalkPadding = 16;
+
+// Storage for a WalkSet (per thread: one LightShadow serves many threads), with kWalkPadding slots to spare.
 struct WalkStorage {
   std::vector<uint32_t> x, y, z, offset, out;
   WalkSet reserve(size_t count) {
-    if (x.size() < count)
-      for (std::vector<uint32_t>* v : {&x, &y, &z, &offset, &out}) v->resize(count);
+    if (x.size() < count + kWalkPadding)
+      for (std::vector<uint32_t>* v : {&x, &y, &z, &offset, &out}) v->resize(count + kWalkPadding);
     return {x.data(), y.data(), z.data(), offset.data(), out.data()};
   }
 };
@@ -86,7 +90,9 @@ bool vectorWalksAvailable();
 // by level to their voxels; each writes its result when it reaches a homogeneous child or a leaf. The batch
 // functions below run the same passes.
 // Preconditions: vectorWalksAvailable(), 2 <= dag.nodeUnits < 2^31, fewer than 2^30 leaves, result slots below
-// 2^31 (the gathers' and scatters' indices are signed 32-bit: units, a leaf's two 32-bit halves, slots).
+// 2^31 (the gathers' and scatters' indices are signed 32-bit: units, a leaf's two 32-bit halves, slots). The
+// walks' arrays may be written up to kWalkPadding - 1 slots past `count` (a WalkStorage's spare slots, or the
+// next group's when `count` is a multiple of 16, which those writes then never reach).
 void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
                         void* results);
 
