@@ -116,20 +116,22 @@ struct VoxelWalkBatch {
 // Same preconditions as descendGroupAvx512.
 void walkVoxelsAvx512(const VoxelWalkBatch& batch);
 
-// K <= 9 PCF, AVX-512: the shadowed texels of footprints that span at most 2 x 2 tiles of 8 x 8 texels. One walk
-// per distinct corner tile, from its top-grid cell (or the root) down to the tile's mask at the footprint's
-// slice, AND-ed with the footprint's part of the tile and counted: the answers of LightShadow's scalar
-// countCornerTiles, with no bookkeeping between the walks that sixteen lanes cannot do at once.
-struct CornerTileBatch {
+// K <= 9 PCF, AVX-512: LightShadow's filter for one view's mapped batch (lane j answers point indices[j], or j
+// when null), where the DAG's root is a reference. Every lane gets its answer without the DAG first (1 for
+// kCellLit, else 0); the voxel lanes' footprints (the K x K texels around (x, y) clipped to [0, N), at slice z)
+// are packed into arrays of their own, and since K <= 9 each spans at most 2 x 2 tiles of 8 x 8 texels: one walk
+// per distinct corner tile, from its top-grid cell (or the root) down to the tile's mask at the slice, AND-ed
+// with the footprint's part of the tile and counted; the answer is float(1 - shadowed / K^2), as the scalar
+// filter's. No step needs bookkeeping that sixteen lanes cannot do at once.
+struct FootprintBatch {
   WalkStart start;
-  // Footprint i: inclusive texel bounds x0, x1, y0, y1 (within [0, N), x1 - x0 and y1 - y0 at most 8) and its
-  // slice z, at fields + stride * i (five consecutive 32-bit fields).
-  const uint32_t* fields = nullptr;
-  size_t stride = 0;
+  CellBatchOutput cells;
+  const uint32_t* indices = nullptr;
   size_t count = 0;
-  uint32_t* counts = nullptr;  // counts[i] for footprint i
+  uint32_t kernelHalf = 0;  // K / 2, K odd and <= 9
+  float* answers = nullptr;
 };
-// Same preconditions as descendGroupAvx512.
-void countCornerTilesAvx512(const CornerTileBatch& batch);
+// Same preconditions as descendGroupAvx512, with 4 * count walks.
+void filterFootprintsAvx512(const FootprintBatch& batch);
 
 }  // namespace cpvs

@@ -286,26 +286,83 @@ inline __m512i popcount64(__m512i v) {
 
 inline V maxU(V a, V b) { return _mm512_max_epu32(a.v, b.v); }
 inline V minU(V a, V b) { return _mm512_min_epu32(a.v, b.v); }
+inline V maxS(V a, V b) { return _mm512_max_epi32(a.v, b.v); }
+inline V minS(V a, V b) { return _mm512_min_epi32(a.v, b.v); }
+inline __m512i widen(V v, int h) { return _mm512_cvtepu32_epi64(half(v, h)); }  // lanes 8h .. 8h + 7, 64-bit
 
-// Footprints i .. i + 15 of a CornerTileBatch, in the lanes of m.
-struct FootprintLanes {
-  V x0, x1, y0, y1, z;
+// The footprints of a batch, one array per field (x0, x1, y0, y1: inclusive texel bounds; z: the slice; out: the
+// answer's slot), each with kWalkPadding spare slots for the packing stores.
+struct FootprintArrays {
+  uint32_t *x0, *x1, *y0, *y1, *z, *out;
 };
-inline FootprintLanes loadFootprints(const CornerTileBatch& b, size_t i, M m) {
-  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-  const V at = _mm512_mullo_epi32((iota + splat(uint32_t(i))).v, splat(uint32_t(b.stride)).v);
-  return {gather<4>(m, at, b.fields), gather<4>(m, at + splat(1), b.fields), gather<4>(m, at + splat(2), b.fields),
-          gather<4>(m, at + splat(3), b.fields), gather<4>(m, at + splat(4), b.fields)};
+struct FootprintStorage {
+  std::vector<uint32_t> fields[6];
+  FootprintArrays reserve(size_t count) {
+    if (fields[0].size() < count + kWalkPadding)
+      for (std::vector<uint32_t>& f : fields) f.resize(count + kWalkPadding);
+    return {fields[0].data(), fields[1].data(), fields[2].data(), fields[3].data(), fields[4].data(),
+            fields[5].data()};
+  }
+};
+struct FootprintLanes {
+  V x0, x1, y0, y1, z, out;
+};
+inline FootprintLanes loadFootprints(const FootprintArrays& f, size_t i, M m) {
+  return {load(f.x0 + i, m), load(f.x1 + i, m), load(f.y0 + i, m), load(f.y1 + i, m), load(f.z + i, m),
+          load(f.out + i, m)};
+}
+
+// The bits of an 8 x 8 tile (bit row * 8 + column) in columns a..b of every row and in rows c..d, for 64-bit
+// lanes (kTileSpans' entries, computed: a variable shift by 64 gives 0, so rows up to 7 need no special case).
+inline __m512i tileSpan(__m512i a, __m512i b, __m512i c, __m512i d) {
+  const __m512i one = _mm512_set1_epi64(1);
+  const __m512i below = _mm512_sub_epi64(_mm512_sllv_epi64(one, a), one);  // columns 0 .. a - 1
+  __m512i columns = _mm512_andnot_si512(below, _mm512_sub_epi64(_mm512_sllv_epi64(_mm512_set1_epi64(2), b), one));
+  columns = _mm512_or_si512(columns, _mm512_slli_epi64(columns, 8));  // the row's byte into every row
+  columns = _mm512_or_si512(columns, _mm512_slli_epi64(columns, 16));
+  columns = _mm512_or_si512(columns, _mm512_slli_epi64(columns, 32));
+  const __m512i upTo = _mm512_sub_epi64(_mm512_sllv_epi64(one, _mm512_slli_epi64(_mm512_add_epi64(d, one), 3)), one);
+  const __m512i rows = _mm512_andnot_si512(_mm512_sub_epi64(_mm512_sllv_epi64(one, _mm512_slli_epi64(c, 3)), one), upTo);
+  return _mm512_and_si512(columns, rows);
 }
 
 thread_local WalkStorage tCornerWalks;
+thread_local FootprintStorage tFootprints;
 thread_local std::vector<uint64_t> tCornerMasks;
+
+// Step 1 of filterFootprintsAvx512: every lane's answer without the DAG, and the voxel lanes' footprints packed
+// into `f`. Returns how many.
+size_t packFootprints(const FootprintBatch& b, const FootprintArrays& f) {
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  const V h = splat(b.kernelHalf), last = splat(b.start.dag.resolution - 1), zero = splat(0);
+  size_t packed = 0;
+  for (size_t j = 0; j < b.count; j += 16) {
+    const M m = laneMask(b.count - j);
+    const V x = load(b.cells.x + j, m), y = load(b.cells.y + j, m), z = load(b.cells.z + j, m);
+    alignas(16) uint8_t stateBytes[16] = {};
+    std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
+    const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
+    const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
+    const M lit = m & equal(state, splat(kCellLit)), voxel = m & equal(state, splat(kCellVoxel));
+    // Final unless a walk follows (the scalar filter's out[i] = float(state == kCellLit)).
+    _mm512_mask_i32scatter_ps(b.answers, m, out.v, _mm512_maskz_mov_ps(lit, _mm512_set1_ps(1.0f)), 4);
+    compress(f.x0 + packed, voxel, maxS(x - h, zero));  // x and y are below 2^31 - 9: no overflow
+    compress(f.x1 + packed, voxel, minS(x + h, last));
+    compress(f.y0 + packed, voxel, maxS(y - h, zero));
+    compress(f.y1 + packed, voxel, minS(y + h, last));
+    compress(f.z + packed, voxel, z);
+    compress(f.out + packed, voxel, out);
+    packed += lanesSet(voxel);
+  }
+  return packed;
+}
 
 }  // namespace
 
-void countCornerTilesAvx512(const CornerTileBatch& b) {
+void filterFootprintsAvx512(const FootprintBatch& b) {
   const WalkStart& g = b.start;
-  const size_t n = b.count;
+  const FootprintArrays f = tFootprints.reserve(b.count);
+  const size_t n = packFootprints(b, f);
   // Corner q of footprint i: x1 if q & 1 else x0, y1 if q & 2 else y0; its mask in masks[q * n + i].
   const WalkSet w = tCornerWalks.reserve(4 * n);
   if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
@@ -314,45 +371,48 @@ void countCornerTilesAvx512(const CornerTileBatch& b) {
   size_t started = 0;
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);
-    const auto [x0, x1, y0, y1, z] = loadFootprints(b, i, m);
-    const M twoColumns = M(~equal(shr(x0, 3), shr(x1, 3))), twoRows = M(~equal(shr(y0, 3), shr(y1, 3)));
+    const FootprintLanes l = loadFootprints(f, i, m);
+    const M twoColumns = M(~equal(shr(l.x0, 3), shr(l.x1, 3))), twoRows = M(~equal(shr(l.y0, 3), shr(l.y1, 3)));
     for (uint32_t q = 0; q < 4; ++q) {
-      const V x = q & 1u ? x1 : x0, y = q & 2u ? y1 : y0;
+      const V x = q & 1u ? l.x1 : l.x0, y = q & 2u ? l.y1 : l.y0;
       // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
       const M keep = m & (q & 1u ? twoColumns : M(0xFFFF)) & (q & 2u ? twoRows : M(0xFFFF));
-      const V entry = startEntries(g, keep, x, y, z);
+      const V entry = startEntries(g, keep, x, y, l.z);
       const V code = entry & splat(3);
       const M shadowed = keep & equal(code, splat(1));
       for (int h = 0; h < 2; ++h)  // the homogeneous answers (0 where not kept), final unless a walk follows
         _mm512_mask_storeu_epi64(masks + q * n + i + 8 * h, half(m, h), _mm512_maskz_set1_epi64(half(shadowed, h), -1));
       started = storeWalks(w, started, keep & equal(code, splat(2)),
-                           {x, y, z, shr(entry, 2), iota + splat(uint32_t(q * n + i))});
+                           {x, y, l.z, shr(entry, 2), iota + splat(uint32_t(q * n + i))});
     }
   }
   descendFromStart(g, w, started, Results<WalkResult::TileMask>{masks});
   // Count: each corner's mask AND-ed with the footprint's part of its tile, sixteen footprints per step (their
-  // 64-bit masks in two halves of eight).
+  // 64-bit masks in two halves of eight); then the answer, float(1 - shadowed / K^2) as the scalar filter's.
+  const double kernelArea = double(2 * b.kernelHalf + 1) * double(2 * b.kernelHalf + 1);
   for (size_t i = 0; i < n; i += 16) {
     const M m = laneMask(n - i);
-    const FootprintLanes f = loadFootprints(b, i, m);  // gathered again from the batch's own array
+    const FootprintLanes l = loadFootprints(f, i, m);
     __m512i total[2] = {_mm512_setzero_si512(), _mm512_setzero_si512()};
     for (uint32_t q = 0; q < 4; ++q) {
-      // The corner tile's origin and the footprint's columns xa..xb and rows ya..yb inside it.
-      const V ox = (q & 1u ? f.x1 : f.x0) & splat(~7u), oy = (q & 2u ? f.y1 : f.y0) & splat(~7u);
-      const V column = ((maxU(f.x0, ox) - ox) << 3) + (minU(f.x1, ox + splat(7)) - ox);
-      const V row = ((maxU(f.y0, oy) - oy) << 3) + (minU(f.y1, oy + splat(7)) - oy);
+      // The corner tile's origin and the footprint's columns a..b and rows c..d inside it.
+      const V ox = (q & 1u ? l.x1 : l.x0) & splat(~7u), oy = (q & 2u ? l.y1 : l.y0) & splat(~7u);
+      const V a = maxU(l.x0, ox) - ox, bEnd = minU(l.x1, ox + splat(7)) - ox;
+      const V c = maxU(l.y0, oy) - oy, d = minU(l.y1, oy + splat(7)) - oy;
       for (int h = 0; h < 2; ++h) {
-        const __mmask8 mh = half(m, h);
-        const __m512i tile = _mm512_and_si512(
-            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(column, h), kTileSpans.columns, 8),
-            _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), mh, half(row, h), kTileSpans.rows, 8));
-        const __m512i mask = _mm512_maskz_loadu_epi64(mh, masks + q * n + i + 8 * h);
+        const __m512i tile = tileSpan(widen(a, h), widen(bEnd, h), widen(c, h), widen(d, h));
+        const __m512i mask = _mm512_maskz_loadu_epi64(half(m, h), masks + q * n + i + 8 * h);
         total[h] = _mm512_add_epi64(total[h], popcount64(_mm512_and_si512(mask, tile)));
       }
     }
-    const __m512i counts = _mm512_inserti64x4(_mm512_castsi256_si512(_mm512_cvtepi64_epi32(total[0])),
-                                              _mm512_cvtepi64_epi32(total[1]), 1);
-    _mm512_mask_storeu_epi32(b.counts + i, m, counts);
+    __m256 value[2];
+    for (int h = 0; h < 2; ++h) {
+      const __m512d shadowed = _mm512_cvtepi32_pd(_mm512_cvtepi64_epi32(total[h]));
+      value[h] = _mm512_cvtpd_ps(_mm512_sub_pd(_mm512_set1_pd(1.0), _mm512_div_pd(shadowed, _mm512_set1_pd(kernelArea))));
+    }
+    const __m512 values = _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(value[0])), _mm256_castps_pd(value[1]), 1));
+    _mm512_mask_i32scatter_ps(b.answers, m, l.out.v, values, 4);
   }
 }
 
@@ -372,7 +432,7 @@ void descendGroupAvx512(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkRe
   std::abort();  // unreachable: vectorWalksAvailable() is false
 }
 void walkVoxelsAvx512(const VoxelWalkBatch&) { std::abort(); }
-void countCornerTilesAvx512(const CornerTileBatch&) { std::abort(); }
+void filterFootprintsAvx512(const FootprintBatch&) { std::abort(); }
 }  // namespace cpvs
 
 #endif

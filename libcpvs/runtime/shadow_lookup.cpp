@@ -451,7 +451,7 @@ bool vectorWalks(const DagView& dag, size_t slots) {
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
-// (walkVoxelsAvx512, countCornerTilesAvx512), which gives the same results.
+// (walkVoxelsAvx512, filterFootprintsAvx512), which gives the same results.
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
@@ -555,7 +555,8 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
 // K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: each
 // distinct corner tile walks from its own top-grid cell (the same descent as K = 1, ending in the tile's mask
 // at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 the
-// same in dag_walks_avx512.cpp (countCornerTilesAvx512), sixteen footprints at a time. (Walking once per
+// whole filter runs in dag_walks_avx512.cpp instead (filterFootprintsAvx512), sixteen footprints at a time,
+// with the same answers. (Walking once per
 // footprint to the node its corner tiles share, then from there, took as long: the grouping it needs cost
 // what the shared steps saved; docs/lookups.md.)
 CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
@@ -563,19 +564,6 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
   const size_t n = pending.size();
-  if (vectorWalks(dag, 4 * n)) {
-    static_assert(offsetof(PendingPoint, f) == 0 && offsetof(PendingPoint, z) == 4 * sizeof(uint32_t) &&
-                      sizeof(PendingPoint) % sizeof(uint32_t) == 0,
-                  "CornerTileBatch reads x0, x1, y0, y1, z as five consecutive 32-bit fields");
-    counts.resize(n);
-    CornerTileBatch batch;
-    batch.start = walkStart(dag, grid);
-    batch.fields = reinterpret_cast<const uint32_t*>(pending.data());
-    batch.stride = sizeof(PendingPoint) / sizeof(uint32_t);
-    batch.count = n;
-    batch.counts = counts.data();
-    return countCornerTilesAvx512(batch);
-  }
   const uint16_t* nodes = nodeUnits(dag);
   const uint32_t* gridCells = grid.empty() ? nullptr : grid.cells.data();
   const uint32_t sh = grid.shift, level = grid.level, rootEntry = uint32_t(dag.rootCode);
@@ -743,6 +731,16 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
     const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
     const bool walks = dag.rootCode == ChildCode::Ref;
+    if (walks && k <= kCornerTileKernel && vectorWalks(dag, 4 * lanes)) {
+      FootprintBatch batch;
+      batch.start = walkStart(dag, grids_[view]);
+      batch.cells = cells;
+      batch.indices = indices;
+      batch.count = lanes;
+      batch.kernelHalf = uint32_t(h);
+      batch.answers = out.data();
+      return filterFootprintsAvx512(batch);
+    }
     size_t pendingCount = 0;
     for (size_t j = 0; j < lanes; ++j) {
       const uint32_t i = indices ? indices[j] : uint32_t(j);
