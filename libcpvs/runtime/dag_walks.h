@@ -78,9 +78,10 @@ inline constexpr TileSpans kTileSpans;
 
 // Walks that descend together: enough that each pass hides the previous pass's misses, few enough that the
 // lines they prefetched are still in L1 when read. On the lookups benchmark's files (docs/lookups.md, "The
-// walks") groups of 32 to 256 ran alike and the whole batch at once (4096) up to 20 % slower on large DAGs
-// (measured with the scalar walks; the vector walks use the same groups, not tuned separately).
-inline constexpr size_t kWalksInFlight = 128;
+// walks") groups of 32 to 256 ran alike with the scalar walks. Once the vector walks compacted in registers
+// their passes got shorter than a miss: on the 165-spot city at 8k (cpvs-view --shadows cpu, 1080p, two
+// cameras, alternating) 512 beat 128 in 6 of 8 pairs by 1-3 core-ns per pair, about the machine's noise.
+inline constexpr size_t kWalksInFlight = 512;
 
 // Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
 // lowers mapCells).
