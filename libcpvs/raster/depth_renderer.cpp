@@ -30,6 +30,7 @@
 #include "libcpvs/raster/cpu_depth_renderer.h"
 #include "libcpvs/gl/gl_context.h"
 #include "libcpvs/gl/gl_program.h"
+#include "libcpvs/raster/glsl_sources.h"
 #include "libcpvs/raster/gpu_masks.h"
 #include "libcpvs/raster/triangle_setup.h"
 
@@ -52,207 +53,7 @@ static_assert(kKindNone == 0 && kKindClosedFront == 1 && kKindClosedBack == 2 &&
 
 // ------------------------------------------------------------------------------------------------ shaders
 
-// Geometry vertices carry window positions computed on the CPU (snapped to 1/256 texel, exact up to the
-// region's integer offset, so every region rasterises a triangle identically) and, flat, the triangle's depth
-// as an affine function of the texel coordinates around an integer reference texel.
-const char* kGeometryVS = R"(#version 330 core
-layout(location = 0) in vec4 clipPosition;
-layout(location = 1) in vec3 plane;     // q0, dq/du, dq/dv
-layout(location = 2) in ivec2 origin;   // reference texel (u0, v0), view texel coordinates
-layout(location = 3) in vec2 range;     // q of the triangle lies in [range.x, range.y]
-layout(location = 4) in int mask;       // alpha-tested: the mask's index, else -1
-layout(location = 5) in vec3 maskU;     // mask coordinates (U, V) / W, affine around the reference texel
-layout(location = 6) in vec3 maskV;
-layout(location = 7) in vec3 maskW;
-flat out vec3 vPlane;
-flat out ivec2 vOrigin;
-flat out vec2 vRange;
-flat out int vMask;
-flat out vec3 vMaskU, vMaskV, vMaskW;
-void main() {
-  gl_Position = clipPosition;
-  vPlane = plane;
-  vOrigin = origin;
-  vRange = range;
-  vMask = mask;
-  vMaskU = maskU;
-  vMaskV = maskV;
-  vMaskW = maskW;
-}
-)";
-
-// Shared by every geometry fragment shader: the stored depth t / 2 with t = clamp(slice / N, 0, 1), evaluated
-// from the triangle's plane at the exact texel centre (u0 + du, v0 + dv) -- region-independent.
-//  depthMode 0: q = t (orthographic, linear)      1: q = d (orthographic, logarithmic)
-//            2: q = 1/d (perspective, linear)     3: q = 1/d (perspective, logarithmic)
-const char* kDepthFunction = R"(
-uniform ivec2 regionOrigin;
-uniform int depthMode;
-uniform float nearDepth;
-uniform float invNear;
-uniform float depthScale;   // linear: 1 / (far - near); logarithmic: 1 / log2(far / near)
-flat in vec3 vPlane;
-flat in ivec2 vOrigin;
-flat in vec2 vRange;
-float storedDepth() {
-  vec2 du = vec2(ivec2(gl_FragCoord.xy) + regionOrigin - vOrigin) + 0.5;
-  float q = clamp(vPlane.x + vPlane.y * du.x + vPlane.z * du.y, vRange.x, vRange.y);
-  float t;
-  if (depthMode == 0) t = q;
-  else if (depthMode == 1) t = log2(max(q * invNear, 1e-30)) * depthScale;
-  else if (depthMode == 2) t = (1.0 / max(q, 1e-30) - nearDepth) * depthScale;
-  else t = -log2(max(q * nearDepth, 1e-30)) * depthScale;
-  return 0.5 * clamp(t, 0.0, 1.0);
-}
-)";
-
-// The coverage-mask rule of libcpvs/scene/coverage_mask.h: the texel containing (u, v), wrapped, in the mask
-// bytes of all the view's masks (headers: first byte, width, height, wrap S | wrap T << 16).
-const char* kEnterFS = R"(
-uniform int closedGeometry;
-uniform usamplerBuffer maskBytes;
-uniform isamplerBuffer maskHeaders;
-flat in int vMask;
-flat in vec3 vMaskU, vMaskV, vMaskW;
-layout(location = 0) out uint kind;
-bool blocksLight() {
-  vec2 du = vec2(ivec2(gl_FragCoord.xy) + regionOrigin - vOrigin) + 0.5;
-  float w = vMaskW.x + vMaskW.y * du.x + vMaskW.z * du.y;
-  if (w == 0.0) return true;
-  float u = (vMaskU.x + vMaskU.y * du.x + vMaskU.z * du.y) / w;
-  float v = (vMaskV.x + vMaskV.y * du.x + vMaskV.z * du.y) / w;
-  if (isnan(u) || isnan(v) || isinf(u) || isinf(v)) return true;
-  ivec4 h = texelFetch(maskHeaders, vMask);
-  int x = wrapTexel(u, h.y, h.w & 0xFFFF), y = wrapTexel(v, h.z, (h.w >> 16) & 0xFFFF);
-  return texelFetch(maskBytes, h.x + y * h.y + x).r != 0u;
-}
-void main() {
-  if (vMask >= 0 && !blocksLight()) discard;
-  gl_FragDepth = storedDepth();
-  kind = closedGeometry != 0 ? (gl_FrontFacing ? 1u : 2u) : 3u;
-}
-)";
-
-// Peels the closed faces of one side (the draw culls the other) beyond that side's cursor, for active texels.
-const char* kPeelFS = R"(
-uniform sampler2D cursors;   // RG32F: front cursor, back cursor (stored depth of the last consumed event)
-uniform sampler2D counts;    // R32F: > 0 while active
-uniform int side;            // 0 = front faces, 1 = back faces
-layout(location = 0) out float one;
-void main() {
-  ivec2 p = ivec2(gl_FragCoord.xy);
-  if (texelFetch(counts, p, 0).r <= 0.0) discard;
-  float z = storedDepth();
-  vec2 c = texelFetch(cursors, p, 0).rg;
-  if (z <= (side == 0 ? c.x : c.y)) discard;
-  gl_FragDepth = z;
-  one = 1.0;
-}
-)";
-
-const char* kFullscreenVS = R"(#version 330 core
-void main() {
-  gl_Position = vec4(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0, 0.0, 1.0);
-}
-)";
-
-// Count values of finished texels: > -500 normal (exit found or never active), kCapped, kStuck.
-const char* kStateConstants = R"(#version 330 core
-const float kCapped = -1000.0;   // still inside at the peel cap: exit = last consumed event
-const float kStuck = -2000.0;    // inside, no closed back face left before the far plane: exit = N
-)";
-
-const char* kInitFS = R"(
-uniform sampler2D enterDepth;
-uniform usampler2D kinds;
-uniform int noPeel;
-layout(location = 0) out vec2 cursor;
-layout(location = 1) out float count;
-void main() {
-  ivec2 p = ivec2(gl_FragCoord.xy);
-  float z = texelFetch(enterDepth, p, 0).r;
-  uint k = texelFetch(kinds, p, 0).r;
-  // Front faces at the enter depth are the enter itself; back faces at the enter depth (silhouettes,
-  // zero-thickness parts) must still be seen, so the back cursor starts one float below it.
-  cursor = vec2(z, z > 0.0 ? uintBitsToFloat(floatBitsToUint(z) - 1u) : -1.0);
-  count = k == 1u ? (noPeel != 0 ? kCapped : 1.0) : 0.0;
-}
-)";
-
-// Lockstep peeling (Kämpe et al. 2015, §3.3): every iteration consumes the next front layer and the next back layer.
-// With fronts F1 < F2 < ... (F1 = the enter surface; coincident fronts count once, which can only make the
-// exit earlier) and backs B1 <= B2 <= ... (coincident backs counted by multiplicity), the ray leaves the union
-// of closed solids at the first Bj with Bj <= F(j+1): up to that back only j fronts were crossed. The state
-// keeps nf = nb + 1, so the front peeled in iteration j is F(j+1) and the back is Bj. A back layer of
-// multiplicity > 1 that is not an exit at its first entry is taken as the exit (its later entries would need
-// fronts not yet peeled): earlier than the truth at worst, so never wrong.
-const char* kUpdateFS = R"(
-uniform sampler2D cursors;
-uniform sampler2D counts;
-uniform sampler2D frontDepth;
-uniform sampler2D backDepth;
-uniform sampler2D backCount;
-uniform int lastIteration;
-layout(location = 0) out vec2 cursor;
-layout(location = 1) out float count;
-void main() {
-  ivec2 p = ivec2(gl_FragCoord.xy);
-  vec2 c = texelFetch(cursors, p, 0).rg;
-  float n = texelFetch(counts, p, 0).r;
-  if (n > 0.0) {
-    float f = texelFetch(frontDepth, p, 0).r;
-    float b = texelFetch(backDepth, p, 0).r;
-    bool hasF = f < 1.0, hasB = b < 1.0;
-    if (!hasB) {
-      n = kStuck;   // inside, and no closed back face before the far plane: the exit lies beyond it
-    } else if (!hasF || b <= f || texelFetch(backCount, p, 0).r > 1.5) {
-      c.y = b;      // exit (ties: back first, an earlier exit is the safe side)
-      n = 0.0;
-    } else {
-      c = vec2(f, b);   // still inside after b: the exit lies beyond it
-      if (lastIteration != 0) n = kCapped;
-    }
-  }
-  cursor = c;
-  count = n;
-}
-)";
-
-// Counts the texels still peeling (GL_SAMPLES_PASSED): peeling stops when none, or only a few, are left.
-const char* kActiveFS = R"(
-uniform sampler2D counts;
-void main() {
-  if (texelFetch(counts, ivec2(gl_FragCoord.xy), 0).r <= 0.0) discard;
-}
-)";
-
-const char* kResolveFS = R"(
-uniform sampler2D enterDepth;
-uniform usampler2D kinds;
-uniform sampler2D cursors;
-uniform sampler2D counts;
-uniform float resolution;
-layout(location = 0) out vec2 slices;   // (enter, exit); exit = -(x + 1) flags a texel capped by the peel limit
-void main() {
-  ivec2 p = ivec2(gl_FragCoord.xy);
-  uint k = texelFetch(kinds, p, 0).r;
-  float N = resolution;
-  float e = N, x = N;
-  if (k != 0u) {
-    float z = texelFetch(enterDepth, p, 0).r;
-    e = min(N - 1.0, floor(2.0 * z * N));
-    x = e + 1.0;
-    if (k == 1u) {
-      vec2 c = texelFetch(cursors, p, 0).rg;
-      float n = texelFetch(counts, p, 0).r;
-      x = min(N, max(e + 1.0, floor(2.0 * max(c.x, c.y) * N)));
-      if (n < kStuck + 0.5) x = N;   // every voxel up to the far plane lies inside the solid
-      else if (n < kCapped + 0.5 || n > 0.0) x = -x - 1.0;   // capped, or still inside when peeling stopped
-    }
-  }
-  slices = vec2(e, x);
-}
-)";
+// The shaders are shaders/*.{vert,frag,glsl}, embedded at configure time (libcpvs/CMakeLists.txt).
 
 // -------------------------------------------------------------------------------------------- renderer
 
@@ -272,7 +73,7 @@ static_assert(sizeof(GpuVertex) == 48);
 //    gives back exactly u - x0: a triangle covers the same texels whatever region of the block it is drawn
 //    in. Triangles that reach closer than near / 2 to a perspective light are sent homogeneously (w = d) so
 //    GL clips them (also the same in every region of the block).
-//  * the depth plane: q (see kDepthFunction) is affine in the texel coordinates (u, v) over a planar triangle
+//  * the depth plane: q (shaders/depth_function.glsl) is affine in the texel coordinates (u, v) over a planar triangle
 //    (orthographic: d; perspective: 1 / d), stored around an integer reference texel near the triangle.
 //  * the range of q over the triangle (vertex values), to clamp evaluations at pixels just outside a grazing
 //    triangle.
@@ -395,19 +196,19 @@ public:
       viewportMin_ = bounds[0];
     }
 
-    const std::string geomFS = std::string("#version 330 core\n") + kDepthFunction;
-    enterProgram_ = link(kGeometryVS, geomFS + kMaskTexelGlsl + kEnterFS, "enter");
+    const std::string geomFS = std::string("#version 330 core\n") + glsl::depth_function_glsl;
+    enterProgram_ = link(glsl::depth_geometry_vert, geomFS + kMaskTexelGlsl + glsl::depth_enter_frag, "enter");
     // The enter pass's two integer samplers on units of their own from the start: left both on unit 0, a
     // strict driver refuses every draw, masked or not.
     context_->gl().UseProgram(enterProgram_);
     context_->gl().Uniform1i(uniform(enterProgram_, "maskBytes"), 0);
     context_->gl().Uniform1i(uniform(enterProgram_, "maskHeaders"), 1);
     context_->gl().UseProgram(0);
-    peelProgram_ = link(kGeometryVS, geomFS + kPeelFS, "peel");
-    initProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kInitFS, "init");
-    updateProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kUpdateFS, "update");
-    resolveProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kResolveFS, "resolve");
-    activeProgram_ = link(kFullscreenVS, std::string(kStateConstants) + kActiveFS, "active");
+    peelProgram_ = link(glsl::depth_geometry_vert, geomFS + glsl::depth_peel_frag, "peel");
+    initProgram_ = link(glsl::depth_fullscreen_vert, std::string(glsl::peel_state_glsl) + glsl::peel_init_frag, "init");
+    updateProgram_ = link(glsl::depth_fullscreen_vert, std::string(glsl::peel_state_glsl) + glsl::peel_update_frag, "update");
+    resolveProgram_ = link(glsl::depth_fullscreen_vert, std::string(glsl::peel_state_glsl) + glsl::depth_resolve_frag, "resolve");
+    activeProgram_ = link(glsl::depth_fullscreen_vert, std::string(glsl::peel_state_glsl) + glsl::peel_active_frag, "active");
 
     g.GenVertexArrays(1, &geometryVao_);
     g.GenVertexArrays(1, &emptyVao_);
