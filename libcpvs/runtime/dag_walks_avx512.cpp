@@ -214,6 +214,20 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
   }
 }
 
+// Lanes j .. j + 15 (those of m) of a mapped batch: the cell, its state, and the slot of its answer
+// (indices[j + lane], or j + lane without an index list).
+struct CellLanes16 {
+  V x, y, z, state, out;
+};
+inline CellLanes16 loadCells(const CellBatchOutput& cells, const uint32_t* indices, size_t j, M m) {
+  alignas(16) uint8_t stateBytes[16] = {};
+  std::copy_n(cells.state + j, lanesSet(m), stateBytes);  // m covers the first lanes
+  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+  return {load(cells.x + j, m), load(cells.y + j, m), load(cells.z + j, m),
+          _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes))),
+          indices ? load(indices + j, m) : iota + splat(uint32_t(j))};
+}
+
 // The top-grid entries ((offset << 2) | code) of voxels (x, y, z) in the lanes of m, or the root's entry.
 inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
   const V entry = splat(g.rootEntry);
@@ -248,15 +262,10 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
   const WalkStart& g = b.start;
   const WalkSet w = tVoxelWalks.reserve(b.count);
   const Results<WalkResult::Visibility> results{b.answers};
-  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   size_t started = 0;
   for (size_t j = 0; j < b.count; j += 16) {
     const M m = laneMask(b.count - j);
-    const V x = load(b.cells.x + j, m), y = load(b.cells.y + j, m), z = load(b.cells.z + j, m);
-    alignas(16) uint8_t stateBytes[16] = {};
-    std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
-    const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
-    const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
+    const auto [x, y, z, state, out] = loadCells(b.cells, b.indices, j, m);
     const V entry = startEntries(g, m, x, y, z);
     const V code = entry & splat(3);
     const M voxel = m & equal(state, splat(kCellVoxel));
@@ -333,16 +342,11 @@ thread_local std::vector<uint64_t> tCornerMasks;
 // Step 1 of filterFootprintsAvx512: every lane's answer without the DAG, and the voxel lanes' footprints packed
 // into `f`. Returns how many.
 size_t packFootprints(const FootprintBatch& b, const FootprintArrays& f) {
-  const V iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
   const V h = splat(b.kernelHalf), last = splat(b.start.dag.resolution - 1), zero = splat(0);
   size_t packed = 0;
   for (size_t j = 0; j < b.count; j += 16) {
     const M m = laneMask(b.count - j);
-    const V x = load(b.cells.x + j, m), y = load(b.cells.y + j, m), z = load(b.cells.z + j, m);
-    alignas(16) uint8_t stateBytes[16] = {};
-    std::copy_n(b.cells.state + j, std::min<size_t>(16, b.count - j), stateBytes);
-    const V state = _mm512_cvtepu8_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(stateBytes)));
-    const V out = b.indices ? load(b.indices + j, m) : iota + splat(uint32_t(j));
+    const auto [x, y, z, state, out] = loadCells(b.cells, b.indices, j, m);
     const M lit = m & equal(state, splat(kCellLit)), voxel = m & equal(state, splat(kCellVoxel));
     // Final unless a walk follows (the scalar filter's out[i] = float(state == kCellLit)).
     _mm512_mask_i32scatter_ps(b.answers, m, out.v, _mm512_maskz_mov_ps(lit, _mm512_set1_ps(1.0f)), 4);
