@@ -17,7 +17,7 @@
 #include <regex>
 #include <stdexcept>
 
-#include "formats/io/exr_image.h"
+#include "libcpvs/io/exr_image.h"
 #include "libcpvs/dag/dag_builder.h"
 
 namespace cpvs {

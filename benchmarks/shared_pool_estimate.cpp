@@ -12,7 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/base/error.h"
 
 namespace {

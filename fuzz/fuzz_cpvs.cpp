@@ -9,7 +9,7 @@
 
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 
 namespace {

@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/base/error.h"
 
 namespace {

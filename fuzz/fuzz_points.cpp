@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "formats/io/gbuffer.h"
-#include "formats/io/points.h"
+#include "libcpvs/io/gbuffer.h"
+#include "libcpvs/io/points.h"
 #include "libcpvs/base/error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -12,8 +12,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "formats/gltf/gltf_import.h"
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/reference/embree_scene.h"
 #include "libcpvs/reference/shadow_reference.h"

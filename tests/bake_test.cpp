@@ -16,9 +16,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/exr_image.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/exr_image.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/exit_codes.h"

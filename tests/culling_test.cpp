@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/eval/shadow_map.h"

@@ -21,7 +21,7 @@
 
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/base/error.h"
@@ -854,12 +854,12 @@ TEST(Format, OpenNamesTheFile) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// The runtime side (cpvs_runtime: formats/cpvs) needs no GL, Embree, glTF or JSON: follow its includes.
+// The runtime side (cpvs_runtime: libcpvs/runtime) needs no GL, Embree, glTF or JSON: follow its includes.
 
 TEST(Format, RuntimeSourcesIncludeNoBakerDependencies) {
   const std::filesystem::path root = CPVS_SOURCE_DIR;
   std::vector<std::string> pending;
-  for (const auto& entry : std::filesystem::directory_iterator(root / "formats/cpvs"))
+  for (const auto& entry : std::filesystem::directory_iterator(root / "libcpvs/runtime"))
     pending.push_back(std::filesystem::relative(entry.path(), root).string());
   std::set<std::string> seen, system;
   const std::regex include(R"re(^\s*#\s*include\s*([<"])([^>"]+)[>"])re");
@@ -884,10 +884,10 @@ TEST(Format, RuntimeSourcesIncludeNoBakerDependencies) {
   for (const std::string& header : system)
     for (const char* banned : {"embree", "GL/", "EGL", "GLES", "osmesa", "nlohmann", "tiny_gltf", "OpenEXR", "Imf",
                                "tbb", "CLI/", "depth_renderer", "gltf"})
-      EXPECT_EQ(header.find(banned), std::string::npos) << header << " reached from formats/cpvs";
+      EXPECT_EQ(header.find(banned), std::string::npos) << header << " reached from libcpvs/runtime";
   for (const std::string& file : seen)
-    for (const char* banned : {"raster/", "reference/", "formats/gltf", "tools/"})
-      EXPECT_EQ(file.find(banned), std::string::npos) << file << " reached from formats/cpvs";
+    for (const char* banned : {"raster/", "reference/", "libcpvs/import", "tools/"})
+      EXPECT_EQ(file.find(banned), std::string::npos) << file << " reached from libcpvs/runtime";
 }
 
 }  // namespace

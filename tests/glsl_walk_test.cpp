@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/dag/dag_builder.h"

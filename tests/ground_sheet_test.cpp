@@ -5,7 +5,7 @@
 #include <cmath>
 #include <functional>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/scene/mesh_topology.h"

@@ -15,9 +15,9 @@
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
 
-#include "formats/gltf/accessor_types.h"
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/png_image.h"
+#include "libcpvs/import/accessor_types.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/png_image.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/scene/mesh_topology.h"
 #include "libcpvs/scene/scene.h"

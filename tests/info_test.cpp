@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/version.h"
 #include "support/test_support.h"
 

@@ -5,8 +5,8 @@
 
 #include <algorithm>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
 #include "support/test_support.h"
 
 namespace cpvs {

@@ -1,36 +1,49 @@
 #!/usr/bin/env python3
 """Includes run one way, down the pipeline: every #include "..." of a library folder must name a folder that
-its CMake target links (libcpvs/CMakeLists.txt, docs/architecture.md). Exit 1 and one line per wrong-way
-include, else a summary line. Usage: layering_check.py SOURCE_DIR"""
+its CMake target links. The layers are read from the build itself: each `cpvs_stage(cpvs_X ... LINKS ...)` in
+libcpvs/CMakeLists.txt is folder libcpvs/X, and a folder may include the folders of the stages it links,
+directly or through them (cpvs_runtime, defined in libcpvs/runtime/, is the lowest). Exit 1 and one line per
+wrong-way include (or per stage without a folder), else a summary line. Usage: layering_check.py SOURCE_DIR"""
 import os
 import re
 import sys
 
-RUNTIME = {"libcpvs/runtime", "formats/cpvs"}
-BELOW = {
-    "libcpvs/runtime": RUNTIME,
-    "formats/cpvs": RUNTIME,
-    "libcpvs/base": RUNTIME | {"libcpvs/base"},
-}
-BELOW["libcpvs/scene"] = BELOW["libcpvs/base"] | {"libcpvs/scene"}
-BELOW["libcpvs/views"] = BELOW["libcpvs/scene"] | {"libcpvs/views"}
-BELOW["libcpvs/gl"] = BELOW["libcpvs/base"] | {"libcpvs/gl"}
-BELOW["libcpvs/raster"] = BELOW["libcpvs/views"] | BELOW["libcpvs/gl"] | {"libcpvs/raster"}
-BELOW["libcpvs/tiles"] = BELOW["libcpvs/raster"] | {"libcpvs/tiles"}
-BELOW["libcpvs/dag"] = BELOW["libcpvs/tiles"] | {"libcpvs/dag"}
-BELOW["libcpvs/bake"] = BELOW["libcpvs/dag"] | {"libcpvs/bake", "libcpvs/version.h"}
-BELOW["libcpvs/reference"] = BELOW["libcpvs/scene"] | {"libcpvs/reference"}
-BELOW["libcpvs/eval"] = BELOW["libcpvs/bake"] | BELOW["libcpvs/reference"] | {"libcpvs/eval"}
-BELOW["formats/gltf"] = BELOW["libcpvs/scene"] | {"formats/gltf"}
-BELOW["formats/io"] = BELOW["libcpvs/base"] | {"formats/io"}
-BELOW["libcpvs/preview"] = BELOW["libcpvs/eval"] | BELOW["formats/io"] | {"libcpvs/preview"}
-BELOW["examples/lookup"] = RUNTIME
-
+STAGE = re.compile(r"^cpvs_stage\((cpvs_\w+)\s+SOURCES\s+\S+\s+LINKS\s+([^)]*)\)", re.M)
 INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+# Generated into build/generated/libcpvs/ at configure time; only the bake stage writes the version.
+GENERATED = {"cpvs_bake": {"libcpvs/version.h"}}
 
 
-def folder_of(path):
-    for f in sorted(BELOW, key=len, reverse=True):
+def stage_links(root):
+    """cpvs_X -> the cpvs_ targets it links, as libcpvs/CMakeLists.txt declares them."""
+    text = open(os.path.join(root, "libcpvs/CMakeLists.txt"), encoding="utf-8").read()
+    links = {"cpvs_runtime": set()}
+    for name, linked in STAGE.findall(text):
+        links[name] = {t for t in linked.split() if t.startswith("cpvs_")}
+    return links
+
+
+def allowed_folders(links):
+    """folder -> the folders it may include: its own and those of every stage below it."""
+    def below(stage, seen):
+        if stage in seen:
+            raise SystemExit(f"layering_check: {stage} links itself through {sorted(seen)}")
+        result = {stage}
+        for linked in links.get(stage, ()):
+            result |= below(linked, seen | {stage})
+        return result
+
+    folder = lambda stage: "libcpvs/" + stage[len("cpvs_"):]
+    allowed = {}
+    for stage in links:
+        reach = below(stage, set())
+        allowed[folder(stage)] = {folder(s) for s in reach} | set().union(*(GENERATED.get(s, set()) for s in reach))
+    allowed["examples/lookup"] = {"libcpvs/runtime"}
+    return allowed
+
+
+def folder_of(path, folders):
+    for f in sorted(folders, key=len, reverse=True):
         if path == f or path.startswith(f + "/"):
             return f
     return None
@@ -38,29 +51,36 @@ def folder_of(path):
 
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else "."
+    allowed = allowed_folders(stage_links(root))
     wrong, checked = [], 0
-    for folder in BELOW:
+    for folder in sorted(allowed):
         base = os.path.join(root, folder)
+        if not os.path.isdir(base):
+            wrong.append(f"{folder}: a stage of libcpvs/CMakeLists.txt without its folder")
+            continue
         for dirpath, _, files in os.walk(base):
             for name in sorted(files):
                 if not name.endswith((".h", ".cpp")):
                     continue
                 rel = os.path.relpath(os.path.join(dirpath, name), root)
-                if folder_of(rel) != folder:
+                if folder_of(rel, allowed) != folder:
                     continue
                 text = open(os.path.join(root, rel), encoding="utf-8").read()
                 for target in INCLUDE.findall(text):
                     checked += 1
                     if "/" not in target:
                         continue  # a sibling header
-                    allowed = BELOW[folder]
-                    if not any(target == a or target.startswith(a + "/") for a in allowed):
+                    if not any(target == a or target.startswith(a + "/") for a in allowed[folder]):
                         wrong.append(f"{rel}: includes {target}, which {folder} does not link")
+    # Every library folder is a stage: a folder outside the build's layers would escape the check.
+    for entry in sorted(os.listdir(os.path.join(root, "libcpvs"))):
+        if os.path.isdir(os.path.join(root, "libcpvs", entry)) and "libcpvs/" + entry not in allowed:
+            wrong.append(f"libcpvs/{entry}: a folder that is no stage of libcpvs/CMakeLists.txt")
     for line in wrong:
         print(line)
     if wrong:
         return 1
-    print(f"{checked} includes in {len(BELOW)} folders run down the pipeline")
+    print(f"{checked} includes in {len(allowed)} folders run down the pipeline")
     return 0
 
 

@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/dag/dag_builder.h"
 #include "libcpvs/dag/leaf_table.h"

@@ -9,7 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/bake/cone_crop.h"
 #include "libcpvs/bake/light_subsets.h"

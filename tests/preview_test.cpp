@@ -15,9 +15,9 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/png_image.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/png_image.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/bake/baked_from_file.h"
 #include "libcpvs/base/error.h"

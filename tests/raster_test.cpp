@@ -11,8 +11,8 @@
 
 #include <tbb/parallel_for.h>
 
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/exr_image.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/exr_image.h"
 #include "libcpvs/raster/depth_maps.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/light_view.h"

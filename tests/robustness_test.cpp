@@ -11,7 +11,7 @@
 #include <fstream>
 #include <string>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/base/error.h"
 #include "support/test_support.h"
 

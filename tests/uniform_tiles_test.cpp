@@ -13,7 +13,7 @@
 
 #include <glm/gtc/matrix_transform.hpp>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/bake/cone_crop.h"

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 
 namespace {

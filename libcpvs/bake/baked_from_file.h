@@ -1,7 +1,7 @@
 #pragma once
 // A light of an opened .cpvs as the writer takes it: what cpvs-merge and the bake cache read back and write
 // again (the same content gives the same bytes); and whether a file was baked from a given scene.
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/scene/scene.h"
 

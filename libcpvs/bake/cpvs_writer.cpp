@@ -7,7 +7,7 @@
 
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/base/error.h"
 

@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 
 namespace cpvs {

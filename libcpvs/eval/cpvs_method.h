@@ -2,7 +2,7 @@
 // The CPVS as a ShadowMethod: a LightShadow over a bake's views (in memory, or in an open .cpvs file).
 #include <memory>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/eval/shadow_method.h"
 

@@ -8,8 +8,8 @@
 
 #include <glm/glm.hpp>
 
-#include "formats/io/exr_image.h"
-#include "formats/io/png_image.h"
+#include "libcpvs/io/exr_image.h"
+#include "libcpvs/io/png_image.h"
 #include "libcpvs/preview/frame.h"
 
 namespace cpvs {

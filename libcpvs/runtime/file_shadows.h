@@ -1,6 +1,6 @@
 #pragma once
 // The step every engine takes after opening a .cpvs: one LightShadow per light of the file.
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 
 namespace cpvs {

@@ -1,11 +1,11 @@
 # The runtime's files, for this build and for any project that vendors them (docs/runtime.md).
 get_filename_component(CPVS_RUNTIME_INCLUDE_DIR "${CMAKE_CURRENT_LIST_DIR}/../.." ABSOLUTE)
 set(_cpvs_runtime_dir "${CPVS_RUNTIME_INCLUDE_DIR}/libcpvs/runtime")
-set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 dag_walks_avx512 file_shadows light light_view outcome
-  shadow_dag shadow_lookup view_mapping)
+set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 cpvs_reader dag_walks_avx512 file_shadows light
+  light_view outcome shadow_dag shadow_lookup view_mapping)
 list(TRANSFORM _cpvs_runtime_files PREPEND "${_cpvs_runtime_dir}/")
 list(TRANSFORM _cpvs_runtime_files APPEND ".cpp")
-set(CPVS_RUNTIME_SOURCES ${CPVS_RUNTIME_INCLUDE_DIR}/formats/cpvs/cpvs_reader.cpp ${_cpvs_runtime_files})
+set(CPVS_RUNTIME_SOURCES ${_cpvs_runtime_files})
 
 # No fused multiply-add where the source has a multiply and an add, in the files that map points to voxels:
 # the scalar, AVX2 and AVX-512 paths (view_mapping.h) must round alike, and alike with the baker, whatever

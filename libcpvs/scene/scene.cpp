@@ -60,7 +60,7 @@ void appendInstance(const Mesh& mesh, const UsedVertices& used, const Instance& 
   }
 }
 
-// "Box#2" is primitive 2 of the glTF mesh "Box" (see formats/gltf/gltf_import.h).
+// "Box#2" is primitive 2 of the glTF mesh "Box" (see libcpvs/import/gltf_import.h).
 bool nameMatches(const std::string& meshName, const std::string& wanted) {
   if (meshName == wanted) return true;
   if (meshName.size() <= wanted.size() + 1 || meshName.compare(0, wanted.size(), wanted) != 0 ||

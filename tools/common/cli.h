@@ -7,7 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/exit_codes.h"
 #include "libcpvs/scene/scene.h"

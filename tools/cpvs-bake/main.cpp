@@ -9,8 +9,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/exr_image.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/exr_image.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/peak_memory.h"
 #include "libcpvs/base/stopwatch.h"

@@ -1,4 +1,4 @@
-// cpvs-info for .cpvs files: everything is read through the runtime reader (formats/cpvs), which validates the
+// cpvs-info for .cpvs files: everything is read through the runtime reader (libcpvs/runtime), which validates the
 // whole file first; nothing here trusts a byte the reader has not checked. When the reader rejects a file, a
 // separate bounds-checked scan reports which checksums still match, so that "which part is damaged" has an
 // answer even though the reader stops at the first problem.
@@ -17,7 +17,7 @@
 
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/exit_codes.h"
 #include "tools/cpvs-info/info_common.h"

@@ -10,8 +10,8 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_format.h"
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/runtime/cpvs_format.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
 #include "tools/common/bake_options.h"

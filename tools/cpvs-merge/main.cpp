@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/merge_parts.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/atomic_file.h"

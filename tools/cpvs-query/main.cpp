@@ -19,11 +19,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/io/exr_image.h"
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/gbuffer.h"
-#include "formats/io/points.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/io/exr_image.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/gbuffer.h"
+#include "libcpvs/io/points.h"
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/base/peak_memory.h"
 #include "libcpvs/base/stopwatch.h"

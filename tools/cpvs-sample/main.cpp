@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <string>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/scene/surface_samples.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"

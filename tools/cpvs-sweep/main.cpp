@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/gltf/gltf_import.h"
+#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/eval/sweep.h"
 #include "libcpvs/reference/shadow_reference.h"
 #include "libcpvs/version.h"

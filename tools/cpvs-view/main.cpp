@@ -13,10 +13,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "formats/cpvs/cpvs_file.h"
-#include "formats/gltf/gltf_import.h"
-#include "formats/io/exr_image.h"
-#include "formats/io/png_image.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/io/exr_image.h"
+#include "libcpvs/io/png_image.h"
 #include "libcpvs/bake/baked_from_file.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/preview/camera.h"

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/io/png_image.h"
+#include "libcpvs/io/png_image.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/preview/frame_image.h"
 #include "tools/common/atomic_file.h"

@@ -1,4 +1,4 @@
-#include "formats/gltf/compressed_geometry.h"
+#include "libcpvs/import/compressed_geometry.h"
 
 #include <cstdint>
 #include <cstring>
@@ -11,7 +11,7 @@
 #include <draco/compression/decode.h>
 #include <meshoptimizer.h>
 
-#include "formats/gltf/accessor_types.h"
+#include "libcpvs/import/accessor_types.h"
 #include "libcpvs/base/error.h"
 
 namespace cpvs::gltf {

@@ -1,4 +1,4 @@
-#include "formats/gltf/untrusted_input.h"
+#include "libcpvs/import/untrusted_input.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>

@@ -1,4 +1,4 @@
-#include "formats/io/png_image.h"
+#include "libcpvs/io/png_image.h"
 
 #include <memory>
 

@@ -1,6 +1,6 @@
 #pragma once
 // Streaming readers for query points (cpvs-query): CSV and PLY point clouds. Points are read in chunks, so
-// inputs larger than memory work. EXR G-buffers are read whole with formats/io/exr_image.h.
+// inputs larger than memory work. EXR G-buffers are read whole with libcpvs/io/exr_image.h.
 //
 // CSV (text, UTF-8, optional BOM, LF or CRLF line ends):
 //  * The first line that is not blank and does not start with '#' is the header: comma-separated column

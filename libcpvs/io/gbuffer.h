@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/io/points.h"
+#include "libcpvs/io/points.h"
 
 namespace cpvs {
 

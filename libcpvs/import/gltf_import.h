@@ -22,7 +22,7 @@ namespace cpvs {
 //   world transform. A mesh shared by several nodes is decoded once. A node with EXT_mesh_gpu_instancing
 //   places its mesh once per instance instead (world = node * TRANSLATION * ROTATION * SCALE of the
 //   instance; named "<node>[<k>]"); every attribute accessor must have the same count.
-// * Compressed geometry is decoded first (formats/gltf/compressed_geometry.h): EXT_meshopt_compression and
+// * Compressed geometry is decoded first (libcpvs/import/compressed_geometry.h): EXT_meshopt_compression and
 //   KHR_meshopt_compression bufferViews (their fallback buffers are never read), KHR_draco_mesh_compression
 //   primitives (every attribute the extension names, and the indices).
 // * Positions: float VEC3, or the integer types of KHR_mesh_quantization (normalized or not). Sparse
@@ -44,7 +44,7 @@ namespace cpvs {
 //   Things that are ignored without harm (images, skins, morph targets, non-triangle primitives) go to
 //   scene.warnings.
 // Safe on untrusted input: every offset and size is checked before it is read, and the rules of
-// formats/gltf/untrusted_input.h (JSON depth and size, GLB and asset versions, which files buffers may come
+// libcpvs/import/untrusted_input.h (JSON depth and size, GLB and asset versions, which files buffers may come
 // from) hold before tinygltf parses the file.
 struct ImportOptions {
   // Buffers may be read from files outside the scene's folder (by default a uri such as "../../etc/passwd"

@@ -1,4 +1,4 @@
-#include "formats/gltf/texture_decode.h"
+#include "libcpvs/import/texture_decode.h"
 
 #include <algorithm>
 #include <climits>

@@ -1,11 +1,11 @@
-#include "formats/io/gbuffer.h"
+#include "libcpvs/io/gbuffer.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cstring>
 #include <initializer_list>
 
-#include "formats/io/exr_image.h"
+#include "libcpvs/io/exr_image.h"
 #include "libcpvs/base/error.h"
 
 namespace cpvs {

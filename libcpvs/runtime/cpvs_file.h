@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "formats/cpvs/cpvs_format.h"
+#include "libcpvs/runtime/cpvs_format.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/light.h"

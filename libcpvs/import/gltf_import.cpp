@@ -1,5 +1,5 @@
-#include "formats/gltf/gltf_import.h"
-#include "formats/gltf/texture_decode.h"
+#include "libcpvs/import/gltf_import.h"
+#include "libcpvs/import/texture_decode.h"
 
 #include <algorithm>
 #include <bit>
@@ -23,9 +23,9 @@
 #include <nlohmann/json.hpp>
 #include <tiny_gltf.h>
 
-#include "formats/gltf/accessor_types.h"
-#include "formats/gltf/compressed_geometry.h"
-#include "formats/gltf/untrusted_input.h"
+#include "libcpvs/import/accessor_types.h"
+#include "libcpvs/import/compressed_geometry.h"
+#include "libcpvs/import/untrusted_input.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/scene/mesh_topology.h"
 
@@ -61,7 +61,7 @@ const std::map<std::string, std::string> kUnsupportedGeometryExtensions = {
      "strips and fans with restart values: write them as separate primitives or triangle lists, e.g. by "
      "re-exporting without primitive restart"},
 };
-// The geometry extensions cpvs imports (compressed geometry: formats/gltf/compressed_geometry.h).
+// The geometry extensions cpvs imports (compressed geometry: libcpvs/import/compressed_geometry.h).
 const std::set<std::string> kSupportedGeometryExtensions = {"EXT_meshopt_compression", "KHR_meshopt_compression",
                                                             "KHR_draco_mesh_compression", kInstancingExtension};
 // Instances one EXT_mesh_gpu_instancing node may add (instances times primitives): each costs memory.

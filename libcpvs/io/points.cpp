@@ -1,4 +1,4 @@
-#include "formats/io/points.h"
+#include "libcpvs/io/points.h"
 
 #include <algorithm>
 #include <iterator>

@@ -1,4 +1,4 @@
-#include "formats/gltf/accessor_types.h"
+#include "libcpvs/import/accessor_types.h"
 
 #include <tiny_gltf.h>
 

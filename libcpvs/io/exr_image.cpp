@@ -1,4 +1,4 @@
-#include "formats/io/exr_image.h"
+#include "libcpvs/io/exr_image.h"
 
 #include <cstdio>
 #include <exception>

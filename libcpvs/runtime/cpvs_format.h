@@ -1,5 +1,5 @@
 #pragma once
-// The .cpvs format's version and layout constants, shared by the reader (formats/cpvs/cpvs_file.h) and the
+// The .cpvs format's version and layout constants, shared by the reader (libcpvs/runtime/cpvs_file.h) and the
 // writer (libcpvs/bake/cpvs_writer.h). The byte-level spec is docs/format.md.
 #include <cstdint>
 #include <cstdio>

@@ -16,7 +16,7 @@
 
 #include <xxhash.h>
 
-#include "formats/cpvs/cpvs_file.h"
+#include "libcpvs/runtime/cpvs_file.h"
 
 static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
                                                           "big-endian hosts are not supported");
@@ -313,52 +313,76 @@ std::unique_ptr<CpvsFile> CpvsFile::fromBorrowedBytesOrThrow(std::span<const uin
   return file;
 }
 
-void CpvsFile::parse(const std::string& name) {
-  const Reader r(data_, size_, name);
-  const uint64_t size = size_;
+namespace {
 
-  // Header: magic, version (before anything whose layout a future major version may change), checksum, sizes.
+// What the header and the section table say, as CpvsFile::parse's steps find it.
+struct FileLayout {
+  uint16_t major = 0, minor = 0;
+  bool strict = true;    // x.0: reserved fields are zero (later minors may give them meaning)
+  bool format1 = false;  // 32-bit node words, converted on open (the only copy this reader makes)
+  std::string dotZero;   // "major.0", for messages
+  uint64_t tableOffset = 0, tableSize = 0;
+  std::vector<Entry> entries;
+  int64_t bake = -1, strs = -1, lght = -1, view = -1;  // the singleton sections' indices
+};
+
+// Step 1: the header (magic, version before anything whose layout a later major version may change, checksum,
+// sizes).
+FileLayout readHeader(const Reader& r) {
+  const uint64_t size = r.size();
   checkMagic(r);
   if (size < kHeaderSize)
     r.fail("truncated: " + std::to_string(size) + " bytes (a .cpvs header alone is " + std::to_string(kHeaderSize) +
            ")");
-  major_ = r.u16(8);
-  minor_ = r.u16(10);
-  const bool headerOk = XXH3_64bits(data_, 56) == r.u64(56);
-  if (major_ != kCpvsMajorVersion && major_ != kCpvsOldestReadableMajor)
-    r.fail("written by format version " + std::to_string(major_) + "." + std::to_string(minor_) + "; this build reads " +
+  FileLayout f;
+  f.major = r.u16(8);
+  f.minor = r.u16(10);
+  const bool headerOk = XXH3_64bits(r.data(), 56) == r.u64(56);
+  if (f.major != kCpvsMajorVersion && f.major != kCpvsOldestReadableMajor)
+    r.fail("written by format version " + std::to_string(f.major) + "." + std::to_string(f.minor) +
+           "; this build reads " +
            std::to_string(kCpvsOldestReadableMajor) + ".x and " + std::to_string(kCpvsMajorVersion) +
            ".x — update cpvs or re-bake" +
            (headerOk ? "" : " (or the header is corrupt: its checksum does not match)"));
   if (!headerOk) r.fail("header checksum mismatch — the file is corrupt");
-  const bool strict = minor_ == 0;  // reserved fields are zero in x.0; later minors may give them meaning
-  const bool format1 = major_ == 1;  // 32-bit node words, converted on open (the only copy this reader makes)
-  const std::string dotZero = std::to_string(major_) + ".0";
+  f.strict = f.minor == 0;
+  f.format1 = f.major == 1;
+  f.dotZero = std::to_string(f.major) + ".0";
+  const bool strict = f.strict;
+  const std::string& dotZero = f.dotZero;
   if (r.u32(12) != kHeaderSize)
     r.fail("header size " + std::to_string(r.u32(12)) + " (expected " + std::to_string(kHeaderSize) + ")");
-  if (strict && (r.u32(20) != 0 || r.u64(48) != 0)) r.fail("reserved header fields are not zero in a " + dotZero + " file");
+  if (strict && (r.u32(20) != 0 || r.u64(48) != 0))
+    r.fail("reserved header fields are not zero in a " + dotZero + " file");
   const uint64_t declared = r.u64(32);
   if (declared > size)
     r.fail("truncated: the header says " + std::to_string(declared) + " bytes, the file has " + std::to_string(size));
   if (declared < size)
     r.fail(std::to_string(size - declared) + " bytes of trailing data after the " + std::to_string(declared) +
            " bytes the header gives");
+  return f;
+}
 
-  // Section table.
+// Step 2: the section table, each section's place and checksum (into `sections` as cpvs-info lists them).
+void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::SectionInfo>& sections) {
+  const uint64_t size = r.size();
   const uint64_t count = r.u32(16);
   const uint64_t tableOffset = r.u64(24);
+  f.tableOffset = tableOffset;
   if (count == 0) r.fail("the section table is empty");
   if (tableOffset % kAlignment != 0 || tableOffset < kHeaderSize || tableOffset > size ||
       count > (size - tableOffset) / kSectionEntrySize)
     r.fail("section table (" + std::to_string(count) + " entries at offset " + std::to_string(tableOffset) +
            ") does not lie inside the file after the header, 64-byte aligned");
   const uint64_t tableSize = count * kSectionEntrySize;
-  if (XXH3_64bits(data_ + tableOffset, tableSize) != r.u64(40))
+  f.tableSize = tableSize;
+  if (XXH3_64bits(r.data() + tableOffset, tableSize) != r.u64(40))
     r.fail("section table checksum mismatch — the file is corrupt");
 
-  std::vector<Entry> entries(count);
-  sections_.clear();
-  sections_.reserve(count);
+  std::vector<Entry>& entries = f.entries;
+  entries.assign(count, Entry{});
+  sections.clear();
+  sections.reserve(count);
   for (uint64_t i = 0; i < count; ++i) {
     const uint64_t e = tableOffset + i * kSectionEntrySize;
     Entry& s = entries[i];
@@ -372,35 +396,42 @@ void CpvsFile::parse(const std::string& name) {
     if (s.offset > size || s.size > size - s.offset)
       r.fail(label + ": " + std::to_string(s.size) + " bytes at offset " + std::to_string(s.offset) +
              " run past the end of the file (" + std::to_string(size) + " bytes)");
-    const uint64_t checksum = XXH3_64bits(data_ + s.offset, size_t(s.size));
+    const uint64_t checksum = XXH3_64bits(r.data() + s.offset, size_t(s.size));
     if (checksum != r.u64(e + 24)) r.fail(label + " checksum mismatch — the file is corrupt");
-    sections_.push_back({typeName(s.type), s.elementSize, s.offset, s.size, checksum, true});
+    sections.push_back({typeName(s.type), s.elementSize, s.offset, s.size, checksum, true});
   }
 
-  // Header, table and sections do not overlap; every byte between them is zero padding.
-  {
-    std::vector<std::pair<uint64_t, uint64_t>> ranges;  // [begin, end)
-    ranges.reserve(count + 2);
-    ranges.push_back({0, kHeaderSize});
-    ranges.push_back({tableOffset, tableOffset + tableSize});
-    for (const Entry& s : entries)
-      if (s.size > 0) ranges.push_back({s.offset, s.offset + s.size});
-    std::sort(ranges.begin(), ranges.end());
-    uint64_t end = 0;
-    for (const auto& [b, e] : ranges) {
-      if (b < end) r.fail("sections overlap at offset " + std::to_string(b));
-      for (uint64_t p = end; p < b; ++p)
-        if (data_[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
-      end = e;
-    }
-    for (uint64_t p = end; p < size; ++p)
-      if (data_[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
-  }
+}
 
-  // The four singleton sections; NODE and LEAF are found through the view records; others are skipped.
-  int64_t bake = -1, strs = -1, lght = -1, view = -1;
+// Step 3: header, table and sections do not overlap; every byte between them is zero padding.
+void checkPadding(const Reader& r, const FileLayout& f) {
+  const uint64_t size = r.size();
+  std::vector<std::pair<uint64_t, uint64_t>> ranges;  // [begin, end)
+  ranges.reserve(f.entries.size() + 2);
+  ranges.push_back({0, kHeaderSize});
+  ranges.push_back({f.tableOffset, f.tableOffset + f.tableSize});
+  for (const Entry& s : f.entries)
+    if (s.size > 0) ranges.push_back({s.offset, s.offset + s.size});
+  std::sort(ranges.begin(), ranges.end());
+  uint64_t end = 0;
+  for (const auto& [b, e] : ranges) {
+    if (b < end) r.fail("sections overlap at offset " + std::to_string(b));
+    for (uint64_t p = end; p < b; ++p)
+      if (r.data()[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
+    end = e;
+  }
+  for (uint64_t p = end; p < size; ++p)
+    if (r.data()[p] != 0) r.fail("padding byte at offset " + std::to_string(p) + " is not zero — the file is corrupt");
+}
+
+// Step 4: the four singleton sections and every section's element size (NODE and LEAF are found through the
+// view records; types from a later minor version are skipped).
+void findSections(const Reader& r, FileLayout& f) {
+  const bool strict = f.strict, format1 = f.format1;
+  int64_t &bake = f.bake, &strs = f.strs, &lght = f.lght, &view = f.view;
+  const uint64_t count = f.entries.size();
   for (uint64_t i = 0; i < count; ++i) {
-    const Entry& s = entries[i];
+    const Entry& s = f.entries[i];
     const std::string label = "section " + std::to_string(i) + " '" + typeName(s.type) + "'";
     auto expectElement = [&](uint32_t expected, bool extensible) {
       const bool ok = extensible && !strict ? s.elementSize >= expected : s.elementSize == expected;
@@ -412,7 +443,8 @@ void CpvsFile::parse(const std::string& name) {
                std::to_string(s.elementSize));
     };
     auto single = [&](int64_t& slot) {
-      if (slot >= 0) r.fail("two '" + typeName(s.type) + "' sections (" + std::to_string(slot) + " and " + std::to_string(i) + ")");
+      if (slot >= 0)
+        r.fail("two '" + typeName(s.type) + "' sections (" + std::to_string(slot) + " and " + std::to_string(i) + ")");
       slot = int64_t(i);
     };
     switch (s.type) {
@@ -429,165 +461,197 @@ void CpvsFile::parse(const std::string& name) {
            {bake, kBake}, {strs, kStrs}, {lght, kLght}, {view, kView}})
     if (slot < 0) r.fail("no '" + typeName(type) + "' section");
 
-  const Entry& bakeS = entries[bake];
+}
+
+// One view record (record `index`, view vi of light li), its DAG validated (a format-1 DAG converted into
+// `converted`, which owns it).
+CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const std::string& named, uint64_t vi,
+                        uint64_t index, std::vector<std::unique_ptr<ShadowDag>>& converted) {
+  const uint8_t* data = r.data();
+  const bool strict = f.strict, format1 = f.format1;
+  const std::string& dotZero = f.dotZero;
+  const uint64_t count = f.entries.size();
+  const std::vector<Entry>& entries = f.entries;
+  const Entry& viewS = f.entries[f.view];
+  const uint64_t w = viewS.offset + index * viewS.elementSize;
+  const std::string vwhat = named + " view " + std::to_string(vi) + " (record " + std::to_string(index) + ")";
+  CpvsFile::View out;
+  LightView& v = out.view;
+  const uint8_t projection = r.u8(w), mapping = r.u8(w + 1), flags = r.u8(w + 3);
+  const int face = int(int8_t(r.u8(w + 2)));
+  if (projection > 1) r.fail(vwhat + ": unknown projection " + std::to_string(projection));
+  if (mapping > 1) r.fail(vwhat + ": unknown depth mapping " + std::to_string(mapping));
+  if (face < -1 || face > 5) r.fail(vwhat + ": cube face " + std::to_string(face) + " (expected -1..5)");
+  if (strict && (flags & ~1u) != 0)
+    r.fail(vwhat + ": unknown flags " + std::to_string(flags) + " in a " + dotZero + " file");
+  v.projection = Projection(projection);
+  v.mapping = DepthMapping(mapping);
+  v.face = face;
+  v.empty = flags & 1u;
+  v.resolution = r.u32(w + 4);
+  if (v.resolution < 8 || v.resolution > kMaxResolution || !std::has_single_bit(v.resolution))
+    r.fail(vwhat + ": resolution " + std::to_string(v.resolution) + " (expected a power of two from 8 to " +
+           std::to_string(kMaxResolution) + ")");
+  const uint32_t levels = uint32_t(std::countr_zero(v.resolution)) - 2;
+  const uint8_t rootCode = r.u8(w + 8);
+  if (rootCode > 2) r.fail(vwhat + ": root code " + std::to_string(rootCode) + " (expected 0..2)");
+  if (r.u8(w + 9) != levels)
+    r.fail(vwhat + ": " + std::to_string(r.u8(w + 9)) + " DAG levels for resolution " +
+           std::to_string(v.resolution) + " (expected " + std::to_string(levels) + ")");
+  if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
+  if (r.u32(w + 12) != li)
+    r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + 12)) + ", not " + std::to_string(li));
+  const uint64_t nodeSection = r.u32(w + 16), leafSection = r.u32(w + 20);
+  if (nodeSection >= count || entries[nodeSection].type != kNode)
+    r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
+  if (leafSection >= count || entries[leafSection].type != kLeaf)
+    r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
+  const Entry& nodeS = entries[nodeSection];
+  const Entry& leafS = entries[leafSection];
+  const uint64_t words = r.u64(w + 24), leafCount = r.u64(w + 32);
+  const uint64_t nodeElement = format1 ? 4 : 2;
+  const std::string unit = format1 ? " node words" : " node units";
+  if (words != nodeS.size / nodeElement)
+    r.fail(vwhat + ": " + std::to_string(words) + unit + ", but section " + std::to_string(nodeSection) +
+           " 'NODE' holds " + std::to_string(nodeS.size / nodeElement));
+  if (leafCount != leafS.size / 8)
+    r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
+           " 'LEAF' holds " + std::to_string(leafS.size / 8));
+  if (words > UINT32_MAX || leafCount > (uint64_t(1) << 32))
+    r.fail(vwhat + ": DAG too large for 32-bit references");
+  bool finite = true;
+  for (int c = 0; c < 4; ++c)
+    for (int row = 0; row < 4; ++row) {
+      v.viewFromWorld[c][row] = r.f64(w + 40 + 8 * (4 * c + row));
+      finite = finite && std::isfinite(v.viewFromWorld[c][row]);
+    }
+  if (!finite) r.fail(vwhat + ": viewFromWorld has a non-finite element");
+  v.xMin = r.f64(w + 168);
+  v.xMax = r.f64(w + 176);
+  v.yMin = r.f64(w + 184);
+  v.yMax = r.f64(w + 192);
+  v.near = r.f64(w + 200);
+  v.far = r.f64(w + 208);
+  for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
+    if (!std::isfinite(x)) r.fail(vwhat + ": a lateral or depth bound is not finite");
+  if (!(v.xMin < v.xMax) || !(v.yMin < v.yMax))
+    r.fail(vwhat + ": empty lateral extent x [" + num(v.xMin) + ", " + num(v.xMax) + "] y [" + num(v.yMin) + ", " +
+           num(v.yMax) + "]");
+  if (!(v.near < v.far)) r.fail(vwhat + ": near " + num(v.near) + " is not before far " + num(v.far));
+  if (v.mapping == DepthMapping::Logarithmic && !(v.near > 0))
+    r.fail(vwhat + ": logarithmic depth needs near > 0 (near is " + num(v.near) + ")");
+  // Finite is not enough: the mapping divides by the extents and takes log(far / near), and a bound of 1e308
+  // gives an infinite width. Every value must lie within what a bake of a real scene can write.
+  for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
+    if (!(std::abs(x) <= kMaxViewCoordinate))
+      r.fail(vwhat + ": bound " + num(x) + " beyond +-" + num(kMaxViewCoordinate));
+  const double n = double(v.resolution);
+  const double spans[] = {n / (v.xMax - v.xMin), n / (v.yMax - v.yMin),
+                          n / (v.mapping == DepthMapping::Linear ? v.far - v.near : std::log(v.far / v.near))};
+  for (double scale : spans)
+    if (!(std::isfinite(scale) && scale > 0)) r.fail(vwhat + ": an extent too small for its resolution");
+  for (int c = 0; c < 4; ++c)
+    for (int row = 0; row < 4; ++row)
+      if (!(std::abs(v.viewFromWorld[c][row]) <= 2 * kMaxViewCoordinate))
+        r.fail(vwhat + ": viewFromWorld element " + num(v.viewFromWorld[c][row]) + " beyond +-" +
+               num(2 * kMaxViewCoordinate));
+  out.nodesPerLevel.resize(levels);
+  for (uint32_t k = 0; k < kMaxLevels; ++k) {
+    const uint64_t c = r.u64(w + 216 + 8 * k);
+    if (k < levels) out.nodesPerLevel[k] = c;
+    else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
+                            std::to_string(levels) + " levels");
+  }
+  // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
+  const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data + leafS.offset),
+                                         size_t(leafCount));
+  out.nodeBytes = nodeS.size;
+  if (format1) {
+    const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data + nodeS.offset), size_t(words));
+    const std::vector<uint64_t> levelStart =
+        validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
+    Result<ShadowDag> dag =
+        convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel);
+    if (!dag) r.fail(vwhat + ": cannot convert the format-1 DAG: " + dag.outcome().message());
+    converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
+    out.dag = converted.back()->view();
+  } else {
+    const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data + nodeS.offset), size_t(words));
+    const std::vector<uint64_t> levelStart =
+        validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
+    out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
+    out.dag.setLevelStarts(levelStart);
+  }
+  return out;
+}
+
+// Step 5, per light: its record and its views' records (which must follow the previous light's: nextView).
+CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li, uint64_t& nextView,
+                               std::vector<std::unique_ptr<ShadowDag>>& converted) {
+  const bool strict = f.strict;
+  const std::string& dotZero = f.dotZero;
+  const Entry& strsS = f.entries[f.strs];
+  const Entry& lghtS = f.entries[f.lght];
+  const Entry& viewS = f.entries[f.view];
+  const uint64_t viewCount = viewS.size / viewS.elementSize;
+  const uint64_t at = lghtS.offset + li * lghtS.elementSize;
+  const std::string what = "light " + std::to_string(li);
+  CpvsFile::LightEntry entry;
+  Light& l = entry.light;
+  const uint32_t type = r.u32(at);
+  if (type > uint32_t(LightType::Point)) r.fail(what + ": unknown light type " + std::to_string(type));
+  l.type = LightType(type);
+  const uint64_t nameOffset = r.u32(at + 4), nameLength = r.u32(at + 8);
+  if (nameOffset > strsS.size || nameLength > strsS.size - nameOffset)
+    r.fail(what + ": name (" + std::to_string(nameLength) + " bytes at " + std::to_string(nameOffset) +
+           ") lies outside the string pool (" + std::to_string(strsS.size) + " bytes)");
+  l.name.assign(reinterpret_cast<const char*>(r.data() + strsS.offset + nameOffset), size_t(nameLength));
+  const std::string named = what + " '" + l.name + "'";
+  const uint64_t firstView = r.u32(at + 12), views = r.u32(at + 16);
+  if (firstView != nextView || views > viewCount - nextView)
+    r.fail(named + ": views " + std::to_string(firstView) + ".." + std::to_string(firstView + views) +
+           " do not follow the previous light's within the " + std::to_string(viewCount) + " view records");
+  nextView += views;
+  for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + 20 + 4 * c);
+  l.intensity = r.f32(at + 32);
+  if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a " + dotZero + " file");
+  l.range = r.f64(at + 40);
+  l.innerConeAngle = r.f64(at + 48);
+  l.outerConeAngle = r.f64(at + 56);
+  for (int c = 0; c < 3; ++c) l.position[c] = r.f64(at + 64 + 8 * c);
+  for (int c = 0; c < 3; ++c) l.direction[c] = r.f64(at + 88 + 8 * c);
+  bool finite = std::isfinite(l.intensity) && std::isfinite(l.innerConeAngle) && std::isfinite(l.outerConeAngle);
+  for (int c = 0; c < 3; ++c)
+    finite = finite && std::isfinite(l.color[c]) && std::isfinite(l.position[c]) && std::isfinite(l.direction[c]);
+  if (!finite) r.fail(named + ": a colour, intensity, cone, position or direction value is not finite");
+  if (!(l.range > 0)) r.fail(named + ": range " + num(l.range) + " (expected > 0 or +inf)");
+
+  entry.views.reserve(views);
+  for (uint64_t vi = 0; vi < views; ++vi)
+    entry.views.push_back(readView(r, f, li, named, vi, firstView + vi, converted));
+  return entry;
+}
+
+}  // namespace
+
+void CpvsFile::parse(const std::string& name) {
+  const Reader r(data_, size_, name);
+  FileLayout f = readHeader(r);
+  major_ = f.major;
+  minor_ = f.minor;
+  readSectionTable(r, f, sections_);
+  checkPadding(r, f);
+  findSections(r, f);
+  const Entry& bakeS = f.entries[f.bake];
   settingsJson_.assign(reinterpret_cast<const char*>(data_ + bakeS.offset), size_t(bakeS.size));
-  const Entry& strsS = entries[strs];
-  const Entry& lghtS = entries[lght];
-  const Entry& viewS = entries[view];
+  const Entry& lghtS = f.entries[f.lght];
+  const Entry& viewS = f.entries[f.view];
   const uint64_t lightCount = lghtS.size / lghtS.elementSize;  // <= file size / 112
   const uint64_t viewCount = viewS.size / viewS.elementSize;   // <= file size / 472
-
   lights_.clear();
   lights_.reserve(lightCount);
   uint64_t nextView = 0;
-  for (uint64_t li = 0; li < lightCount; ++li) {
-    const uint64_t at = lghtS.offset + li * lghtS.elementSize;
-    const std::string what = "light " + std::to_string(li);
-    LightEntry entry;
-    Light& l = entry.light;
-    const uint32_t type = r.u32(at);
-    if (type > uint32_t(LightType::Point)) r.fail(what + ": unknown light type " + std::to_string(type));
-    l.type = LightType(type);
-    const uint64_t nameOffset = r.u32(at + 4), nameLength = r.u32(at + 8);
-    if (nameOffset > strsS.size || nameLength > strsS.size - nameOffset)
-      r.fail(what + ": name (" + std::to_string(nameLength) + " bytes at " + std::to_string(nameOffset) +
-             ") lies outside the string pool (" + std::to_string(strsS.size) + " bytes)");
-    l.name.assign(reinterpret_cast<const char*>(data_ + strsS.offset + nameOffset), size_t(nameLength));
-    const std::string named = what + " '" + l.name + "'";
-    const uint64_t firstView = r.u32(at + 12), views = r.u32(at + 16);
-    if (firstView != nextView || views > viewCount - nextView)
-      r.fail(named + ": views " + std::to_string(firstView) + ".." + std::to_string(firstView + views) +
-             " do not follow the previous light's within the " + std::to_string(viewCount) + " view records");
-    nextView += views;
-    for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + 20 + 4 * c);
-    l.intensity = r.f32(at + 32);
-    if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a " + dotZero + " file");
-    l.range = r.f64(at + 40);
-    l.innerConeAngle = r.f64(at + 48);
-    l.outerConeAngle = r.f64(at + 56);
-    for (int c = 0; c < 3; ++c) l.position[c] = r.f64(at + 64 + 8 * c);
-    for (int c = 0; c < 3; ++c) l.direction[c] = r.f64(at + 88 + 8 * c);
-    bool finite = std::isfinite(l.intensity) && std::isfinite(l.innerConeAngle) && std::isfinite(l.outerConeAngle);
-    for (int c = 0; c < 3; ++c)
-      finite = finite && std::isfinite(l.color[c]) && std::isfinite(l.position[c]) && std::isfinite(l.direction[c]);
-    if (!finite) r.fail(named + ": a colour, intensity, cone, position or direction value is not finite");
-    if (!(l.range > 0)) r.fail(named + ": range " + num(l.range) + " (expected > 0 or +inf)");
-
-    entry.views.reserve(views);
-    for (uint64_t vi = 0; vi < views; ++vi) {
-      const uint64_t index = firstView + vi;
-      const uint64_t w = viewS.offset + index * viewS.elementSize;
-      const std::string vwhat = named + " view " + std::to_string(vi) + " (record " + std::to_string(index) + ")";
-      View out;
-      LightView& v = out.view;
-      const uint8_t projection = r.u8(w), mapping = r.u8(w + 1), flags = r.u8(w + 3);
-      const int face = int(int8_t(r.u8(w + 2)));
-      if (projection > 1) r.fail(vwhat + ": unknown projection " + std::to_string(projection));
-      if (mapping > 1) r.fail(vwhat + ": unknown depth mapping " + std::to_string(mapping));
-      if (face < -1 || face > 5) r.fail(vwhat + ": cube face " + std::to_string(face) + " (expected -1..5)");
-      if (strict && (flags & ~1u) != 0) r.fail(vwhat + ": unknown flags " + std::to_string(flags) + " in a " + dotZero + " file");
-      v.projection = Projection(projection);
-      v.mapping = DepthMapping(mapping);
-      v.face = face;
-      v.empty = flags & 1u;
-      v.resolution = r.u32(w + 4);
-      if (v.resolution < 8 || v.resolution > kMaxResolution || !std::has_single_bit(v.resolution))
-        r.fail(vwhat + ": resolution " + std::to_string(v.resolution) + " (expected a power of two from 8 to " +
-               std::to_string(kMaxResolution) + ")");
-      const uint32_t levels = uint32_t(std::countr_zero(v.resolution)) - 2;
-      const uint8_t rootCode = r.u8(w + 8);
-      if (rootCode > 2) r.fail(vwhat + ": root code " + std::to_string(rootCode) + " (expected 0..2)");
-      if (r.u8(w + 9) != levels)
-        r.fail(vwhat + ": " + std::to_string(r.u8(w + 9)) + " DAG levels for resolution " +
-               std::to_string(v.resolution) + " (expected " + std::to_string(levels) + ")");
-      if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
-      if (r.u32(w + 12) != li)
-        r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + 12)) + ", not " + std::to_string(li));
-      const uint64_t nodeSection = r.u32(w + 16), leafSection = r.u32(w + 20);
-      if (nodeSection >= count || entries[nodeSection].type != kNode)
-        r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
-      if (leafSection >= count || entries[leafSection].type != kLeaf)
-        r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
-      const Entry& nodeS = entries[nodeSection];
-      const Entry& leafS = entries[leafSection];
-      const uint64_t words = r.u64(w + 24), leafCount = r.u64(w + 32);
-      const uint64_t nodeElement = format1 ? 4 : 2;
-      const std::string unit = format1 ? " node words" : " node units";
-      if (words != nodeS.size / nodeElement)
-        r.fail(vwhat + ": " + std::to_string(words) + unit + ", but section " + std::to_string(nodeSection) +
-               " 'NODE' holds " + std::to_string(nodeS.size / nodeElement));
-      if (leafCount != leafS.size / 8)
-        r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
-               " 'LEAF' holds " + std::to_string(leafS.size / 8));
-      if (words > UINT32_MAX || leafCount > (uint64_t(1) << 32))
-        r.fail(vwhat + ": DAG too large for 32-bit references");
-      bool finite = true;
-      for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row) {
-          v.viewFromWorld[c][row] = r.f64(w + 40 + 8 * (4 * c + row));
-          finite = finite && std::isfinite(v.viewFromWorld[c][row]);
-        }
-      if (!finite) r.fail(vwhat + ": viewFromWorld has a non-finite element");
-      v.xMin = r.f64(w + 168);
-      v.xMax = r.f64(w + 176);
-      v.yMin = r.f64(w + 184);
-      v.yMax = r.f64(w + 192);
-      v.near = r.f64(w + 200);
-      v.far = r.f64(w + 208);
-      for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
-        if (!std::isfinite(x)) r.fail(vwhat + ": a lateral or depth bound is not finite");
-      if (!(v.xMin < v.xMax) || !(v.yMin < v.yMax))
-        r.fail(vwhat + ": empty lateral extent x [" + num(v.xMin) + ", " + num(v.xMax) + "] y [" + num(v.yMin) + ", " +
-               num(v.yMax) + "]");
-      if (!(v.near < v.far)) r.fail(vwhat + ": near " + num(v.near) + " is not before far " + num(v.far));
-      if (v.mapping == DepthMapping::Logarithmic && !(v.near > 0))
-        r.fail(vwhat + ": logarithmic depth needs near > 0 (near is " + num(v.near) + ")");
-      // Finite is not enough: the mapping divides by the extents and takes log(far / near), and a bound of 1e308
-      // gives an infinite width. Every value must lie within what a bake of a real scene can write.
-      for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
-        if (!(std::abs(x) <= kMaxViewCoordinate))
-          r.fail(vwhat + ": bound " + num(x) + " beyond +-" + num(kMaxViewCoordinate));
-      const double n = double(v.resolution);
-      const double spans[] = {n / (v.xMax - v.xMin), n / (v.yMax - v.yMin),
-                              n / (v.mapping == DepthMapping::Linear ? v.far - v.near : std::log(v.far / v.near))};
-      for (double scale : spans)
-        if (!(std::isfinite(scale) && scale > 0)) r.fail(vwhat + ": an extent too small for its resolution");
-      for (int c = 0; c < 4; ++c)
-        for (int row = 0; row < 4; ++row)
-          if (!(std::abs(v.viewFromWorld[c][row]) <= 2 * kMaxViewCoordinate))
-            r.fail(vwhat + ": viewFromWorld element " + num(v.viewFromWorld[c][row]) + " beyond +-" +
-                   num(2 * kMaxViewCoordinate));
-      out.nodesPerLevel.resize(levels);
-      for (uint32_t k = 0; k < kMaxLevels; ++k) {
-        const uint64_t c = r.u64(w + 216 + 8 * k);
-        if (k < levels) out.nodesPerLevel[k] = c;
-        else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
-                                std::to_string(levels) + " levels");
-      }
-      // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
-      const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data_ + leafS.offset),
-                                             size_t(leafCount));
-      out.nodeBytes = nodeS.size;
-      if (format1) {
-        const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data_ + nodeS.offset), size_t(words));
-        const std::vector<uint64_t> levelStart =
-            validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-        Result<ShadowDag> dag =
-            convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel);
-        if (!dag) r.fail(vwhat + ": cannot convert the format-1 DAG: " + dag.outcome().message());
-        converted_.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
-        out.dag = converted_.back()->view();
-      } else {
-        const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data_ + nodeS.offset), size_t(words));
-        const std::vector<uint64_t> levelStart =
-            validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-        out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
-        out.dag.setLevelStarts(levelStart);
-      }
-      entry.views.push_back(std::move(out));
-    }
-    lights_.push_back(std::move(entry));
-  }
+  for (uint64_t li = 0; li < lightCount; ++li) lights_.push_back(readLight(r, f, li, nextView, converted_));
   if (nextView != viewCount)
     r.fail(std::to_string(viewCount - nextView) + " view records belong to no light");
 }
