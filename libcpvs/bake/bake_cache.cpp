@@ -43,7 +43,7 @@ uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const st
   XXH3_64bits_update(state, more, sizeof more);
   const std::vector<uint64_t> lossy = lossySettingWords(settings);
   if (!lossy.empty()) XXH3_64bits_update(state, lossy.data(), lossy.size() * sizeof(uint64_t));
-  const double cone[] = {double(light.type), light.type == LightType::Spot ? light.outerConeAngle : 0.0};
+  const double cone[] = {double(light.type), hasCone(light) ? light.outerConeAngle : 0.0};
   XXH3_64bits_update(state, cone, sizeof cone);
   for (size_t i = 0; i < views.size(); ++i) {
     const LightView& v = views[i];

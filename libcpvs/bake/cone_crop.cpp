@@ -7,7 +7,7 @@ namespace cpvs {
 
 ConeCrop coneCropOf(const Light& light, const LightView& view) {
   ConeCrop crop;
-  if (light.type != LightType::Spot || view.projection != Projection::Perspective || view.resolution == 0) return crop;
+  if (!hasCone(light) || view.projection != Projection::Perspective || view.resolution == 0) return crop;
   // The runtime's cone (cell_lanes.h insideSpot) is the outer angle up to pi/2 (views stop at 85 degrees, so a
   // wider cone covers the whole view and nothing is cropped).
   const double kHalfPi = 1.57079632679489661923;

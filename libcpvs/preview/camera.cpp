@@ -26,17 +26,8 @@ glm::dvec3 litSide(std::span<const Light> lights, const Bounds& bounds, const gl
   double strongest = 0;
   glm::dvec3 toLight(0.0);
   for (const Light& light : lights) {
-    const double colour = 0.2126 * light.color.r + 0.7152 * light.color.g + 0.0722 * light.color.b;
-    double illuminance = double(light.intensity) * colour;
-    glm::dvec3 toward = -light.direction;
-    if (light.type != LightType::Directional) {
-      toward = light.position - centre;
-      const double d = glm::length(toward);
-      const bool inside = light.type != LightType::Spot ||
-                          glm::dot(-toward, light.direction) >= d * glm::length(light.direction) *
-                                                                     std::cos(light.outerConeAngle);
-      illuminance = d > 0 && d <= light.range && inside ? illuminance / (d * d) : 0.0;
-    }
+    const double illuminance = strengthAt(light, centre);
+    const glm::dvec3 toward = towardLight(light, centre);
     if (std::isfinite(illuminance) && illuminance > strongest && glm::length(toward) > 0) {
       strongest = illuminance;
       toLight = glm::normalize(toward);

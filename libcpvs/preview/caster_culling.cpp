@@ -132,8 +132,8 @@ void CasterGrid::markCellsOfBox(const glm::dvec3& lo, const glm::dvec3& hi, std:
 void CasterGrid::sweepToLight(const Light& light, const glm::dvec3& lo, const glm::dvec3& hi,
                               std::vector<uint8_t>& cells) const {
   const double step = 0.5 * std::min({cellSize_.x, cellSize_.y, cellSize_.z});
-  if (light.type == LightType::Directional) {
-    const glm::dvec3 toLight = -light.direction;
+  if (!hasPosition(light)) {
+    const glm::dvec3 toLight = towardLight(light, lo);
     const double length = glm::length(bounds_.max - bounds_.min);
     for (double t = 0; t <= length + step; t += step) markCellsOfBox(lo + toLight * t, hi + toLight * t, cells);
     return;

@@ -27,8 +27,8 @@ void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vecto
     reals[kLightColor + i] = light.color[i];
   }
   const SpotInfluence spot = spotInfluence(light);  // the runtime's cone cosine, bit for bit
-  reals[kLightRange] = light.type == LightType::Directional ? std::numeric_limits<double>::infinity() : light.range;
-  reals[kLightCosOuter] = light.type == LightType::Spot ? spot.cosOuter : -1.0;
+  reals[kLightRange] = influenceRange(light);
+  reals[kLightCosOuter] = hasCone(light) ? spot.cosOuter : -1.0;
   reals[kLightSinOuter] = std::sin(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
   reals[kLightCosInner] = std::cos(std::min(light.innerConeAngle, light.outerConeAngle));
   reals[kLightIntensity] = light.intensity;

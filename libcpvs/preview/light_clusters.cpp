@@ -18,7 +18,7 @@ LightClusters clusterLights(const std::vector<Light>& lights, uint32_t clusters)
   };
   std::vector<Cluster> active;
   for (uint32_t l = 0; l < lights.size(); ++l)
-    if (lights[l].type != LightType::Directional) active.push_back({{l}, lights[l].position});
+    if (hasPosition(lights[l])) active.push_back({{l}, lights[l].position});
   while (active.size() > clusters) {
     size_t a = 0, b = 1;
     double best = std::numeric_limits<double>::infinity();

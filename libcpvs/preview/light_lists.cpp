@@ -9,14 +9,14 @@
 namespace cpvs {
 
 bool lightMeetsBox(const Light& light, const glm::dvec3& lo, const glm::dvec3& hi) {
-  if (light.type == LightType::Directional) return true;
+  if (!hasRange(light)) return true;
   const glm::dvec3 p = light.position, dir = light.direction;
   const glm::dvec3 gap = glm::max(lo - p, glm::dvec3(0.0)) + glm::max(p - hi, glm::dvec3(0.0));
   const double gap2 = (gap.x * gap.x + gap.y * gap.y) + gap.z * gap.z;
   if (gap2 > light.range * light.range * 1.000001) return false;
-  const double cosOuter = light.type == LightType::Spot ? spotInfluence(light).cosOuter : -1.0;
+  const double cosOuter = hasCone(light) ? spotInfluence(light).cosOuter : -1.0;
   const double sinOuter = std::sin(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
-  if (light.type == LightType::Point || cosOuter <= 0.0) return true;
+  if (!hasCone(light) || cosOuter <= 0.0) return true;
   const glm::dvec3 centre = 0.5 * (lo + hi), size = hi - lo;
   const double radius = 0.5 * std::sqrt((size.x * size.x + size.y * size.y) + size.z * size.z) * 1.000001 +
                         1e-9 * ((std::fabs(centre.x) + std::fabs(centre.y)) + std::fabs(centre.z) + 1.0);

@@ -21,7 +21,7 @@ uint32_t evenBits(uint64_t z) {
 
 uint32_t manyPsmResolution(const Light& light, const glm::dvec3& eye, const ShadowMapSettings& settings) {
   const uint32_t largest = settings.size, smallest = std::min(settings.minSize, settings.size);
-  if (light.type == LightType::Directional || !std::isfinite(light.range)) return largest;
+  if (!std::isfinite(influenceRange(light))) return largest;
   const double distance = glm::length(eye - light.position);
   if (!(distance > light.range)) return largest;
   const double wanted = double(largest) * light.range / distance;

@@ -47,22 +47,19 @@ bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, R
                                 uint8_t& known) const {
   known = 0;
   if (!withinInfluence(light, point.position)) return false;
-  glm::dvec3 toLight;
-  if (light.type == LightType::Directional) {
-    toLight = -light.direction;
-  } else {
-    const glm::dvec3 d = light.position - point.position;
-    const double distance = glm::length(d);
+  glm::dvec3 toLight = towardLight(light, point.position);
+  if (hasPosition(light)) {
+    const double distance = glm::length(toLight);
     known = 1;
     if (!(distance > 0)) return false;
-    toLight = d / distance;
+    toLight = toLight / distance;
   }
   glm::dvec3 origin = point.position;
   const double nLength = glm::length(point.normal);
   if (nLength > 0) {
     glm::dvec3 n = point.normal / nLength;
     if (orientation_ == NormalOrientation::TowardLight && glm::dot(n, toLight) < 0) n = -n;
-    // A surface facing away from the light: the ray from the surface point itself enters that surface at
+    // A surface facing away from the light (facesLight's rule, on the unit vectors): the ray from the surface point itself enters that surface at
     // once, so the point is in its own shadow. (Moved epsilon off the surface first, a ray that meets an
     // almost edge-on facet would cross the facet's plane epsilon / |n . L| further on, past its edge, and
     // escape: an artefact of the offset, not light.)
@@ -75,7 +72,7 @@ bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, R
     origin += epsilon_ * toLight;
   }
   tmax = EmbreeScene::kInfinity;
-  if (light.type != LightType::Directional) {
+  if (hasPosition(light)) {
     const glm::dvec3 d = light.position - origin;
     const double distance = glm::length(d);
     known = 1;

@@ -599,7 +599,7 @@ CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li
   CpvsFile::LightEntry entry;
   Light& l = entry.light;
   const uint32_t type = r.u32(at);
-  if (type > uint32_t(LightType::Point)) r.fail(what + ": unknown light type " + std::to_string(type));
+  if (type >= kLightTypeCount) r.fail(what + ": unknown light type " + std::to_string(type));
   l.type = LightType(type);
   const uint64_t nameOffset = r.u32(at + 4), nameLength = r.u32(at + 8);
   if (nameOffset > strsS.size || nameLength > strsS.size - nameOffset)

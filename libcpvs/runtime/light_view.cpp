@@ -74,18 +74,10 @@ Ray texelRay(const LightView& view, double u, double v) {
 }
 
 std::optional<size_t> selectView(const Light& light, const std::vector<LightView>& views, const glm::dvec3& world) {
-  if (views.empty()) return std::nullopt;
-  if (light.type == LightType::Directional) return 0;
+  if (views.empty() || !withinInfluence(light, world)) return std::nullopt;
+  if (views.size() == 1) return 0;  // one view covers the whole influence
+  // Cube faces: the face of the major axis (ties go to the lower face index).
   const glm::dvec3 toPoint = world - light.position;
-  const double distance = glm::length(toPoint);
-  if (!(distance <= light.range)) return std::nullopt;
-  if (light.type == LightType::Spot) {
-    if (distance == 0) return std::nullopt;
-    const double cosAngle = glm::dot(toPoint, light.direction) / distance;
-    if (cosAngle < std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2))) return std::nullopt;
-    return 0;
-  }
-  // Point light: the cube face of the major axis (ties go to the lower face index).
   const glm::dvec3 m = glm::abs(toPoint);
   int axis = m.x >= m.y && m.x >= m.z ? 0 : (m.y >= m.z ? 1 : 2);
   const int face = 2 * axis + (toPoint[axis] < 0 ? 1 : 0);

@@ -58,13 +58,13 @@ bool cpvsFinite(double x) {
 int cpvsSelectView(dvec3 p) {
   if (cpvsLightWord(CPVS_LIGHT_VIEW_COUNT) == 0u) return -1;  // a light without views: 0, as viewIndex answers
   uint type = cpvsLightType();
-  if (type == 0u) return 0;
+  if (type == CPVS_LIGHT_DIRECTIONAL) return 0;
   precise double tx = p.x - cpvsLightReal(CPVS_LIGHT_POSITION);
   precise double ty = p.y - cpvsLightReal(CPVS_LIGHT_POSITION + 1u);
   precise double tz = p.z - cpvsLightReal(CPVS_LIGHT_POSITION + 2u);
   precise double distance = sqrt((tx * tx + ty * ty) + tz * tz);
   double range = cpvsLightReal(CPVS_LIGHT_RANGE);
-  if (type == 1u) {  // insideSpot
+  if (type == CPVS_LIGHT_SPOT) {  // insideSpot
     precise double along = (tx * cpvsLightReal(CPVS_LIGHT_DIRECTION) + ty * cpvsLightReal(CPVS_LIGHT_DIRECTION + 1u)) +
                            tz * cpvsLightReal(CPVS_LIGHT_DIRECTION + 2u);
     precise double cosine = along / distance;

@@ -30,7 +30,7 @@
 #define CPVS_LIGHT_INTENSITY 13u
 #define CPVS_LIGHT_REALS 16u    // per light
 
-#define CPVS_LIGHT_TYPE 0u       // 0 directional, 1 spot, 2 point
+#define CPVS_LIGHT_TYPE 0u       // CPVS_LIGHT_DIRECTIONAL, _SPOT, _POINT (light.glsl.h)
 #define CPVS_LIGHT_FIRST_VIEW 1u // the light's first view in the view records
 #define CPVS_LIGHT_VIEW_COUNT 2u
 #define CPVS_LIGHT_DISABLED 3u    // 1: switched off in the viewer (left out of every tile's list)

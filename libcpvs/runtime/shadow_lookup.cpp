@@ -282,26 +282,6 @@ uint32_t TopGrid::automaticLevel(const DagView& dag) {
   return level;
 }
 
-SpotInfluence spotInfluence(const Light& light) {
-  SpotInfluence spot;
-  for (int i = 0; i < 3; ++i) {
-    spot.position[i] = light.position[i];
-    spot.direction[i] = light.direction[i];
-  }
-  spot.range = light.range;
-  spot.cosOuter = std::cos(std::min(light.outerConeAngle, 3.14159265358979323846 / 2));
-  return spot;
-}
-
-bool withinInfluence(const Light& light, const glm::dvec3& point) {
-  switch (light.type) {
-    case LightType::Directional: return true;
-    case LightType::Spot: return insideSpot<double, bool>(spotInfluence(light), point.x, point.y, point.z);
-    case LightType::Point: break;
-  }
-  return glm::length(point - light.position) <= light.range;
-}
-
 namespace {
 
 float cellVisibility(const ViewMapping& mapping, const DagView& dag, const TopGrid& grid, const glm::dvec3& point,
@@ -341,7 +321,7 @@ LightShadow::LightShadow(const Light& light, std::vector<LightView> views, std::
   for (const DagView& dag : dags_)
     grids_.push_back(TopGrid::build(dag, topGridLevels < 0 ? TopGrid::automaticLevel(dag) : uint32_t(topGridLevels)));
   for (const LightView& view : views_) mappings_.emplace_back(view);
-  if (light_.type == LightType::Spot) spot_ = spotInfluence(light_);
+  if (hasCone(light_)) spot_ = spotInfluence(light_);
 }
 
 size_t LightShadow::topGridBytes() const {
@@ -352,12 +332,9 @@ size_t LightShadow::topGridBytes() const {
 
 int LightShadow::viewIndex(const glm::dvec3& point) const {
   if (views_.empty()) return -1;
-  switch (light_.type) {
-    case LightType::Directional: return 0;
-    case LightType::Spot:  // withinInfluence's rule with the cone's cosine computed once, as the batch has it
-      return insideSpot<double, bool>(spot_, point.x, point.y, point.z) ? 0 : -1;
-    case LightType::Point: break;
-  }
+  if (!hasRange(light_)) return 0;  // one view, everywhere
+  if (hasCone(light_))  // withinInfluence's rule with the cone's cosine computed once, as the batch has it
+    return insideSpot<double, bool>(spot_, point.x, point.y, point.z) ? 0 : -1;
   const auto index = selectView(light_, views_, point);
   return index ? int(*index) : -1;
 }
@@ -763,7 +740,7 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
   };
   if (views_.size() == 1) {  // directional and spot lights: the influence test runs in mapCells
     in.mapping = &mappings_[0];
-    in.spot = light_.type == LightType::Spot ? &spot_ : nullptr;
+    in.spot = hasCone(light_) ? &spot_ : nullptr;
     in.count = count;
     mapCells(in, cells);
     if (k <= 1) walkVoxels(0, cells, nullptr, count, out);

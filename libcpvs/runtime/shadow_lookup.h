@@ -49,11 +49,6 @@
 
 namespace cpvs {
 
-enum class NormalOrientation : uint8_t {
-  AsGiven = 0,      // offset along n as supplied (outward normals; the default)
-  TowardLight = 1,  // flip n where it faces away from the light before biasing
-};
-
 // A query point: world position and surface normal (zero: no normal, no bias).
 struct SurfacePoint {
   glm::dvec3 position{0.0};
@@ -109,11 +104,6 @@ float visibility(const LightView& view, const DagView& dag, const Light& light, 
                  const glm::dvec3& normal, int pcfKernel,
                  NormalOrientation orientation = NormalOrientation::AsGiven);
 
-// Whether a point lies in the light's influence (directional: always; spot/point: within range; spot: inside
-// the outer cone, insideSpot of spotInfluence). Same rule as selectView.
-bool withinInfluence(const Light& light, const glm::dvec3& point);
-// A spot light's cone and range as cell_lanes.h's insideSpot tests them.
-SpotInfluence spotInfluence(const Light& light);
 // What the bias rule (step 2 above) takes from the options, as cell_lanes.h's cellLanes reads it.
 CellSettings cellSettings(const LookupOptions& options);
 
@@ -176,7 +166,7 @@ public:
   // Bytes of the top grids (0 without).
   size_t topGridBytes() const;
 
-  struct PendingPoint;  // a point of a batch whose answer needs the DAG (shadow_lookup.cpp)
+  struct PendingPoint;  // a point of a batch whose answer needs the DAG (batch_lookup.cpp)
 
 private:
   LightShadow(const Light& light, std::vector<LightView> views, std::vector<DagView> dags, int topGridLevels);

@@ -8,9 +8,6 @@
 namespace cpvs::info {
 namespace {
 
-bool hasPosition(const Light& light) { return light.type != LightType::Directional; }
-bool hasDirection(const Light& light) { return light.type != LightType::Point; }
-
 // Control characters in a name (from an untrusted file) are shown as \xNN, not sent to the terminal.
 std::string printableName(const std::string& name) {
   std::string out;
@@ -61,8 +58,8 @@ std::string lightText(const Light& light) {
   if (hasPosition(light)) out << " position " << vec(light.position);
   if (hasDirection(light)) out << " direction " << vec(light.direction);
   out << " colour " << vec(glm::dvec3(light.color)) << " intensity " << number(light.intensity);
-  if (hasPosition(light)) out << " range " << number(light.range);
-  if (light.type == LightType::Spot)
+  if (hasRange(light)) out << " range " << number(light.range);
+  if (hasCone(light))
     out << " cone " << number(light.innerConeAngle) << ".." << number(light.outerConeAngle) << " rad";
   return out.str();
 }
@@ -72,13 +69,12 @@ nlohmann::ordered_json lightJson(const Light& light) {
                                   {"type", lightTypeName(light.type)},
                                   {"color", {shortest(light.color.r), shortest(light.color.g), shortest(light.color.b)}},
                                   {"intensity", shortest(light.intensity)}};
-  if (hasPosition(light)) {
-    entry["position"] = jsonVec(light.position);
-    // null: unlimited
+  if (hasPosition(light)) entry["position"] = jsonVec(light.position);
+  // null: unlimited
+  if (hasRange(light))
     entry["range"] = std::isinf(light.range) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(light.range);
-  }
   if (hasDirection(light)) entry["direction"] = jsonVec(light.direction);
-  if (light.type == LightType::Spot) {
+  if (hasCone(light)) {
     entry["innerConeAngle"] = light.innerConeAngle;
     entry["outerConeAngle"] = light.outerConeAngle;
   }

@@ -21,7 +21,6 @@
 namespace {
 
 using cpvs::Light;
-using cpvs::LightType;
 using cpvs::Mesh;
 using cpvs::Scene;
 using cpvs::WorldGeometry;

@@ -212,10 +212,7 @@ void evaluateChunk(const std::vector<QueryPoint>& points, const std::vector<Sele
         refValues[i * nl + l] = reference->visibility(lights[l].shadow(), points[i], isUniform);
         uniform[i * nl + l] = isUniform;
         const Light& light = lights[l].shadow().light();
-        const glm::dvec3 toLight =
-            light.type == LightType::Directional ? -light.direction : light.position - points[i].position;
-        facing[i * nl + l] = withinInfluence(light, points[i].position) &&
-                             (lookup.orientation == NormalOrientation::TowardLight || points[i].normal == glm::dvec3(0.0) || glm::dot(points[i].normal, toLight) >= 0.0);
+        facing[i * nl + l] = receivesLight(light, points[i].position, points[i].normal, lookup.orientation);
       }
     }
   });

@@ -98,25 +98,6 @@ std::string ratioText(uint64_t sm, uint64_t cpvs) {
   return fixed(double(sm) / double(cpvs), 1) + "×";
 }
 
-std::string lightText(const Light& l) {
-  char b[256];
-  switch (l.type) {
-    case LightType::Directional:
-      std::snprintf(b, sizeof b, "sun, direction (%.3g, %.3g, %.3g)", l.direction.x, l.direction.y, l.direction.z);
-      break;
-    case LightType::Spot:
-      std::snprintf(b, sizeof b, "spot at (%.4g, %.4g, %.4g), direction (%.3g, %.3g, %.3g), outer cone %.3g rad, range %.4g",
-                    l.position.x, l.position.y, l.position.z, l.direction.x, l.direction.y, l.direction.z,
-                    l.outerConeAngle, l.range);
-      break;
-    case LightType::Point:
-      std::snprintf(b, sizeof b, "point at (%.4g, %.4g, %.4g), range %.4g", l.position.x, l.position.y, l.position.z,
-                    l.range);
-      break;
-  }
-  return b;
-}
-
 std::string commandLine(int argc, char** argv) {
   std::string cmd;
   for (int i = 0; i < argc; ++i) {
@@ -136,7 +117,7 @@ std::string markdown(const Options& o, const std::string& name, const Scene& sce
   size_t closed = 0;
   for (const Mesh& m : scene.meshes) closed += m.closed;
   md += ", " + std::to_string(closed) + " of " + std::to_string(scene.meshes.size()) + " meshes closed)\n";
-  for (size_t l = 0; l < scene.lights.size(); ++l) md += "* Light `" + scene.lights[l].name + "`: " + lightText(scene.lights[l]) + "\n";
+  for (size_t l = 0; l < scene.lights.size(); ++l) md += "* Light `" + scene.lights[l].name + "`: " + describeLight(scene.lights[l]) + "\n";
   const uint64_t interior = rows.empty() ? 0 : rows[0].interiorSamples;
   md += "* " + std::to_string(o.samples) + " area-weighted surface samples (seed " + std::to_string(o.seed) + "), " +
         (o.interiorPoints ? std::string("including those inside closed solids")
@@ -339,7 +320,7 @@ int run(int argc, char** argv) {
     tools::writeFileAtomically((dir / (name + ".md")).string(), md);
     tools::writeFileAtomically((dir / (name + ".svg")).string(), plot(name, scene, rows));
     nlohmann::json lights = nlohmann::json::array();
-    for (const Light& l : scene.lights) lights.push_back({{"name", l.name}, {"description", lightText(l)}});
+    for (const Light& l : scene.lights) lights.push_back({{"name", l.name}, {"description", describeLight(l)}});
     const nlohmann::json j = {{"tool", "cpvs-sweep"},
                               {"version", kVersion},
                               {"command", command},

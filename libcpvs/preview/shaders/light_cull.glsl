@@ -9,11 +9,11 @@
 #endif
 bool cpvsLightMeetsBox(uint type, dvec3 position, dvec3 direction, double range, double cosOuter, double sinOuter,
                        dvec3 lo, dvec3 hi) {
-  if (type == 0u) return true;
+  if (type == CPVS_LIGHT_DIRECTIONAL) return true;
   precise dvec3 gap = max(lo - position, dvec3(0.0LF)) + max(position - hi, dvec3(0.0LF));
   precise double gap2 = (gap.x * gap.x + gap.y * gap.y) + gap.z * gap.z;
   if (gap2 > range * range * 1.000001LF) return false;
-  if (type == 2u || cosOuter <= 0.0LF) return true;
+  if (type == CPVS_LIGHT_POINT || cosOuter <= 0.0LF) return true;
   precise dvec3 centre = 0.5LF * (lo + hi);
   precise dvec3 size = hi - lo;
   precise double radius = (0.5LF * sqrt((size.x * size.x + size.y * size.y) + size.z * size.z) * 1.000001LF +

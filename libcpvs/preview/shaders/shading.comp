@@ -34,7 +34,7 @@ void main() {
                           cpvsLightReal(CPVS_LIGHT_DIRECTION + 2u));
     vec3 toLight;
     float attenuation = 1.0;
-    if (type == 0u) {
+    if (type == CPVS_LIGHT_DIRECTIONAL) {
       toLight = -direction;
     } else {
       vec3 offset = vec3(dvec3(cpvsLightReal(CPVS_LIGHT_POSITION), cpvsLightReal(CPVS_LIGHT_POSITION + 1u),
@@ -49,7 +49,7 @@ void main() {
         window *= window;
       }
       attenuation = window / distance2;
-      if (type == 1u) {
+      if (type == CPVS_LIGHT_SPOT) {
         float cosOuter = float(cpvsLightReal(CPVS_LIGHT_COS_OUTER)), cosInner = float(cpvsLightReal(CPVS_LIGHT_COS_INNER));
         float scale = 1.0 / max(0.001, cosInner - cosOuter);
         float t = clamp(dot(direction, -toLight) * scale - cosOuter * scale, 0.0, 1.0);
