@@ -1,10 +1,10 @@
 #pragma once
 // Walks that descend one view's DAG together, level by level: the inner loop of LightShadow's batch lookups
-// (shadow_lookup.cpp). Each pass over the walks still going reads their nodes, writes the result of those that
+// (batch_lookup.cpp). Each pass over the walks still going reads their nodes, writes the result of those that
 // reach a homogeneous child or a leaf, and compacts the others for the next pass, prefetching their nodes,
 // which are read one pass later. The walks are kept one array per field, so that the AVX-512 path
 // (dag_walks_avx512.cpp) takes sixteen of them per instruction: gathers for the node reads, compress-stores
-// for the compaction. The scalar path (shadow_lookup.cpp) runs the same passes on the same arrays, and both
+// for the compaction. The scalar path (batch_lookup.cpp) runs the same passes on the same arrays, and both
 // give the same results bit for bit.
 //
 // Why a vector path: once the mapping ran eight points at a time, the scalar walk's ~50 instructions per

@@ -1,5 +1,5 @@
 // dag_walks.h with AVX-512F: sixteen walks per instruction, 32 bits a lane. Same passes as the scalar
-// descendGroup in shadow_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of
+// descendGroup in batch_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of
 // the walks that end (scatters), gather the references of the others, compress-store them for the next pass
 // and prefetch their nodes, read one pass later.
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -145,7 +145,7 @@ struct Results {
   }
 };
 
-// As prefetchNode in shadow_lookup.cpp: a node (at most 34 bytes) may straddle two cache lines.
+// As prefetchNode in batch_lookup.cpp: a node (at most 34 bytes) may straddle two cache lines.
 inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
   for (size_t i = begin; i < end; ++i) {
     const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
