@@ -232,7 +232,7 @@ void warnAboutRanges(const Scene& scene, const WorldGeometry& world, std::vector
   // The largest range of the spot and point lights (infinite when one is unlimited; -1 when there are none).
   double largest = -1;
   for (const Light& l : scene.lights)
-    if (l.type != LightType::Directional) largest = std::max(largest, l.range);
+    if (hasRange(l)) largest = std::max(largest, l.range);
   constexpr double kTinyFraction = 0.01;
   if (largest >= 0 && largest < kTinyFraction * diagonal) {
     char text[400];
@@ -280,52 +280,201 @@ struct LightOutcome {
   std::vector<std::string> warnings;
 };
 
-// Bakes one light's views on `lane` (its renderer), region after region; masks and DAG of a region run beside the
-// rasterising of the next one.
-LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
+// Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
+// Other lanes' encodings under way count too: each may still allocate what it reserved.
+void checkMemoryBudget(const BakeRun& run, uint64_t extraBytes, const Light& light, size_t vi, const LightView& view) {
+  const BakeSettings& settings = run.settings;
+  if (!settings.maxMemoryBytes) return;
+  const uint64_t resident = currentRssBytes();
+  extraBytes += run.encodingBytes.load();
+  if (resident + extraBytes <= settings.maxMemoryBytes) return;
+  throw Error(ErrorCategory::RuntimeFailure,
+              "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
+                  (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") + " exceeded (" +
+                  std::to_string(resident >> 20) + " MiB resident" +
+                  (extraBytes ? ", and about " + std::to_string(extraBytes >> 20) + " MiB more to encode the view's DAG"
+                              : "") +
+                  ") while baking light '" + light.name + "' view " + std::to_string(vi) + " at " +
+                  std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
+}
+
+void addRenderStats(const RenderStats& stats, ViewReport& vr) {
+  vr.depthMs += stats.enterMs;
+  vr.peelMs += stats.peelMs;
+  vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);
+  vr.texelsAtPeelCap += stats.texelsAtPeelCap;
+  vr.trianglesSubmitted += stats.trianglesSubmitted;
+  vr.uniformTiles += stats.uniformTiles;
+  vr.summarizedTiles += stats.summarizedTiles;
+}
+
+// The renderer of `lane`, opened on first use.
+DepthRenderer& laneRenderer(BakeRun& run, unsigned lane) {
+  std::unique_ptr<DepthRenderer>& renderer = run.renderers[lane];
+  if (!renderer) {
+    renderer = DepthRenderer::create(run.settings.backend);
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    run.rendererDescription = renderer->description();
+  }
+  return *renderer;
+}
+
+// One region's enter and exit slices: free where the spot's cone leaves it all out, else rendered (and, for
+// lossy bakes, the next surfaces found).
+std::shared_ptr<DepthRegion> renderRegion(DepthRenderer& renderer, const BakeSettings& settings, const ConeCrop& crop,
+                                          const LightView& view, const ViewGeometry& geometry,
+                                          const RegionRect& rect, const std::vector<uint32_t>& candidates,
+                                          bool summarizeTiles, ViewReport& vr) {
+  RenderStats stats;
+  std::shared_ptr<DepthRegion> depth;
+  if (crop.regionOutside(view, rect)) {
+    depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, rect));
+    vr.texelsOutsideCone += depth->enter.size();
+  } else {
+    const RowSpans inside = crop.inside(view, rect);
+    const ViewGeometry regionGeometry = cullToRegion(geometry, rect, candidates);
+    depth = std::make_shared<DepthRegion>(renderer.render(regionGeometry, view, rect, settings.peel, &stats,
+                                                          crop.active ? &inside : nullptr, summarizeTiles));
+    vr.tiles += uint64_t(rect.width / 8) * (rect.height / 8);
+    vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);
+    if (settings.maxVoxelError) {
+      const Stopwatch next;
+      findNextSurfaces(regionGeometry, view, *depth);
+      vr.nextSurfaceMs += next.ms();
+    }
+  }
+  addRenderStats(stats, vr);
+  return depth;
+}
+
+// The builder's DAG once every region is in, with the bytes its encoding reserves counted against the budget
+// of every lane while it runs.
+ShadowDag finishDag(BakeRun& run, DagBuilder& builder, const Light& light, size_t vi, const LightView& view,
+                    ViewReport& vr) {
+  const uint64_t encoding = builder.finishExtraBytes();
+  checkMemoryBudget(run, encoding, light, vi, view);  // the last region's tables too
+  Stopwatch finish;
+  run.encodingBytes += encoding;
+  ShadowDag dag;
+  try {
+    dag = builder.finish();
+  } catch (...) {
+    run.encodingBytes -= encoding;
+    throw;
+  }
+  run.encodingBytes -= encoding;
+  vr.dagMs += finish.ms();
+  vr.nodesBuilt = builder.stats().nodesBuilt;
+  vr.nodesReused = builder.stats().nodesReused;
+  vr.leavesMerged = builder.stats().leavesMerged;
+  vr.edgeTexelsFlipped = builder.stats().edgeTexelsFlipped;
+  return dag;
+}
+
+// Bakes one view of light `li` on `lane` (its renderer), region after region; masks and DAG of a region run beside
+// the rasterising of the next one.
+ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane, size_t vi, const LightView& view,
+                   const ViewGeometry& geometry, ViewReport& vr) {
   const BakeSettings& settings = run.settings;
   const BakeCallbacks& callbacks = run.callbacks;
+  DepthRenderer& renderer = laneRenderer(run, lane);
+  const uint32_t regionSize = std::min({settings.regionSize, renderer.maxRegionSize(), view.resolution});
+  const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
+  DagBuilder builder(view.resolution, regionSize, settings.nodeReuse, settings.maxEdgeError);
+  const ConeCrop crop = settings.cropToCone ? coneCropOf(light, view) : ConeCrop{};
+  // Uniform tiles may be summarised unless someone wants every texel's slices, or mode none (whose exits are
+  // every texel's e + 1) builds the chains.
+  const bool summarizeTiles =
+      !settings.perTexel && !callbacks.depthRegion && settings.undefinedMode != UndefinedMode::None;
+  vr.regions = uint32_t(regions.size());
+  // Each region's candidate triangles, from one pass over the view's (not one per region).
+  const std::vector<std::vector<uint32_t>> regionTriangles = binToRegions(geometry, view.resolution, regionSize);
+  // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
+  // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
+  BackgroundWork pending;
+  for (size_t ri = 0; ri < regions.size(); ++ri) {
+    const std::shared_ptr<DepthRegion> depth = renderRegion(renderer, settings, crop, view, geometry, regions[ri],
+                                                            regionTriangles[ri], summarizeTiles, vr);
+    if (callbacks.depthRegion) {
+      const std::lock_guard<std::mutex> lock(run.mutex);
+      callbacks.depthRegion(li, vi, view, *depth);
+    }
+    pending.wait();
+    // The builder is idle here. Its tables only grow, so once what encoding them would need no longer fits,
+    // the view cannot finish within the budget: stop now rather than at the end.
+    checkMemoryBudget(run, builder.finishExtraBytes(), light, vi, view);
+    auto work = [&, depth]() {
+      Stopwatch masks;
+      const TileChains chains =
+          buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
+      vr.masksMs += masks.ms();
+      vr.tileMasks += chains.start.size();
+      vr.freeVoxelsLit += chains.freeVoxelsLit;
+      vr.voxelsDelayed += chains.voxelsDelayed;
+      Stopwatch dag;
+      builder.addRegion(chains);
+      vr.dagMs += dag.ms();
+    };
+    if (settings.threads > 1)
+      pending.start(work);
+    else
+      work();
+    if (callbacks.progress) {
+      const std::lock_guard<std::mutex> lock(run.mutex);
+      run.progress(double(run.doneViews) + double(ri + 1) / double(regions.size()));
+    }
+  }
+  pending.wait();
+  return finishDag(run, builder, light, vi, view, vr);
+}
+
+// The light's entry in the bake cache, when there is a cache: a hit fills `out.baked`; a miss, or an entry that
+// cannot be used (a warning says why), leaves it to be baked. Returns the key to store the result under.
+uint64_t lookUpCache(BakeRun& run, const std::vector<LightView>& views, const LightGeometry& lightGeometry,
+                     LightOutcome& out) {
+  if (!run.cache) return 0;
+  BakedLight& baked = out.baked;
+  LightReport& lightReport = out.report;
+  const uint64_t cacheKey = lightBakeKey(run.settings, baked.light, views, lightGeometry.views);
+  std::string problem;
+  if (std::optional<BakedLight> hit = run.cache->find(cacheKey, baked.light, &problem)) {
+    if (hit->views.size() == views.size()) {
+      baked = std::move(*hit);
+      lightReport.cache = LightReport::Cache::Hit;
+    } else {
+      problem = run.cache->pathOf(cacheKey) + ": holds " + std::to_string(hit->views.size()) + " view(s), expected " +
+                std::to_string(views.size());
+    }
+  }
+  if (!problem.empty()) out.warnings.push_back("bake cache entry ignored and baked again: " + problem);
+  if (lightReport.cache != LightReport::Cache::Hit) lightReport.cache = LightReport::Cache::Miss;
+  return cacheKey;
+}
+
+// Bakes one light's views on `lane` (its renderer), or takes them from the cache.
+LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
   const Stopwatch lightTime;
   LightOutcome out;
   BakedLight& baked = out.baked;
   baked.light = run.scene.lights[li];
-  if (callbacks.lightStarted) {
+  if (run.callbacks.lightStarted) {
     const std::lock_guard<std::mutex> lock(run.mutex);
-    callbacks.lightStarted(baked.light.name);
+    run.callbacks.lightStarted(baked.light.name);
   }
   LightReport& lightReport = out.report;
   lightReport.name = baked.light.name;
   lightReport.index = li;
   lightReport.type = baked.light.type;
   const std::vector<LightView>& views = run.allViews[li];
-  const LightGeometry lightGeometry = gatherLightGeometry(run.world, run.index, views, settings.regionSize);
+  const LightGeometry lightGeometry = gatherLightGeometry(run.world, run.index, views, run.settings.regionSize);
   lightReport.estimatedCost = lightGeometry.cost;
   lightReport.reachesGeometry = lightGeometry.reachesGeometry;
   if (!lightGeometry.reachesGeometry)
     out.warnings.push_back("light '" + baked.light.name + "' (index " + std::to_string(li) +
                            ") reaches no geometry: every voxel of its views is lit (check its position, direction "
                            "and range)");
-  uint64_t cacheKey = 0;
-  if (run.cache) {
-    cacheKey = lightBakeKey(settings, baked.light, views, lightGeometry.views);
-    std::string problem;
-    if (std::optional<BakedLight> hit = run.cache->find(cacheKey, baked.light, &problem)) {
-      if (hit->views.size() == views.size()) {
-        baked = std::move(*hit);
-        lightReport.cache = LightReport::Cache::Hit;
-      } else {
-        problem = run.cache->pathOf(cacheKey) + ": holds " + std::to_string(hit->views.size()) + " view(s), expected " +
-                  std::to_string(views.size());
-      }
-    }
-    if (!problem.empty()) out.warnings.push_back("bake cache entry ignored and baked again: " + problem);
-    if (lightReport.cache != LightReport::Cache::Hit) lightReport.cache = LightReport::Cache::Miss;
-  }
+  const uint64_t cacheKey = lookUpCache(run, views, lightGeometry, out);
   const bool fromCache = lightReport.cache == LightReport::Cache::Hit;
-  const auto viewDone = [&] {
-    const std::lock_guard<std::mutex> lock(run.mutex);
-    run.progress(double(++run.doneViews));
-  };
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const LightView& view = views[vi];
     ViewReport vr;
@@ -333,132 +482,18 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
     vr.face = view.face;
     vr.empty = view.empty;
     vr.shadowMapBytes = uint64_t(view.resolution) * view.resolution * 2;
-    if (fromCache) {
-      describeDag(baked.views[vi].dag, vr);
-      lightReport.views.push_back(vr);
-      viewDone();
-      continue;
+    if (!fromCache) {
+      const ViewGeometry& geometry = lightGeometry.views[vi];
+      BakedView bakedView{view, {}};
+      bakedView.dag = view.empty || geometry.triangleCount() == 0
+                          ? allLitDag(view.resolution)
+                          : bakeView(run, li, baked.light, lane, vi, view, geometry, vr);
+      baked.views.push_back(std::move(bakedView));
     }
-    BakedView bakedView{view, {}};
-    const ViewGeometry& geometry = lightGeometry.views[vi];
-    if (view.empty || geometry.triangleCount() == 0) {
-      bakedView.dag = allLitDag(view.resolution);
-    } else {
-      std::unique_ptr<DepthRenderer>& renderer = run.renderers[lane];
-      if (!renderer) {
-        renderer = DepthRenderer::create(settings.backend);
-        const std::lock_guard<std::mutex> lock(run.mutex);
-        run.rendererDescription = renderer->description();
-      }
-      const uint32_t regionSize = std::min({settings.regionSize, renderer->maxRegionSize(), view.resolution});
-      const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
-      DagBuilder builder(view.resolution, regionSize, settings.nodeReuse, settings.maxEdgeError);
-      const ConeCrop crop = settings.cropToCone ? coneCropOf(baked.light, view) : ConeCrop{};
-      // Uniform tiles may be summarised unless someone wants every texel's slices, or mode none (whose exits are
-      // every texel's e + 1) builds the chains.
-      const bool summarizeTiles =
-          !settings.perTexel && !callbacks.depthRegion && settings.undefinedMode != UndefinedMode::None;
-      vr.regions = uint32_t(regions.size());
-      // Each region's candidate triangles, from one pass over the view's (not one per region).
-      const std::vector<std::vector<uint32_t>> regionTriangles = binToRegions(geometry, view.resolution, regionSize);
-      // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
-      // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
-      BackgroundWork pending;
-      // Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
-      // Other lanes' encodings under way count too: each may still allocate what it reserved.
-      const auto checkBudget = [&](uint64_t extraBytes) {
-        if (!settings.maxMemoryBytes) return;
-        const uint64_t resident = currentRssBytes();
-        extraBytes += run.encodingBytes.load();
-        if (resident + extraBytes <= settings.maxMemoryBytes) return;
-        throw Error(ErrorCategory::RuntimeFailure,
-                    "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
-                        (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") +
-                        " exceeded (" + std::to_string(resident >> 20) + " MiB resident" +
-                        (extraBytes ? ", and about " + std::to_string(extraBytes >> 20) +
-                                          " MiB more to encode the view's DAG"
-                                    : "") +
-                        ") while baking light '" + baked.light.name + "' view " + std::to_string(vi) + " at " +
-                        std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
-      };
-      for (size_t ri = 0; ri < regions.size(); ++ri) {
-        RenderStats stats;
-        std::shared_ptr<DepthRegion> depth;
-        if (crop.regionOutside(view, regions[ri])) {
-          depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, regions[ri]));
-          vr.texelsOutsideCone += depth->enter.size();
-        } else {
-          const RowSpans inside = crop.inside(view, regions[ri]);
-          const ViewGeometry regionGeometry = cullToRegion(geometry, regions[ri], regionTriangles[ri]);
-          depth = std::make_shared<DepthRegion>(renderer->render(regionGeometry, view, regions[ri], settings.peel,
-                                                                 &stats, crop.active ? &inside : nullptr,
-                                                                 summarizeTiles));
-          vr.tiles += uint64_t(regions[ri].width / 8) * (regions[ri].height / 8);
-          vr.texelsOutsideCone += ConeCrop::freeOutside(inside, *depth);
-          if (settings.maxVoxelError) {
-            const Stopwatch next;
-            findNextSurfaces(regionGeometry, view, *depth);
-            vr.nextSurfaceMs += next.ms();
-          }
-        }
-        vr.depthMs += stats.enterMs;
-        vr.peelMs += stats.peelMs;
-        vr.peelIterations = std::max(vr.peelIterations, stats.peelIterations);
-        vr.texelsAtPeelCap += stats.texelsAtPeelCap;
-        vr.trianglesSubmitted += stats.trianglesSubmitted;
-        vr.uniformTiles += stats.uniformTiles;
-        vr.summarizedTiles += stats.summarizedTiles;
-        if (callbacks.depthRegion) {
-          const std::lock_guard<std::mutex> lock(run.mutex);
-          callbacks.depthRegion(li, vi, view, *depth);
-        }
-        pending.wait();
-        // The builder is idle here. Its tables only grow, so once what encoding them would need no longer fits,
-        // the view cannot finish within the budget: stop now rather than at the end.
-        checkBudget(builder.finishExtraBytes());
-        auto work = [&, depth]() {
-          Stopwatch masks;
-          const TileChains chains =
-              buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
-          vr.masksMs += masks.ms();
-          vr.tileMasks += chains.start.size();
-          vr.freeVoxelsLit += chains.freeVoxelsLit;
-          vr.voxelsDelayed += chains.voxelsDelayed;
-          Stopwatch dag;
-          builder.addRegion(chains);
-          vr.dagMs += dag.ms();
-        };
-        if (settings.threads > 1)
-          pending.start(work);
-        else
-          work();
-        if (callbacks.progress) {
-          const std::lock_guard<std::mutex> lock(run.mutex);
-          run.progress(double(run.doneViews) + double(ri + 1) / double(regions.size()));
-        }
-      }
-      pending.wait();
-      const uint64_t encoding = builder.finishExtraBytes();
-      checkBudget(encoding);  // the last region's tables too
-      Stopwatch finish;
-      run.encodingBytes += encoding;
-      try {
-        bakedView.dag = builder.finish();
-      } catch (...) {
-        run.encodingBytes -= encoding;
-        throw;
-      }
-      run.encodingBytes -= encoding;
-      vr.dagMs += finish.ms();
-      vr.nodesBuilt = builder.stats().nodesBuilt;
-      vr.nodesReused = builder.stats().nodesReused;
-      vr.leavesMerged = builder.stats().leavesMerged;
-      vr.edgeTexelsFlipped = builder.stats().edgeTexelsFlipped;
-    }
-    describeDag(bakedView.dag, vr);
-    baked.views.push_back(std::move(bakedView));
+    describeDag(baked.views[vi].dag, vr);
     lightReport.views.push_back(vr);
-    viewDone();
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    run.progress(double(++run.doneViews));
   }
   if (run.cache && !fromCache) {
     try {
