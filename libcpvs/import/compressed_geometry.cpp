@@ -340,6 +340,135 @@ void restoreDracoIndices(const std::vector<int>& accessors, tinygltf::Model& mod
     if (size_t(index) < model.accessors.size()) model.accessors[size_t(index)].bufferView = -1;
 }
 
+namespace {
+
+// An attribute the Draco extension names: the primitive's accessor for it, and the Draco attribute filling it.
+struct DracoTarget {
+  std::string name;
+  int accessor;
+  uint32_t uniqueId;
+};
+
+// The extension's `attributes` map, each name checked against the primitive's attributes.
+std::vector<DracoTarget> dracoTargets(const std::string& path, const std::string& what,
+                                      const tinygltf::Value& attributes, const tinygltf::Primitive& primitive) {
+  std::vector<DracoTarget> targets;
+  for (const std::string& name : attributes.Keys()) {
+    const tinygltf::Value& id = attributes.Get(name);
+    if (!id.IsInt() || id.GetNumberAsInt() < 0) fail(path, what + ".attributes." + name + " is not a Draco attribute id");
+    const auto accessor = primitive.attributes.find(name);
+    if (accessor == primitive.attributes.end())
+      fail(path, what + " names attribute " + name + ", which the primitive does not have");
+    targets.push_back({name, accessor->second, uint32_t(id.GetNumberAsInt())});
+  }
+  return targets;
+}
+
+// An accessor the Draco stream fills, checked before anything is decoded into it.
+tinygltf::Accessor& fillableAccessor(const std::string& path, const std::string& where, tinygltf::Model& model,
+                                     int index, const std::string& name) {
+  if (index < 0 || size_t(index) >= model.accessors.size())
+    fail(path, where + ": " + name + " accessor " + std::to_string(index) + " does not exist");
+  tinygltf::Accessor& accessor = model.accessors[size_t(index)];
+  // Draco fills scalars and vectors, never matrices.
+  const size_t elementSize =
+      isMatrixType(accessor.type) ? 0 : componentCount(accessor.type) * componentSize(accessor.componentType);
+  if (elementSize == 0)
+    fail(path, where + ": " + name + " accessor " + std::to_string(index) + " has a type or componentType that Draco cannot fill");
+  if (accessor.count > kMaxElements || accessor.count * elementSize > kMaxDecodedBytes)
+    fail(path, where + ": " + name + " accessor " + std::to_string(index) + " count " + std::to_string(accessor.count) + " is too large");
+  return accessor;
+}
+
+// The bufferView holding the compressed stream, checked to lie within its buffer.
+const tinygltf::BufferView& dracoStreamView(const std::string& path, const std::string& what,
+                                            const tinygltf::Model& model, int viewIndex) {
+  if (viewIndex < 0 || size_t(viewIndex) >= model.bufferViews.size())
+    fail(path, what + ".bufferView " + std::to_string(viewIndex) + " does not exist");
+  const tinygltf::BufferView& view = model.bufferViews[size_t(viewIndex)];
+  if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size())
+    fail(path, viewName(viewIndex) + ": buffer " + std::to_string(view.buffer) + " does not exist");
+  const std::vector<unsigned char>& buffer = model.buffers[size_t(view.buffer)].data;
+  if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+    fail(path, viewName(viewIndex) + " does not fit in buffer " + std::to_string(view.buffer));
+  return view;
+}
+
+// The triangle mesh in a Draco stream; `corrupt` starts the message of any failure (libdraco's allocation
+// failures on a hostile stream included).
+std::unique_ptr<draco::Mesh> decodeDracoMesh(const std::string& path, const std::string& corrupt,
+                                             const unsigned char* bytes, size_t length) {
+  std::unique_ptr<draco::Mesh> mesh;
+  try {
+    draco::DecoderBuffer stream;
+    stream.Init(reinterpret_cast<const char*>(bytes), length);
+    auto type = draco::Decoder::GetEncodedGeometryType(&stream);
+    if (!type.ok()) fail(path, corrupt + ": " + type.status().error_msg_string());
+    if (type.value() != draco::TRIANGULAR_MESH) fail(path, corrupt + ": not a triangle mesh (a point cloud?)");
+    draco::Decoder decoder;
+    auto decoded = decoder.DecodeMeshFromBuffer(&stream);
+    if (!decoded.ok()) fail(path, corrupt + ": " + decoded.status().error_msg_string());
+    mesh = std::move(decoded).value();
+  } catch (const std::bad_alloc&) {
+    fail(path, corrupt + ": it asks for more memory than there is");
+  } catch (const std::length_error&) {
+    fail(path, corrupt + ": it asks for more memory than there is");
+  }
+  if (!mesh) fail(path, corrupt);
+  return mesh;
+}
+
+// One attribute's values for every point of the decoded mesh, in the accessor's type.
+std::vector<unsigned char> decodedAttributeBytes(const std::string& path, const std::string& where,
+                                                 const std::string& corrupt, const draco::Mesh& mesh,
+                                                 const DracoTarget& target, const tinygltf::Accessor& accessor) {
+  const size_t points = mesh.num_points();
+  const std::string name = target.name + " accessor " + std::to_string(target.accessor);
+  if (accessor.count != points)
+    fail(path, where + ": " + name + " has count " + std::to_string(accessor.count) + ", the Draco stream " +
+                   std::to_string(points) + " points");
+  const draco::PointAttribute* attribute = mesh.GetAttributeByUniqueId(target.uniqueId);
+  if (!attribute) fail(path, corrupt + ": no attribute with id " + std::to_string(target.uniqueId) + " (" + target.name + ")");
+  const int components = int(componentCount(accessor.type));
+  const size_t elementSize = size_t(components) * componentSize(accessor.componentType);
+  std::vector<unsigned char> bytes(points * elementSize);
+  for (size_t p = 0; p < points; ++p) {
+    const draco::AttributeValueIndex value = attribute->mapped_index(draco::PointIndex(uint32_t(p)));
+    if (value.value() >= attribute->size() ||
+        !convertDracoValue(*attribute, value, accessor.componentType, components, bytes.data() + p * elementSize))
+      fail(path, corrupt + ": " + target.name + " of point " + std::to_string(p) + " cannot be read as the accessor's type");
+  }
+  return bytes;
+}
+
+// The decoded mesh's triangles as the indices accessor's values (`indexSize` bytes each).
+std::vector<unsigned char> decodedIndexBytes(const std::string& path, const std::string& where,
+                                             const std::string& corrupt, const draco::Mesh& mesh,
+                                             int indicesAccessor, const tinygltf::Accessor& indices, size_t indexSize) {
+  const size_t points = mesh.num_points(), faces = mesh.num_faces();
+  if (faces > kMaxElements / 3 || indices.count != faces * 3)
+    fail(path, where + ": indices accessor " + std::to_string(indicesAccessor) + " has count " +
+                   std::to_string(indices.count) + ", the Draco stream " + std::to_string(faces) + " triangles");
+  if (indexSize < 4 && points > (size_t(1) << (8 * indexSize)))
+    fail(path, where + ": indices accessor " + std::to_string(indicesAccessor) + " is too narrow for " +
+                   std::to_string(points) + " points");
+  std::vector<unsigned char> indexBytes(faces * 3 * indexSize);
+  for (size_t f = 0; f < faces; ++f) {
+    const draco::Mesh::Face& face = mesh.face(draco::FaceIndex(uint32_t(f)));
+    for (size_t c = 0; c < 3; ++c) {
+      const uint32_t index = face[c].value();
+      if (index >= points) fail(path, corrupt + ": triangle " + std::to_string(f) + " refers to point " + std::to_string(index));
+      unsigned char* to = indexBytes.data() + (3 * f + c) * indexSize;
+      if (indexSize == 1) *to = uint8_t(index);
+      else if (indexSize == 2) storeLittleEndian(to, uint16_t(index));
+      else storeLittleEndian(to, index);
+    }
+  }
+  return indexBytes;
+}
+
+}  // namespace
+
 void decodeDracoPrimitive(const std::string& path, const std::string& where, const tinygltf::Primitive& primitive,
                           tinygltf::Model& model, std::set<int>& decodedAccessors) {
   const auto found = primitive.extensions.find(kDracoExtension);
@@ -354,116 +483,34 @@ void decodeDracoPrimitive(const std::string& path, const std::string& where, con
     fail(path, what + ".attributes is missing or not an object");
   const int viewIndex = extension.Get("bufferView").GetNumberAsInt();
 
-  struct Target {
-    std::string name;
-    int accessor;
-    uint32_t uniqueId;
-  };
-  std::vector<Target> targets;
-  const tinygltf::Value& attributes = extension.Get("attributes");
-  for (const std::string& name : attributes.Keys()) {
-    const tinygltf::Value& id = attributes.Get(name);
-    if (!id.IsInt() || id.GetNumberAsInt() < 0) fail(path, what + ".attributes." + name + " is not a Draco attribute id");
-    const auto accessor = primitive.attributes.find(name);
-    if (accessor == primitive.attributes.end())
-      fail(path, what + " names attribute " + name + ", which the primitive does not have");
-    targets.push_back({name, accessor->second, uint32_t(id.GetNumberAsInt())});
-  }
+  const std::vector<DracoTarget> targets = dracoTargets(path, what, extension.Get("attributes"), primitive);
   if (primitive.indices < 0) fail(path, what + ": the primitive has no indices accessor");
   bool done = decodedAccessors.count(primitive.indices) != 0;
-  for (const Target& target : targets) done = done && decodedAccessors.count(target.accessor) != 0;
+  for (const DracoTarget& target : targets) done = done && decodedAccessors.count(target.accessor) != 0;
   if (done) return;  // a stream shared with a primitive decoded before
 
-  auto accessorOf = [&](int index, const std::string& name) -> tinygltf::Accessor& {
-    if (index < 0 || size_t(index) >= model.accessors.size())
-      fail(path, where + ": " + name + " accessor " + std::to_string(index) + " does not exist");
-    tinygltf::Accessor& accessor = model.accessors[size_t(index)];
-    // Draco fills scalars and vectors, never matrices.
-    const size_t elementSize =
-        isMatrixType(accessor.type) ? 0 : componentCount(accessor.type) * componentSize(accessor.componentType);
-    if (elementSize == 0)
-      fail(path, where + ": " + name + " accessor " + std::to_string(index) + " has a type or componentType that Draco cannot fill");
-    if (accessor.count > kMaxElements || accessor.count * elementSize > kMaxDecodedBytes)
-      fail(path, where + ": " + name + " accessor " + std::to_string(index) + " count " + std::to_string(accessor.count) + " is too large");
-    return accessor;
-  };
-  for (const Target& target : targets) accessorOf(target.accessor, target.name);
-  tinygltf::Accessor& indices = accessorOf(primitive.indices, "indices");
+  for (const DracoTarget& target : targets) fillableAccessor(path, where, model, target.accessor, target.name);
+  tinygltf::Accessor& indices = fillableAccessor(path, where, model, primitive.indices, "indices");
   const size_t indexSize = componentSize(indices.componentType);
   if (indices.type != TINYGLTF_TYPE_SCALAR || indices.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
       indices.componentType == TINYGLTF_COMPONENT_TYPE_SHORT || indices.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT)
     fail(path, where + ": indices accessor " + std::to_string(primitive.indices) + " is not SCALAR of an unsigned integer type");
 
   // The compressed stream.
-  if (viewIndex < 0 || size_t(viewIndex) >= model.bufferViews.size())
-    fail(path, what + ".bufferView " + std::to_string(viewIndex) + " does not exist");
-  const tinygltf::BufferView& view = model.bufferViews[size_t(viewIndex)];
-  if (view.buffer < 0 || size_t(view.buffer) >= model.buffers.size())
-    fail(path, viewName(viewIndex) + ": buffer " + std::to_string(view.buffer) + " does not exist");
+  const tinygltf::BufferView& view = dracoStreamView(path, what, model, viewIndex);
   const std::vector<unsigned char>& buffer = model.buffers[size_t(view.buffer)].data;
-  if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
-    fail(path, viewName(viewIndex) + " does not fit in buffer " + std::to_string(view.buffer));
-
   const std::string corrupt = what + ": corrupt Draco stream in " + viewName(viewIndex) + " (" +
                               std::to_string(view.byteLength) + " bytes)";
-  std::unique_ptr<draco::Mesh> mesh;
-  try {
-    draco::DecoderBuffer stream;
-    stream.Init(reinterpret_cast<const char*>(buffer.data() + view.byteOffset), view.byteLength);
-    auto type = draco::Decoder::GetEncodedGeometryType(&stream);
-    if (!type.ok()) fail(path, corrupt + ": " + type.status().error_msg_string());
-    if (type.value() != draco::TRIANGULAR_MESH) fail(path, corrupt + ": not a triangle mesh (a point cloud?)");
-    draco::Decoder decoder;
-    auto decoded = decoder.DecodeMeshFromBuffer(&stream);
-    if (!decoded.ok()) fail(path, corrupt + ": " + decoded.status().error_msg_string());
-    mesh = std::move(decoded).value();
-  } catch (const std::bad_alloc&) {
-    fail(path, corrupt + ": it asks for more memory than there is");
-  } catch (const std::length_error&) {
-    fail(path, corrupt + ": it asks for more memory than there is");
-  }
-  if (!mesh) fail(path, corrupt);
+  const std::unique_ptr<draco::Mesh> mesh =
+      decodeDracoMesh(path, corrupt, buffer.data() + view.byteOffset, view.byteLength);
 
-  const size_t points = mesh->num_points(), faces = mesh->num_faces();
+  // Every output is decoded and checked before the model changes.
   std::vector<std::pair<int, std::vector<unsigned char>>> outputs;
-  for (const Target& target : targets) {
-    tinygltf::Accessor& accessor = model.accessors[size_t(target.accessor)];
-    const std::string name = target.name + " accessor " + std::to_string(target.accessor);
-    if (accessor.count != points)
-      fail(path, where + ": " + name + " has count " + std::to_string(accessor.count) + ", the Draco stream " +
-                     std::to_string(points) + " points");
-    const draco::PointAttribute* attribute = mesh->GetAttributeByUniqueId(target.uniqueId);
-    if (!attribute) fail(path, corrupt + ": no attribute with id " + std::to_string(target.uniqueId) + " (" + target.name + ")");
-    const int components = int(componentCount(accessor.type));
-    const size_t elementSize = size_t(components) * componentSize(accessor.componentType);
-    std::vector<unsigned char> bytes(points * elementSize);
-    for (size_t p = 0; p < points; ++p) {
-      const draco::AttributeValueIndex value = attribute->mapped_index(draco::PointIndex(uint32_t(p)));
-      if (value.value() >= attribute->size() ||
-          !convertDracoValue(*attribute, value, accessor.componentType, components, bytes.data() + p * elementSize))
-        fail(path, corrupt + ": " + target.name + " of point " + std::to_string(p) + " cannot be read as the accessor's type");
-    }
-    outputs.emplace_back(target.accessor, std::move(bytes));
-  }
-  if (faces > kMaxElements / 3 || indices.count != faces * 3)
-    fail(path, where + ": indices accessor " + std::to_string(primitive.indices) + " has count " +
-                   std::to_string(indices.count) + ", the Draco stream " + std::to_string(faces) + " triangles");
-  if (indexSize < 4 && points > (size_t(1) << (8 * indexSize)))
-    fail(path, where + ": indices accessor " + std::to_string(primitive.indices) + " is too narrow for " +
-                   std::to_string(points) + " points");
-  std::vector<unsigned char> indexBytes(faces * 3 * indexSize);
-  for (size_t f = 0; f < faces; ++f) {
-    const draco::Mesh::Face& face = mesh->face(draco::FaceIndex(uint32_t(f)));
-    for (size_t c = 0; c < 3; ++c) {
-      const uint32_t index = face[c].value();
-      if (index >= points) fail(path, corrupt + ": triangle " + std::to_string(f) + " refers to point " + std::to_string(index));
-      unsigned char* to = indexBytes.data() + (3 * f + c) * indexSize;
-      if (indexSize == 1) *to = uint8_t(index);
-      else if (indexSize == 2) storeLittleEndian(to, uint16_t(index));
-      else storeLittleEndian(to, index);
-    }
-  }
-  outputs.emplace_back(primitive.indices, std::move(indexBytes));
+  for (const DracoTarget& target : targets)
+    outputs.emplace_back(target.accessor, decodedAttributeBytes(path, where, corrupt, *mesh, target,
+                                                                model.accessors[size_t(target.accessor)]));
+  outputs.emplace_back(primitive.indices,
+                       decodedIndexBytes(path, where, corrupt, *mesh, primitive.indices, indices, indexSize));
 
   for (auto& [accessorIndex, bytes] : outputs) {
     const int decodedView = appendView(model, std::move(bytes), "decoded Draco accessor " + std::to_string(accessorIndex));
