@@ -48,11 +48,11 @@ void GltfImporter::parseLights() {
       light.intensity = float(finiteNumber(object.Get("intensity"), what + ".intensity"));
       if (light.intensity < 0.0f) fail(what + ".intensity is negative");
     }
-    if (object.Has("range") && light.type != LightType::Directional) {
+    if (object.Has("range") && hasRange(light)) {
       light.range = finiteNumber(object.Get("range"), what + ".range");
       if (!(light.range > 0.0)) fail(what + ".range must be greater than zero");
     }
-    if (light.type == LightType::Spot && object.Has("spot")) {
+    if (hasCone(light) && object.Has("spot")) {
       const tinygltf::Value& spot = object.Get("spot");
       if (!spot.IsObject()) fail(what + ".spot is not an object");
       if (spot.Has("innerConeAngle"))

@@ -54,24 +54,29 @@ bool cpvsFinite(double x) {
   return d == 0.0LF;
 }
 
-// The view a point falls in (LightShadow::viewIndex), or -1 outside the light's influence.
+// The view a point falls in (LightShadow::viewIndex), or -1 outside the light's influence: a light without a
+// position has one view everywhere; else within range, inside the cone where the light has one (cos outer > -1:
+// gpu_scene.cpp writes -1 for lights without), then the view that is no cube face, or the major axis's face.
 int cpvsSelectView(dvec3 p) {
   if (cpvsLightWord(CPVS_LIGHT_VIEW_COUNT) == 0u) return -1;  // a light without views: 0, as viewIndex answers
-  uint type = cpvsLightType();
-  if (type == CPVS_LIGHT_DIRECTIONAL) return 0;
+  if (cpvsLightType() == CPVS_LIGHT_DIRECTIONAL) return 0;
   precise double tx = p.x - cpvsLightReal(CPVS_LIGHT_POSITION);
   precise double ty = p.y - cpvsLightReal(CPVS_LIGHT_POSITION + 1u);
   precise double tz = p.z - cpvsLightReal(CPVS_LIGHT_POSITION + 2u);
   precise double distance = sqrt((tx * tx + ty * ty) + tz * tz);
   double range = cpvsLightReal(CPVS_LIGHT_RANGE);
-  if (type == CPVS_LIGHT_SPOT) {  // insideSpot
+  double cosOuter = cpvsLightReal(CPVS_LIGHT_COS_OUTER);
+  if (cosOuter > -1.0LF) {  // insideSpot
     precise double along = (tx * cpvsLightReal(CPVS_LIGHT_DIRECTION) + ty * cpvsLightReal(CPVS_LIGHT_DIRECTION + 1u)) +
                            tz * cpvsLightReal(CPVS_LIGHT_DIRECTION + 2u);
     precise double cosine = along / distance;
-    bool inside = distance <= range && distance != 0.0LF && !(cosine < cpvsLightReal(CPVS_LIGHT_COS_OUTER));
+    bool inside = distance <= range && distance != 0.0LF && !(cosine < cosOuter);
     return inside ? 0 : -1;
   }
-  if (!(distance <= range)) return -1;  // selectView: the major axis's cube face
+  if (!(distance <= range)) return -1;  // selectView: the one view, or the major axis's cube face
+  bool cubeFaces = false;
+  for (uint f = 0u; f < 6u; ++f) cubeFaces = cubeFaces || cpvsLightWord(CPVS_LIGHT_FACE_VIEW + f) != ~0u;
+  if (!cubeFaces) return 0;
   dvec3 m = abs(dvec3(tx, ty, tz));
   uint axis = m.x >= m.y && m.x >= m.z ? 0u : (m.y >= m.z ? 1u : 2u);
   double along = axis == 0u ? tx : (axis == 1u ? ty : tz);
