@@ -7,7 +7,9 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <tiny_gltf.h>
@@ -31,25 +33,23 @@ T loadUnaligned(const unsigned char* bytes) {
   return value;
 }
 
+// An integer component as float: normalized, divided by the type's largest value (and at least -1 for signed
+// types, whose smallest value has no positive twin).
+template <class T>
+inline float integerAsFloat(const unsigned char* bytes, bool normalized) {
+  const float v = loadUnaligned<T>(bytes);
+  if (!normalized) return v;
+  const float scaled = v / float(std::numeric_limits<T>::max());
+  return std::is_signed_v<T> ? std::max(scaled, -1.0f) : scaled;
+}
+
 // One component as float; normalized integers follow the glTF/KHR_mesh_quantization rules.
 inline float componentAsFloat(const unsigned char* bytes, int componentType, bool normalized) {
   switch (componentType) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE: {
-      const float v = loadUnaligned<int8_t>(bytes);
-      return normalized ? std::max(v / 127.0f, -1.0f) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: {
-      const float v = loadUnaligned<uint8_t>(bytes);
-      return normalized ? v / 255.0f : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_SHORT: {
-      const float v = loadUnaligned<int16_t>(bytes);
-      return normalized ? std::max(v / 32767.0f, -1.0f) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-      const float v = loadUnaligned<uint16_t>(bytes);
-      return normalized ? v / 65535.0f : v;
-    }
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return integerAsFloat<int8_t>(bytes, normalized);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return integerAsFloat<uint8_t>(bytes, normalized);
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return integerAsFloat<int16_t>(bytes, normalized);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return integerAsFloat<uint16_t>(bytes, normalized);
     case TINYGLTF_COMPONENT_TYPE_FLOAT: return loadUnaligned<float>(bytes);
     default: return 0.0f;  // callers accept only the types above
   }

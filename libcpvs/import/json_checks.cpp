@@ -3,8 +3,10 @@
 #include "libcpvs/import/json_checks.h"
 
 #include <cstdint>
+#include <initializer_list>
 #include <map>
 #include <set>
+#include <utility>
 
 #include "libcpvs/import/gltf_importer.h"
 #include "libcpvs/base/error.h"
@@ -60,20 +62,15 @@ public:
         expectMember(primitive, "attributes", JsonKind::Object, at);
         for (const auto& [name, value] : primitive["attributes"].items())
           expectKind(value, JsonKind::Index, at + ".attributes." + name);
-        expectMember(primitive, "indices", JsonKind::Index, at);
-        expectMember(primitive, "mode", JsonKind::Index, at);
-        expectMember(primitive, "targets", JsonKind::Array, at);
-        expectMember(primitive, "extensions", JsonKind::Object, at);
+        expectMembers(primitive, at, {{"indices", JsonKind::Index}, {"mode", JsonKind::Index},
+                                      {"targets", JsonKind::Array}, {"extensions", JsonKind::Object}});
       });
     });
     forEachObject(root, "accessors", "", [&](const nlohmann::json& accessor, const std::string& where) {
-      expectMember(accessor, "bufferView", JsonKind::Index, where);
-      expectMember(accessor, "byteOffset", JsonKind::Size, where);
-      expectMember(accessor, "componentType", JsonKind::Index, where);
-      expectMember(accessor, "count", JsonKind::Size, where);
-      expectMember(accessor, "type", JsonKind::String, where);
-      expectMember(accessor, "normalized", JsonKind::Boolean, where);
-      expectMember(accessor, "sparse", JsonKind::Object, where);
+      expectMembers(accessor, where,
+                    {{"bufferView", JsonKind::Index}, {"byteOffset", JsonKind::Size}, {"componentType", JsonKind::Index},
+                     {"count", JsonKind::Size}, {"type", JsonKind::String}, {"normalized", JsonKind::Boolean},
+                     {"sparse", JsonKind::Object}});
       if (!accessor.contains("sparse")) return;
       const nlohmann::json& sparse = accessor["sparse"];
       const std::string at = where + ".sparse";
@@ -81,16 +78,14 @@ public:
       for (const char* part : {"indices", "values"}) {
         if (!sparse.contains(part)) fail(at + "." + part + " is missing");
         expectMember(sparse, part, JsonKind::Object, at);
-        expectMember(sparse[part], "bufferView", JsonKind::Index, at + "." + part);
-        expectMember(sparse[part], "byteOffset", JsonKind::Index, at + "." + part);
-        expectMember(sparse[part], "componentType", JsonKind::Index, at + "." + part);
+        expectMembers(sparse[part], at + "." + part,
+                      {{"bufferView", JsonKind::Index}, {"byteOffset", JsonKind::Index},
+                       {"componentType", JsonKind::Index}});
       }
     });
     forEachObject(root, "bufferViews", "", [&](const nlohmann::json& view, const std::string& where) {
-      expectMember(view, "buffer", JsonKind::Index, where);
-      expectMember(view, "byteOffset", JsonKind::Size, where);
-      expectMember(view, "byteLength", JsonKind::Size, where);
-      expectMember(view, "byteStride", JsonKind::Size, where);
+      expectMembers(view, where, {{"buffer", JsonKind::Index}, {"byteOffset", JsonKind::Size},
+                                  {"byteLength", JsonKind::Size}, {"byteStride", JsonKind::Size}});
     });
     forEachObject(root, "buffers", "", [&](const nlohmann::json& buffer, const std::string& where) {
       expectMember(buffer, "byteLength", JsonKind::Size, where);
@@ -155,6 +150,12 @@ private:
   void expectMember(const nlohmann::json& object, const char* key, JsonKind kind, const std::string& where) const {
     const auto it = object.find(key);
     if (it != object.end()) expectKind(*it, kind, member(where, key));
+  }
+
+  // Each `object[key]` of the list, when present, of its kind (checked in the list's order).
+  void expectMembers(const nlohmann::json& object, const std::string& where,
+                     std::initializer_list<std::pair<const char*, JsonKind>> members) const {
+    for (const auto& [key, kind] : members) expectMember(object, key, kind, where);
   }
 
   // `object[key]`, when present, must be an array (of `length` elements unless 0) of `kind`.

@@ -269,30 +269,18 @@ int EmbreeScene::closedSolidDepth(const glm::dvec3& point) const {
   return depth[1];
 }
 
-std::vector<std::optional<RayHit>> EmbreeScene::firstHits(std::span<const Ray> rays, double tmin, double tmax,
-                                                          bool parallel) const {
-  std::vector<std::optional<RayHit>> out(rays.size());
-  const size_t packets = (rays.size() + 15) / 16;
+namespace {
+
+// Calls packet(first, valid) for each packet of 16 rays out of `count` (first: the packet's first ray; valid: -1
+// in the lanes that hold a ray, 0 past the end), over TBB's threads or on this one.
+template <class Packet>
+void forRayPackets(size_t count, bool parallel, const Packet& packet) {
+  const size_t packets = (count + 15) / 16;
   auto work = [&](size_t begin, size_t end) {
     for (size_t p = begin; p < end; ++p) {
       alignas(64) int valid[16];
-      alignas(64) RTCRayHit16 rh;
-      const size_t first = p * 16;
-      for (int i = 0; i < 16; ++i) {
-        const size_t r = first + size_t(i);
-        valid[i] = r < rays.size() ? -1 : 0;
-        const Ray& ray = rays[std::min(r, rays.size() - 1)];
-        setLane(rh.ray, i, embreeRay(ray.origin - center_, ray.direction, tmin, tmax));
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-      }
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      rtcIntersect16(valid, impl_->scene, &context, &rh);
-      for (int i = 0; i < 16; ++i) {
-        const size_t r = first + size_t(i);
-        if (r >= rays.size() || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
-        out[r] = makeHit(rays[r].origin, rays[r].direction, rh.hit.primID[i], rh.ray.tfar[i]);
-      }
+      for (int i = 0; i < 16; ++i) valid[i] = p * 16 + size_t(i) < count ? -1 : 0;
+      packet(p * 16, valid);
     }
   };
   if (parallel)
@@ -300,6 +288,29 @@ std::vector<std::optional<RayHit>> EmbreeScene::firstHits(std::span<const Ray> r
                       [&](const tbb::blocked_range<size_t>& range) { work(range.begin(), range.end()); });
   else
     work(0, packets);
+}
+
+}  // namespace
+
+std::vector<std::optional<RayHit>> EmbreeScene::firstHits(std::span<const Ray> rays, double tmin, double tmax,
+                                                          bool parallel) const {
+  std::vector<std::optional<RayHit>> out(rays.size());
+  forRayPackets(rays.size(), parallel, [&](size_t first, int* valid) {
+    alignas(64) RTCRayHit16 rh;
+    for (int i = 0; i < 16; ++i) {
+      const Ray& ray = rays[std::min(first + size_t(i), rays.size() - 1)];
+      setLane(rh.ray, i, embreeRay(ray.origin - center_, ray.direction, tmin, tmax));
+      rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcIntersect16(valid, impl_->scene, &context, &rh);
+    for (int i = 0; i < 16; ++i) {
+      const size_t r = first + size_t(i);
+      if (r >= rays.size() || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) continue;
+      out[r] = makeHit(rays[r].origin, rays[r].direction, rh.hit.primID[i], rh.ray.tfar[i]);
+    }
+  });
   throwIfFailed("tracing a batch of rays");
   return out;
 }
@@ -309,34 +320,22 @@ std::vector<uint8_t> EmbreeScene::occludedBatch(std::span<const Ray> rays, std::
   if (tmax.size() > 1 && tmax.size() != rays.size())
     throw Error(ErrorCategory::InvalidArgument, "occludedBatch: tmax must be empty, one value, or one per ray");
   std::vector<uint8_t> out(rays.size(), 0);
-  const size_t packets = (rays.size() + 15) / 16;
   auto limit = [&](size_t r) { return tmax.empty() ? kInfinity : tmax[tmax.size() == 1 ? 0 : r]; };
-  auto work = [&](size_t begin, size_t end) {
-    for (size_t p = begin; p < end; ++p) {
-      alignas(64) int valid[16];
-      alignas(64) RTCRay16 ray16;
-      const size_t first = p * 16;
-      for (int i = 0; i < 16; ++i) {
-        const size_t r = first + size_t(i);
-        valid[i] = r < rays.size() ? -1 : 0;
-        const size_t rr = std::min(r, rays.size() - 1);
-        const Ray& ray = rays[rr];
-        setLane(ray16, i, embreeRay(ray.origin - center_, ray.direction, 0.0, limit(rr)));
-      }
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      rtcOccluded16(valid, impl_->scene, &context, &ray16);
-      for (int i = 0; i < 16; ++i) {
-        const size_t r = first + size_t(i);
-        if (r < rays.size() && ray16.tfar[i] < 0.0f) out[r] = 1;
-      }
+  forRayPackets(rays.size(), parallel, [&](size_t first, int* valid) {
+    alignas(64) RTCRay16 ray16;
+    for (int i = 0; i < 16; ++i) {
+      const size_t rr = std::min(first + size_t(i), rays.size() - 1);
+      const Ray& ray = rays[rr];
+      setLane(ray16, i, embreeRay(ray.origin - center_, ray.direction, 0.0, limit(rr)));
     }
-  };
-  if (parallel)
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, packets, 16),
-                      [&](const tbb::blocked_range<size_t>& range) { work(range.begin(), range.end()); });
-  else
-    work(0, packets);
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    rtcOccluded16(valid, impl_->scene, &context, &ray16);
+    for (int i = 0; i < 16; ++i) {
+      const size_t r = first + size_t(i);
+      if (r < rays.size() && ray16.tfar[i] < 0.0f) out[r] = 1;
+    }
+  });
   throwIfFailed("tracing a batch of shadow rays");
   return out;
 }

@@ -107,34 +107,43 @@ void AtomicFile::discard() {
   slot_ = -1;
 }
 
-void AtomicFile::write(std::string_view bytes) {
-  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": write after the file was closed");
+namespace {
+
+// Writes all of `bytes` by `writeSome(data, size, done)` (a write or pwrite of what is left, after `done` bytes),
+// again after a signal. Returns the reason of a failure, or an empty string.
+template <class WriteSome>
+std::string writeAll(std::string_view bytes, const WriteSome& writeSome) {
   size_t written = 0;
   while (written < bytes.size()) {
-    const ssize_t n = ::write(fd_, bytes.data() + written, bytes.size() - written);
+    const ssize_t n = writeSome(bytes.data() + written, bytes.size() - written, written);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const std::string reason = std::strerror(errno);
-      discard();
-      throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
+      return std::strerror(errno);
     }
     written += size_t(n);
   }
+  return {};
+}
+
+}  // namespace
+
+void AtomicFile::write(std::string_view bytes) {
+  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": write after the file was closed");
+  const std::string reason =
+      writeAll(bytes, [&](const char* data, size_t size, size_t) { return ::write(fd_, data, size); });
+  if (reason.empty()) return;
+  discard();
+  throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
 }
 
 void AtomicFile::writeAt(uint64_t offset, std::string_view bytes) {
   if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": write after the file was closed");
-  size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::pwrite(fd_, bytes.data() + written, bytes.size() - written, off_t(offset + written));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string reason = std::strerror(errno);
-      discard();
-      throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
-    }
-    written += size_t(n);
-  }
+  const std::string reason = writeAll(bytes, [&](const char* data, size_t size, size_t done) {
+    return ::pwrite(fd_, data, size, off_t(offset + done));
+  });
+  if (reason.empty()) return;
+  discard();
+  throw Error(ErrorCategory::OutputFailed, path_ + ": write failed: " + reason);
 }
 
 void AtomicFile::commit() {

@@ -435,10 +435,7 @@ void addSpots(GenScene& scene, const CityOptions& o, const Layout& y) {
     }
   }
   Rng rng(hash64(o.seed, 0x53504F54ULL, static_cast<std::uint64_t>(y.lotsPerSide)));
-  std::vector<std::size_t> order(candidates.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  for (std::size_t i = order.size(); i > 1; --i)  // Fisher-Yates with our own generator
-    std::swap(order[i - 1], order[static_cast<std::size_t>(rng.next() % i)]);
+  const std::vector<std::size_t> order = rng.shuffledOrder(candidates.size());
   for (int i = 0; i < o.spotLights; ++i) {
     const std::size_t c = order[static_cast<std::size_t>(i) % order.size()];
     glm::dvec2 p = candidates[c];

@@ -6,7 +6,10 @@
 // may differ in the last bit between C libraries). Only +, -, *, / and sqrt are used: IEEE-754 rounds
 // those exactly, and C++ in ISO mode does not contract them into FMAs.
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <utility>
+#include <vector>
 
 namespace cpvs::scenegen {
 
@@ -48,6 +51,13 @@ class Rng {
     return lo + static_cast<int>(next() % span);
   }
   bool chance(double p) { return unit() < p; }
+  // 0 .. count-1 in an order drawn from this generator (Fisher-Yates), the same on every platform.
+  std::vector<std::size_t> shuffledOrder(std::size_t count) {
+    std::vector<std::size_t> order(count);
+    for (std::size_t i = 0; i < count; ++i) order[i] = i;
+    for (std::size_t i = count; i > 1; --i) std::swap(order[i - 1], order[static_cast<std::size_t>(next() % i)]);
+    return order;
+  }
 
  private:
   std::uint64_t state_;

@@ -158,27 +158,10 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
 
   // Materials (indices as in the enum above) and the leaf texture.
   {
-    GenMaterial grass;
-    grass.name = "Grass";
-    grass.baseColorFactor = {0.30, 0.42, 0.20, 1.0};
-    GenMaterial concrete;
-    concrete.name = "Concrete";
-    concrete.baseColorFactor = {0.62, 0.6, 0.56, 1.0};
-    GenMaterial glass;
-    glass.name = "Glass";
-    glass.alphaMode = GenMaterial::AlphaMode::Blend;
-    glass.baseColorFactor = {0.6, 0.8, 0.9, 0.15};
-    glass.doubleSided = true;
-    GenMaterial bark;
-    bark.name = "Bark";
-    bark.baseColorFactor = {0.33, 0.24, 0.16, 1.0};
-    GenMaterial leaves;
-    leaves.name = "Leaves";
-    leaves.alphaMode = GenMaterial::AlphaMode::Mask;
-    leaves.alphaCutoff = 0.5;
-    leaves.baseColorTexture = 0;
-    leaves.doubleSided = true;
-    scene.materials = {grass, concrete, glass, bark, leaves};
+    scene.materials = {opaqueMaterial("Grass", {0.30, 0.42, 0.20, 1.0}),
+                       opaqueMaterial("Concrete", {0.62, 0.6, 0.56, 1.0}),
+                       blendedMaterial("Glass", {0.6, 0.8, 0.9, 0.15}),
+                       opaqueMaterial("Bark", {0.33, 0.24, 0.16, 1.0}), alphaTestedMaterial("Leaves", 0)};
   }
   auto [texels, coverage] = leafTexture(o.seed);
   GenTexture leafTex;
@@ -366,10 +349,7 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     alongX.push_back(-1);
   }
   Rng lights(hash64(o.seed, 0x53504F54ULL));  // "SPOT"
-  std::vector<std::size_t> order(spots.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  for (std::size_t i = order.size(); i > 1; --i)  // Fisher-Yates with our own generator
-    std::swap(order[i - 1], order[static_cast<std::size_t>(lights.next() % i)]);
+  const std::vector<std::size_t> order = lights.shuffledOrder(spots.size());
   for (int i = 0; i < o.spotLights; ++i) {
     const std::size_t c = order[static_cast<std::size_t>(i) % order.size()];
     glm::dvec2 p = spots[c];

@@ -4,6 +4,7 @@
 // the optional parts is written exactly as before they existed.
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -45,6 +46,32 @@ struct GenMaterial {
   int baseColorTexture = -1;  // index into GenScene::textures, or -1
   int texCoord = 0;           // the TEXCOORD_n set the texture uses
 };
+
+// An opaque material of one colour; a two-sided alpha-tested one whose coverage is texture `texture`'s alpha; a
+// two-sided blended one of one colour (glass).
+inline GenMaterial opaqueMaterial(std::string name, glm::dvec4 color) {
+  GenMaterial m;
+  m.name = std::move(name);
+  m.baseColorFactor = color;
+  return m;
+}
+inline GenMaterial alphaTestedMaterial(std::string name, int texture, double cutoff = 0.5) {
+  GenMaterial m;
+  m.name = std::move(name);
+  m.alphaMode = GenMaterial::AlphaMode::Mask;
+  m.alphaCutoff = cutoff;
+  m.baseColorTexture = texture;
+  m.doubleSided = true;
+  return m;
+}
+inline GenMaterial blendedMaterial(std::string name, glm::dvec4 color) {
+  GenMaterial m;
+  m.name = std::move(name);
+  m.alphaMode = GenMaterial::AlphaMode::Blend;
+  m.baseColorFactor = color;
+  m.doubleSided = true;
+  return m;
+}
 
 // A unit quaternion in glTF order (x, y, z, w).
 struct Quat {

@@ -206,6 +206,16 @@ std::string plot(const std::string& name, const Scene& scene, const std::vector<
   return sweep::renderSvg("Speed against error: " + name, panels, 2);
 }
 
+// A method's error figures on a row's points (nlohmann::json keeps keys sorted, so merged objects print alike).
+nlohmann::json errorJson(const SweepRow& r, uint64_t misclassified, uint64_t misclassifiedUniform,
+                         double meanAbsDiff) {
+  return {{"misclassified", r.rate(misclassified, r.points)},
+          {"misclassified_count", misclassified},
+          {"misclassified_uniform", r.rate(misclassifiedUniform, r.uniform)},
+          {"misclassified_uniform_count", misclassifiedUniform},
+          {"mean_abs_diff", meanAbsDiff}};
+}
+
 nlohmann::json rowsJson(const std::vector<SweepRow>& rows) {
   nlohmann::json a = nlohmann::json::array();
   for (const SweepRow& r : rows) {
@@ -220,22 +230,12 @@ nlohmann::json rowsJson(const std::vector<SweepRow>& rows) {
                  {"reference_lit", r.referenceLit},
                  {"uniform", r.uniform},
                  {"lookups_per_s", r.lookupsPerS},
-                 {"rays_per_s", r.raysPerS},
-                 {"misclassified", r.rate(r.misclassified, r.points)},
-                 {"misclassified_count", r.misclassified},
-                 {"misclassified_uniform", r.rate(r.misclassifiedUniform, r.uniform)},
-                 {"misclassified_uniform_count", r.misclassifiedUniform},
-                 {"mean_abs_diff", r.meanAbsDiff},
-                 {"shadow_map",
-                  {{"size", r.smSize},
-                   {"bytes", r.smBytes},
-                   {"build_ms", r.smBuildMs},
-                   {"lookups_per_s", r.smLookupsPerS},
-                   {"misclassified", r.rate(r.smMisclassified, r.points)},
-                   {"misclassified_count", r.smMisclassified},
-                   {"misclassified_uniform", r.rate(r.smMisclassifiedUniform, r.uniform)},
-                   {"misclassified_uniform_count", r.smMisclassifiedUniform},
-                   {"mean_abs_diff", r.smMeanAbsDiff}}}});
+                 {"rays_per_s", r.raysPerS}});
+    nlohmann::json shadowMap = {
+        {"size", r.smSize}, {"bytes", r.smBytes}, {"build_ms", r.smBuildMs}, {"lookups_per_s", r.smLookupsPerS}};
+    shadowMap.update(errorJson(r, r.smMisclassified, r.smMisclassifiedUniform, r.smMeanAbsDiff));
+    a.back().update(errorJson(r, r.misclassified, r.misclassifiedUniform, r.meanAbsDiff));
+    a.back()["shadow_map"] = shadowMap;
   }
   return a;
 }
