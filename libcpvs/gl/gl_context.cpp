@@ -79,6 +79,24 @@ std::string describe(const Functions& f, const std::string& prefix, int& major, 
          cstr(f.GetString(GL_RENDERER)) + " (" + cstr(f.GetString(GL_VERSION)) + ")";
 }
 
+// An API table loaded by `load` on first use, once per process; a failure to load is kept and thrown, as
+// NotSupported, on every use.
+template <class Api, class Load>
+const Api& loadedOnce(const Load& load) {
+  static std::once_flag once;
+  static Api api;
+  static std::string failure;
+  std::call_once(once, [&] {
+    try {
+      load(api);
+    } catch (const Error& e) {
+      failure = e.what();
+    }
+  });
+  if (!failure.empty()) throw Error(ErrorCategory::NotSupported, failure);
+  return api;
+}
+
 // ---------------------------------------------------------------------------------------------- OSMesa
 
 constexpr int kOSMesaFormat = 0x22, kOSMesaRGBA = 0x1908 /* GL_RGBA */, kOSMesaDepthBits = 0x30,
@@ -96,23 +114,14 @@ struct OSMesaApi {
   GetProcAddress getProcAddress = nullptr;
 
   static const OSMesaApi& get() {
-    static std::once_flag once;
-    static OSMesaApi api;
-    static std::string failure;
-    std::call_once(once, [] {
-      try {
-        const char* name = "libOSMesa.so.8";
-        void* lib = openLibrary(name, "OSMesa off-screen OpenGL, package libosmesa6");
-        api.createContextAttribs = librarySymbol<CreateContextAttribs>(lib, name, "OSMesaCreateContextAttribs");
-        api.makeCurrent = librarySymbol<MakeCurrent>(lib, name, "OSMesaMakeCurrent");
-        api.destroyContext = librarySymbol<DestroyContext>(lib, name, "OSMesaDestroyContext");
-        api.getProcAddress = librarySymbol<GetProcAddress>(lib, name, "OSMesaGetProcAddress");
-      } catch (const Error& e) {
-        failure = e.what();
-      }
+    return loadedOnce<OSMesaApi>([](OSMesaApi& api) {
+      const char* name = "libOSMesa.so.8";
+      void* lib = openLibrary(name, "OSMesa off-screen OpenGL, package libosmesa6");
+      api.createContextAttribs = librarySymbol<CreateContextAttribs>(lib, name, "OSMesaCreateContextAttribs");
+      api.makeCurrent = librarySymbol<MakeCurrent>(lib, name, "OSMesaMakeCurrent");
+      api.destroyContext = librarySymbol<DestroyContext>(lib, name, "OSMesaDestroyContext");
+      api.getProcAddress = librarySymbol<GetProcAddress>(lib, name, "OSMesaGetProcAddress");
     });
-    if (!failure.empty()) throw Error(ErrorCategory::NotSupported, failure);
-    return api;
   }
 };
 
@@ -179,40 +188,31 @@ struct EGLApi {
   const char* clientExtensions = nullptr;
 
   static const EGLApi& get() {
-    static std::once_flag once;
-    static EGLApi api;
-    static std::string failure;
-    std::call_once(once, [] {
-      try {
-        const char* name = "libEGL.so.1";
-        void* lib = openLibrary(name, "EGL, package libegl1");
-        api.getProcAddress = librarySymbol<PFNEGLGETPROCADDRESSPROC>(lib, name, "eglGetProcAddress");
-        api.queryString = librarySymbol<PFNEGLQUERYSTRINGPROC>(lib, name, "eglQueryString");
-        api.getError = librarySymbol<PFNEGLGETERRORPROC>(lib, name, "eglGetError");
-        api.initialize = librarySymbol<PFNEGLINITIALIZEPROC>(lib, name, "eglInitialize");
-        api.terminate = librarySymbol<PFNEGLTERMINATEPROC>(lib, name, "eglTerminate");
-        api.bindAPI = librarySymbol<PFNEGLBINDAPIPROC>(lib, name, "eglBindAPI");
-        api.chooseConfig = librarySymbol<PFNEGLCHOOSECONFIGPROC>(lib, name, "eglChooseConfig");
-        api.createContext = librarySymbol<PFNEGLCREATECONTEXTPROC>(lib, name, "eglCreateContext");
-        api.destroyContext = librarySymbol<PFNEGLDESTROYCONTEXTPROC>(lib, name, "eglDestroyContext");
-        api.makeCurrent = librarySymbol<PFNEGLMAKECURRENTPROC>(lib, name, "eglMakeCurrent");
-        api.clientExtensions = api.queryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-        if (!api.clientExtensions) api.getError();  // clear EGL_BAD_DISPLAY from pre-1.5 implementations
+    return loadedOnce<EGLApi>([](EGLApi& api) {
+      const char* name = "libEGL.so.1";
+      void* lib = openLibrary(name, "EGL, package libegl1");
+      api.getProcAddress = librarySymbol<PFNEGLGETPROCADDRESSPROC>(lib, name, "eglGetProcAddress");
+      api.queryString = librarySymbol<PFNEGLQUERYSTRINGPROC>(lib, name, "eglQueryString");
+      api.getError = librarySymbol<PFNEGLGETERRORPROC>(lib, name, "eglGetError");
+      api.initialize = librarySymbol<PFNEGLINITIALIZEPROC>(lib, name, "eglInitialize");
+      api.terminate = librarySymbol<PFNEGLTERMINATEPROC>(lib, name, "eglTerminate");
+      api.bindAPI = librarySymbol<PFNEGLBINDAPIPROC>(lib, name, "eglBindAPI");
+      api.chooseConfig = librarySymbol<PFNEGLCHOOSECONFIGPROC>(lib, name, "eglChooseConfig");
+      api.createContext = librarySymbol<PFNEGLCREATECONTEXTPROC>(lib, name, "eglCreateContext");
+      api.destroyContext = librarySymbol<PFNEGLDESTROYCONTEXTPROC>(lib, name, "eglDestroyContext");
+      api.makeCurrent = librarySymbol<PFNEGLMAKECURRENTPROC>(lib, name, "eglMakeCurrent");
+      api.clientExtensions = api.queryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+      if (!api.clientExtensions) api.getError();  // clear EGL_BAD_DISPLAY from pre-1.5 implementations
+      api.getPlatformDisplay = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
+          api.getProcAddress("eglGetPlatformDisplayEXT"));
+      if (!api.getPlatformDisplay)
         api.getPlatformDisplay = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
-            api.getProcAddress("eglGetPlatformDisplayEXT"));
-        if (!api.getPlatformDisplay)
-          api.getPlatformDisplay = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
-              api.getProcAddress("eglGetPlatformDisplay"));
-        api.queryDevices =
-            reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(api.getProcAddress("eglQueryDevicesEXT"));
-        api.queryDeviceString =
-            reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(api.getProcAddress("eglQueryDeviceStringEXT"));
-      } catch (const Error& e) {
-        failure = e.what();
-      }
+            api.getProcAddress("eglGetPlatformDisplay"));
+      api.queryDevices =
+          reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(api.getProcAddress("eglQueryDevicesEXT"));
+      api.queryDeviceString =
+          reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(api.getProcAddress("eglQueryDeviceStringEXT"));
     });
-    if (!failure.empty()) throw Error(ErrorCategory::NotSupported, failure);
-    return api;
   }
 };
 

@@ -30,6 +30,14 @@ const char* stageName(GLenum type) {
   }
 }
 
+// The info log of a shader or program (getLog: GetShaderInfoLog or GetProgramInfoLog), up to 16 KiB.
+template <class GetLog>
+std::string infoLog(GetLog getLog, GLuint object) {
+  std::string log(16384, '\0');
+  getLog(object, GLsizei(log.size()), nullptr, log.data());
+  return std::string(log.c_str());
+}
+
 GLuint compile(const Context& context, GLenum type, const std::string& source, const std::string& name) {
   const Functions& g = context.gl();
   const GLuint shader = g.CreateShader(type);
@@ -39,11 +47,9 @@ GLuint compile(const Context& context, GLenum type, const std::string& source, c
   GLint ok = 0;
   g.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
   if (!ok) {
-    std::string log(16384, '\0');
-    g.GetShaderInfoLog(shader, GLsizei(log.size()), nullptr, log.data());
+    const std::string log = infoLog(g.GetShaderInfoLog, shader);
     g.DeleteShader(shader);
-    throw Error(ErrorCategory::RuntimeFailure, "cannot compile the " + name + " " + stageName(type) +
-                                                   " shader: " + std::string(log.c_str()));
+    throw Error(ErrorCategory::RuntimeFailure, "cannot compile the " + name + " " + stageName(type) + " shader: " + log);
   }
   return shader;
 }
@@ -67,10 +73,9 @@ GLuint linkProgram(const Context& context, const std::vector<std::pair<GLenum, s
   GLint ok = 0;
   g.GetProgramiv(program, GL_LINK_STATUS, &ok);
   if (!ok) {
-    std::string log(16384, '\0');
-    g.GetProgramInfoLog(program, GLsizei(log.size()), nullptr, log.data());
+    const std::string log = infoLog(g.GetProgramInfoLog, program);
     g.DeleteProgram(program);
-    throw Error(ErrorCategory::RuntimeFailure, "cannot link the " + name + " program: " + std::string(log.c_str()));
+    throw Error(ErrorCategory::RuntimeFailure, "cannot link the " + name + " program: " + log);
   }
   return program;
 }

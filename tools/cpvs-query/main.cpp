@@ -261,8 +261,7 @@ nlohmann::json errorJson(const ErrorStats& e) {
           {"cpvs_lit_fraction", e.rate(e.cpvsLit, e.samples)}};
 }
 
-int run(const Options& options) {
-  const Stopwatch total;
+void checkOptions(const Options& options) {
   tools::forFlag("--pcf", [&] { orThrow(checkPcfKernel(options.pcf)); });
   if (!options.excludedMeshes.empty() && options.reference.empty())
     throw Error(ErrorCategory::InvalidArgument, "--exclude-mesh only applies to the --reference scene");
@@ -272,143 +271,129 @@ int run(const Options& options) {
   if (options.timingRounds < 0) throw Error(ErrorCategory::InvalidArgument, "--timing-rounds must be 0 or more");
   if (!(options.biasMargin >= 0 && options.biasMargin <= 64))
     throw Error(ErrorCategory::InvalidArgument, "--bias-margin must be between 0 and 64 voxels");
-  const LookupOptions lookup{options.pcf,
-                             options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven,
-                             options.biasMargin};
+}
 
-  const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(options.cpvs));
-  const std::vector<SelectedLight> lights = selectLights(*file, options.lights, options.topGrid);
-  const size_t nl = lights.size();
+// The --reference scene's ray tracer (null without one), its warnings printed unless --quiet.
+std::unique_ptr<ShadowReference> loadReference(const Options& options, NormalOrientation orientation) {
+  if (options.reference.empty()) return nullptr;
+  Scene scene = importGltf(options.reference, options.import);
+  if (!options.excludedMeshes.empty())
+    tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
+  auto reference = std::make_unique<ShadowReference>(flatten(scene), orientation, options.referenceEpsilon);
+  if (!options.quiet)
+    for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
+  return reference;
+}
 
-  const PointFormat format = detectPointFormat(options.points);
-  if (!options.normals.empty() && format != PointFormat::Exr)
-    throw Error(ErrorCategory::InvalidArgument, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
-  const bool exrOutput = endsWith(options.output, ".exr");
-  // The outputs are opened before the work, so a path that cannot be written fails at once; the CSV and the
-  // report are committed together at the end.
-  std::optional<AtomicOutput> csvFile;
-  if (!exrOutput) csvFile.emplace(options.output);
-  std::optional<tools::AtomicFile> reportFile;
-  if (!options.report.empty()) reportFile.emplace(options.report);
-  if (exrOutput && format != PointFormat::Exr)
-    throw Error(ErrorCategory::InvalidArgument, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
+void appendCsvHeader(std::string& out, const std::vector<SelectedLight>& lights) {
+  for (size_t l = 0; l < lights.size(); ++l) out += (l ? "," : "") + csvField(lights[l].column);
+  out += '\n';
+}
 
-  std::unique_ptr<ShadowReference> reference;
-  double referenceLoadMs = 0;
-  if (!options.reference.empty()) {
-    const Stopwatch load;
-    Scene scene = importGltf(options.reference, options.import);
-    if (!options.excludedMeshes.empty())
-      tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
-    reference = std::make_unique<ShadowReference>(flatten(scene), lookup.orientation, options.referenceEpsilon);
-    referenceLoadMs = load.ms();
-    if (!options.quiet)
-      for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
+// Points [0, count) of `values` (one value per light and point) as CSV rows.
+void appendCsvRows(AtomicOutput& csv, const std::vector<float>& values, size_t count, size_t lights) {
+  for (size_t i = 0; i < count; ++i) {
+    for (size_t l = 0; l < lights; ++l) {
+      if (l) csv.buffer() += ',';
+      appendValue(csv.buffer(), values[i * lights + l]);
+    }
+    csv.buffer() += '\n';
+    csv.flushIfFull();
   }
+}
 
+// What the evaluation of every point gathered besides the output: the figures, the set of points the throughput
+// is timed on, whether the points had normals, and the time spent.
+struct Evaluation {
   Totals totals;
-  totals.visibilitySum.assign(nl, 0.0);
-  totals.errors.assign(nl, {});
   std::vector<QueryPoint> timingSet;
   bool hasNormals = false;
   double evalMs = 0;
-  tools::ProgressBar progress("query", options.quiet);
+};
 
-  if (format == PointFormat::Exr) {
-    uint32_t width = 0, height = 0;
-    std::vector<QueryPoint> points = readGBuffer(options.points, options.normals, width, height, hasNormals);
-    std::vector<float> values, chunkValues;
-    values.resize(points.size() * nl);
-    std::vector<QueryPoint> chunk;
-    for (size_t begin = 0; begin < points.size(); begin += kChunk) {
-      const size_t end = std::min(points.size(), begin + kChunk);
-      chunk.assign(points.begin() + ptrdiff_t(begin), points.begin() + ptrdiff_t(end));
-      const Stopwatch chunkClock;
-      evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, chunkValues, totals);
-      evalMs += chunkClock.ms();
-      std::copy(chunkValues.begin(), chunkValues.end(), values.begin() + ptrdiff_t(begin * nl));
-      if (timingSet.empty()) timingSet = chunk;
-      progress.update(double(end) / double(points.size()));
-    }
-    if (exrOutput) {
-      ExrImage out;
-      out.width = width;
-      out.height = height;
-      for (const SelectedLight& l : lights) out.channels.push_back(l.column);
-      out.pixels = std::move(values);
-      writeExr(options.output, out);
-    } else {
-      AtomicOutput& csv = *csvFile;
-      for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
-      csv.buffer() += '\n';
-      for (size_t i = 0; i < points.size(); ++i) {
-        for (size_t l = 0; l < nl; ++l) {
-          if (l) csv.buffer() += ',';
-          appendValue(csv.buffer(), values[i * nl + l]);
-        }
-        csv.buffer() += '\n';
-        csv.flushIfFull();
-      }
-      csv.flush();
-    }
-  } else {
-    std::unique_ptr<PointReader> reader = PointReader::open(options.points);
-    hasNormals = reader->hasNormals();
-    AtomicOutput& csv = *csvFile;
-    for (size_t l = 0; l < nl; ++l) csv.buffer() += (l ? "," : "") + csvField(lights[l].column);
-    csv.buffer() += '\n';
-    std::vector<QueryPoint> chunk;
-    std::vector<float> values;
-    while (reader->next(chunk, kChunk)) {
-      const Stopwatch chunkClock;
-      evaluateChunk(chunk, lights, lookup, reference.get(), options.scoreInside, options.threads, values, totals);
-      evalMs += chunkClock.ms();
-      if (timingSet.empty()) timingSet = chunk;
-      std::string& out = csv.buffer();
-      for (size_t i = 0; i < chunk.size(); ++i) {
-        for (size_t l = 0; l < nl; ++l) {
-          if (l) out += ',';
-          appendValue(out, values[i * nl + l]);
-        }
-        out += '\n';
-        csv.flushIfFull();
-      }
-      progress.update(reader->progress());
-    }
-    csv.flush();
+// An EXR G-buffer: evaluated in chunks, then written whole, as an EXR (one channel per light) or a CSV.
+void queryGBuffer(const Options& options, const std::vector<SelectedLight>& lights, const LookupOptions& lookup,
+                  const ShadowReference* reference, std::optional<AtomicOutput>& csvFile, tools::ProgressBar& progress,
+                  Evaluation& eval) {
+  const size_t nl = lights.size();
+  uint32_t width = 0, height = 0;
+  std::vector<QueryPoint> points = readGBuffer(options.points, options.normals, width, height, eval.hasNormals);
+  std::vector<float> values, chunkValues;
+  values.resize(points.size() * nl);
+  std::vector<QueryPoint> chunk;
+  for (size_t begin = 0; begin < points.size(); begin += kChunk) {
+    const size_t end = std::min(points.size(), begin + kChunk);
+    chunk.assign(points.begin() + ptrdiff_t(begin), points.begin() + ptrdiff_t(end));
+    const Stopwatch chunkClock;
+    evaluateChunk(chunk, lights, lookup, reference, options.scoreInside, options.threads, chunkValues, eval.totals);
+    eval.evalMs += chunkClock.ms();
+    std::copy(chunkValues.begin(), chunkValues.end(), values.begin() + ptrdiff_t(begin * nl));
+    if (eval.timingSet.empty()) eval.timingSet = chunk;
+    progress.update(double(end) / double(points.size()));
   }
-  progress.finish();
+  if (!csvFile) {
+    ExrImage out;
+    out.width = width;
+    out.height = height;
+    for (const SelectedLight& l : lights) out.channels.push_back(l.column);
+    out.pixels = std::move(values);
+    writeExr(options.output, out);
+    return;
+  }
+  appendCsvHeader(csvFile->buffer(), lights);
+  appendCsvRows(*csvFile, values, points.size(), nl);
+  csvFile->flush();
+}
 
-  if (totals.invalid > 0) {
-    std::string first;
-    for (uint64_t i : totals.firstInvalid) first += (first.empty() ? "" : ", ") + std::to_string(i);
-    std::cerr << "cpvs-query: warning: " << options.points << ": " << totals.invalid << " of " << totals.points
-              << " points have a NaN or infinite coordinate or normal and were answered 0 (first, counting from 0: "
-              << first << (totals.invalid > totals.firstInvalid.size() ? ", ..." : "") << ")\n";
+// CSV or PLY points: read, evaluated and written chunk by chunk (inputs larger than memory work).
+void queryPointFile(const Options& options, const std::vector<SelectedLight>& lights, const LookupOptions& lookup,
+                    const ShadowReference* reference, AtomicOutput& csv, tools::ProgressBar& progress,
+                    Evaluation& eval) {
+  std::unique_ptr<PointReader> reader = PointReader::open(options.points);
+  eval.hasNormals = reader->hasNormals();
+  appendCsvHeader(csv.buffer(), lights);
+  std::vector<QueryPoint> chunk;
+  std::vector<float> values;
+  while (reader->next(chunk, kChunk)) {
+    const Stopwatch chunkClock;
+    evaluateChunk(chunk, lights, lookup, reference, options.scoreInside, options.threads, values, eval.totals);
+    eval.evalMs += chunkClock.ms();
+    if (eval.timingSet.empty()) eval.timingSet = chunk;
+    appendCsvRows(csv, values, chunk.size(), lights.size());
+    progress.update(reader->progress());
   }
+  csv.flush();
+}
 
-  ErrorStats pooled;
-  for (const ErrorStats& e : totals.errors) pooled.add(e);
-  if (reference && !options.quiet) {
-    std::fprintf(stderr,
-                 "cpvs-query: reference (every point with every light): %.4f%% misclassified (%.4f%% of the %llu pairs"
-                 " facing the light within its reach), %.4f%% of the %llu uniform"
-                 " point-light pairs, mean |difference| %.5f"
-                 " (%llu points inside closed solids not scored)\n",
-                 100.0 * pooled.rate(pooled.misclassified, pooled.samples),
-                 100.0 * pooled.rate(pooled.misclassifiedFacing, pooled.facing),
-                 static_cast<unsigned long long>(pooled.facing),
-                 100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
-                 static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
-                 static_cast<unsigned long long>(totals.insideClosed));
-  }
-  if (!reportFile) {
-    if (csvFile) csvFile->file().commit();
-    return 0;
-  }
+void warnAboutInvalidPoints(const Options& options, const Totals& totals) {
+  if (totals.invalid == 0) return;
+  std::string first;
+  for (uint64_t i : totals.firstInvalid) first += (first.empty() ? "" : ", ") + std::to_string(i);
+  std::cerr << "cpvs-query: warning: " << options.points << ": " << totals.invalid << " of " << totals.points
+            << " points have a NaN or infinite coordinate or normal and were answered 0 (first, counting from 0: "
+            << first << (totals.invalid > totals.firstInvalid.size() ? ", ..." : "") << ")\n";
+}
 
-  // Throughput, one thread each, over the first chunk of points (the whole set when it fits in one).
-  const std::vector<QueryPoint> timing = validPoints(timingSet);
+void printReferenceSummary(const ErrorStats& pooled, const Totals& totals) {
+  std::fprintf(stderr,
+               "cpvs-query: reference (every point with every light): %.4f%% misclassified (%.4f%% of the %llu pairs"
+               " facing the light within its reach), %.4f%% of the %llu uniform"
+               " point-light pairs, mean |difference| %.5f"
+               " (%llu points inside closed solids not scored)\n",
+               100.0 * pooled.rate(pooled.misclassified, pooled.samples),
+               100.0 * pooled.rate(pooled.misclassifiedFacing, pooled.facing),
+               static_cast<unsigned long long>(pooled.facing),
+               100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
+               static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
+               static_cast<unsigned long long>(totals.insideClosed));
+}
+
+// Throughput, one thread each, over the first chunk of points (the whole set when it fits in one). Returned after
+// its rounds have run: only its figures (best, median) are read from it.
+Throughput measureThroughput(const Options& options, const std::vector<SelectedLight>& lights,
+                             const LookupOptions& lookup, const ShadowReference* reference,
+                             const std::vector<QueryPoint>& timing) {
+  const size_t nl = lights.size();
   LookupOptions unfiltered = lookup;
   unfiltered.pcfKernel = 1;
   std::vector<const ShadowMethod*> all;
@@ -439,16 +424,16 @@ int run(const Options& options) {
       throughput.add("light" + std::to_string(l),
                      [&, l] { return lookupsPerSecond(*lights[l].method, timing, lookup, kRoundSeconds / 2); });
   throughput.run(options.timingRounds);
-  const double lookupsPerS = throughput.best("lookups");
-  const double unfilteredPerS = options.pcf > 1 ? throughput.best("unfiltered") : lookupsPerS;
-  const double singlePerS = throughput.best("single");
+  return throughput;
+}
 
-  size_t topGridBytes = 0;
-  for (const SelectedLight& l : lights) topGridBytes += l.shadow().topGridBytes();
-  nlohmann::json lightsJson = nlohmann::json::array();
+nlohmann::json lightsJson(const CpvsFile& file, const std::vector<SelectedLight>& lights, const Totals& totals,
+                          const Throughput& throughput, bool withReference) {
+  const size_t nl = lights.size();
+  nlohmann::json out = nlohmann::json::array();
   const uint64_t valid = totals.points - totals.invalid;
   for (size_t l = 0; l < nl; ++l) {
-    const CpvsFile::LightEntry& entry = file->lights()[lights[l].index];
+    const CpvsFile::LightEntry& entry = file.lights()[lights[l].index];
     nlohmann::json j = {{"index", lights[l].index},
                         {"name", entry.light.name},
                         {"column", lights[l].column},
@@ -457,9 +442,86 @@ int run(const Options& options) {
                         {"resolution", entry.views.empty() ? 0u : entry.views[0].view.resolution},
                         {"mean_visibility", valid ? totals.visibilitySum[l] / double(valid) : 0.0}};
     if (nl > 1) j["lookups_per_s"] = throughput.best("light" + std::to_string(l));
-    if (reference) j["reference"] = errorJson(totals.errors[l]);
-    lightsJson.push_back(j);
+    if (withReference) j["reference"] = errorJson(totals.errors[l]);
+    out.push_back(j);
   }
+  return out;
+}
+
+nlohmann::json referenceJson(const Options& options, const ShadowReference& reference, const ErrorStats& pooled,
+                             const Totals& totals, const Throughput& throughput, double lookupsPerS,
+                             double unfilteredPerS) {
+  nlohmann::json r = errorJson(pooled);
+  const double raysPerS = throughput.best("rays");
+  r["rays_per_s"] = raysPerS;
+  r["rays_per_s_median"] = throughput.median("rays");
+  r["rays_per_s_packets"] = throughput.best("packets");
+  r["lookup_speedup"] = raysPerS > 0 ? lookupsPerS / raysPerS : 0.0;
+  r["unfiltered_speedup"] = raysPerS > 0 ? unfilteredPerS / raysPerS : 0.0;
+  r["epsilon"] = reference.epsilon();
+  r["relative_epsilon"] = options.referenceEpsilon;
+  r["triangles"] = reference.triangles();
+  r["uniform_offset_voxels"] = 2;
+  r["inside_closed_points"] = totals.insideClosed;
+  r["score_inside_closed"] = options.scoreInside;
+  return r;
+}
+
+int run(const Options& options) {
+  const Stopwatch total;
+  checkOptions(options);
+  const LookupOptions lookup{options.pcf,
+                             options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven,
+                             options.biasMargin};
+
+  const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(options.cpvs));
+  const std::vector<SelectedLight> lights = selectLights(*file, options.lights, options.topGrid);
+  const size_t nl = lights.size();
+
+  const PointFormat format = detectPointFormat(options.points);
+  if (!options.normals.empty() && format != PointFormat::Exr)
+    throw Error(ErrorCategory::InvalidArgument, "--normals applies to EXR position images only; CSV and PLY carry nx, ny, nz");
+  const bool exrOutput = endsWith(options.output, ".exr");
+  // The outputs are opened before the work, so a path that cannot be written fails at once; the CSV and the
+  // report are committed together at the end.
+  std::optional<AtomicOutput> csvFile;
+  if (!exrOutput) csvFile.emplace(options.output);
+  std::optional<tools::AtomicFile> reportFile;
+  if (!options.report.empty()) reportFile.emplace(options.report);
+  if (exrOutput && format != PointFormat::Exr)
+    throw Error(ErrorCategory::InvalidArgument, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
+
+  const Stopwatch load;
+  const std::unique_ptr<ShadowReference> reference = loadReference(options, lookup.orientation);
+  const double referenceLoadMs = reference ? load.ms() : 0.0;
+
+  Evaluation eval;
+  Totals& totals = eval.totals;
+  totals.visibilitySum.assign(nl, 0.0);
+  totals.errors.assign(nl, {});
+  tools::ProgressBar progress("query", options.quiet);
+  if (format == PointFormat::Exr)
+    queryGBuffer(options, lights, lookup, reference.get(), csvFile, progress, eval);
+  else
+    queryPointFile(options, lights, lookup, reference.get(), *csvFile, progress, eval);
+  progress.finish();
+  warnAboutInvalidPoints(options, totals);
+
+  ErrorStats pooled;
+  for (const ErrorStats& e : totals.errors) pooled.add(e);
+  if (reference && !options.quiet) printReferenceSummary(pooled, totals);
+  if (!reportFile) {
+    if (csvFile) csvFile->file().commit();
+    return 0;
+  }
+
+  const std::vector<QueryPoint> timing = validPoints(eval.timingSet);
+  const Throughput throughput = measureThroughput(options, lights, lookup, reference.get(), timing);
+  const double lookupsPerS = throughput.best("lookups");
+  const double unfilteredPerS = options.pcf > 1 ? throughput.best("unfiltered") : lookupsPerS;
+  const double singlePerS = throughput.best("single");
+  size_t topGridBytes = 0;
+  for (const SelectedLight& l : lights) topGridBytes += l.shadow().topGridBytes();
 
   nlohmann::json report = {
       {"tool", "cpvs-query"},
@@ -468,7 +530,7 @@ int run(const Options& options) {
        {{"cpvs", options.cpvs},
         {"points", options.points},
         {"format", pointFormatName(format)},
-        {"normals", hasNormals},
+        {"normals", eval.hasNormals},
         {"reference_scene", options.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(options.reference)}}},
       {"settings",
        {{"pcf", options.pcf},
@@ -491,24 +553,10 @@ int run(const Options& options) {
       {"top_grid_levels", options.topGrid < 0 ? nlohmann::json("automatic") : nlohmann::json(options.topGrid)},
       {"top_grid_bytes", topGridBytes},
       {"peak_rss_bytes", peakRssBytes()},
-      {"timings_ms", {{"evaluate", evalMs}, {"reference_load", referenceLoadMs}, {"total", total.ms()}}},
-      {"lights", lightsJson}};
-  if (reference) {
-    nlohmann::json r = errorJson(pooled);
-    const double raysPerS = throughput.best("rays");
-    r["rays_per_s"] = raysPerS;
-    r["rays_per_s_median"] = throughput.median("rays");
-    r["rays_per_s_packets"] = throughput.best("packets");
-    r["lookup_speedup"] = raysPerS > 0 ? lookupsPerS / raysPerS : 0.0;
-    r["unfiltered_speedup"] = raysPerS > 0 ? unfilteredPerS / raysPerS : 0.0;
-    r["epsilon"] = reference->epsilon();
-    r["relative_epsilon"] = options.referenceEpsilon;
-    r["triangles"] = reference->triangles();
-    r["uniform_offset_voxels"] = 2;
-    r["inside_closed_points"] = totals.insideClosed;
-    r["score_inside_closed"] = options.scoreInside;
-    report["reference"] = r;
-  }
+      {"timings_ms", {{"evaluate", eval.evalMs}, {"reference_load", referenceLoadMs}, {"total", total.ms()}}},
+      {"lights", lightsJson(*file, lights, totals, throughput, reference != nullptr)}};
+  if (reference)
+    report["reference"] = referenceJson(options, *reference, pooled, totals, throughput, lookupsPerS, unfilteredPerS);
   reportFile->write(report.dump(2) + "\n");
   tools::commitTogether({csvFile ? &csvFile->file() : nullptr, &*reportFile});
   return 0;

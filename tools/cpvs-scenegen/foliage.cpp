@@ -237,27 +237,23 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     if (i == 0 || layout.chance(0.5)) {
       const double cx = 0.5 * (b.x0 + b.x1), cz = 0.5 * (b.z0 + b.z1);
       constexpr double depth = 4.0, y = 3.2, post = 0.12;
-      double x0, z0, x1, z1;
-      glm::dvec2 p0, p1;  // the posts
-      if (std::abs(cz) < std::abs(cx)) {  // the x-axis street (z = 0) is nearer: canopy on the z facade facing it
-        const double w = 0.3 * (b.x1 - b.x0);
-        x0 = cx - w;
-        x1 = cx + w;
-        z0 = cz > 0.0 ? b.z0 - depth : b.z1;
-        z1 = cz > 0.0 ? b.z0 : b.z1 + depth;
-        const double zo = cz > 0.0 ? z0 + 0.2 : z1 - 0.2;
-        p0 = {x0 + 0.2, zo};
-        p1 = {x1 - 0.2, zo};
-      } else {
-        const double w = 0.3 * (b.z1 - b.z0);
-        z0 = cz - w;
-        z1 = cz + w;
-        x0 = cx > 0.0 ? b.x0 - depth : b.x1;
-        x1 = cx > 0.0 ? b.x0 : b.x1 + depth;
-        const double xo = cx > 0.0 ? x0 + 0.2 : x1 - 0.2;
-        p0 = {xo, z0 + 0.2};
-        p1 = {xo, z1 - 0.2};
-      }
+      // The canopy on the facade facing the nearer street: written for the x-axis street (z = 0), with "along"
+      // the street's axis and "across" the other; the z-axis street is the same with x and z swapped.
+      const bool xStreet = std::abs(cz) < std::abs(cx);
+      const double along0 = xStreet ? b.x0 : b.z0, along1 = xStreet ? b.x1 : b.z1;
+      const double across0 = xStreet ? b.z0 : b.x0, across1 = xStreet ? b.z1 : b.x1;
+      const double alongCentre = xStreet ? cx : cz, acrossCentre = xStreet ? cz : cx;
+      const double w = 0.3 * (along1 - along0);
+      const double a0 = alongCentre - w, a1 = alongCentre + w;
+      const double c0 = acrossCentre > 0.0 ? across0 - depth : across1;
+      const double c1 = acrossCentre > 0.0 ? across0 : across1 + depth;
+      const double co = acrossCentre > 0.0 ? c0 + 0.2 : c1 - 0.2;
+      const auto toXz = [&](double along, double across) {
+        return xStreet ? glm::dvec2(along, across) : glm::dvec2(across, along);
+      };
+      const glm::dvec2 lo = toXz(a0, c0), hi = toXz(a1, c1);
+      const double x0 = lo.x, z0 = lo.y, x1 = hi.x, z1 = hi.y;
+      const glm::dvec2 p0 = toXz(a0 + 0.2, co), p1 = toXz(a1 - 0.2, co);  // the posts
       addQuad(canopies, {x1, y, z0}, {x0, y, z0}, {x0, y, z1}, {x1, y, z1}, {0.0, 1.0, 0.0});
       for (const glm::dvec2& p : {p0, p1})
         solid.box({p.x - post, kBuildingBase, p.y - post}, {p.x + post, y, p.y + post});
