@@ -417,156 +417,137 @@ private:
                 float(logarithmic ? 1.0 / std::log2(view.far / view.near) : 1.0 / (view.far - view.near)));
   }
 
-  std::unique_ptr<gl::Context> context_;
-  uint32_t maxRegion_ = 0;
-  uint32_t viewportSize_ = 0;
-  int64_t viewportMin_ = 0;  // lowest viewport origin GL accepts
-  GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0,
-         activeProgram_ = 0;
-  GLuint geometryVao_ = 0, emptyVao_ = 0, vertexBuffer_ = 0;
-  GLuint maskVertexBuffer_ = 0, maskBuffers_[2] = {0, 0}, maskTextures_[2] = {0, 0};  // mask bytes, headers
-  const std::vector<CoverageMask>* uploadedMasks_ = nullptr;  // what maskBuffers_ hold
-  std::vector<uint64_t> uploadedMaskHashes_;
-  GLuint queries_[3] = {0, 0, 0};
-  Targets targets_;
-};
+  // The steps of render(), in the order of its GL calls.
 
-DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
-                                    const PeelSettings& peel, RenderStats* stats, const RowSpans*, bool) {
-  const uint32_t n = view.resolution;
-  if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
-      uint64_t(rect.y0) + rect.height > n)
-    throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.x0) + "," + std::to_string(rect.y0) +
-                                     " " + std::to_string(rect.width) + "x" + std::to_string(rect.height) +
-                                     " is empty or outside the " + std::to_string(n) + "^2 view");
-  if (rect.width > maxRegion_ || rect.height > maxRegion_)
-    throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.width) + "x" +
-                                     std::to_string(rect.height) + " exceeds the largest this context renders (" +
-                                     std::to_string(maxRegion_) + ")");
-  if (n > (1u << 24))
-    throw Error(ErrorCategory::NotSupported, "depth renderer: resolutions above 2^24 are not supported");
-
-  DepthRegion region;
-  region.rect = rect;
-  region.resolution = n;
-  const size_t texels = size_t(rect.width) * rect.height;
-  RenderStats local;
-
-  const ViewGeometry culled = cullToRegion(geometry, rect);
-  const size_t closedCount = culled.closedIndices.size() / 3, openCount = culled.openIndices.size() / 3;
-  local.trianglesSubmitted = closedCount + openCount;
-  if (view.empty || local.trianglesSubmitted == 0) {
-    region.enter.assign(texels, n);
-    region.exit.assign(texels, n);
-    if (stats) *stats = local;
-    return region;
+  // Throws unless the region lies in the view and fits this context's targets.
+  void checkRegion(uint32_t n, const RegionRect& rect) const {
+    if (n == 0 || rect.width == 0 || rect.height == 0 || uint64_t(rect.x0) + rect.width > n ||
+        uint64_t(rect.y0) + rect.height > n)
+      throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.x0) + "," +
+                                                      std::to_string(rect.y0) + " " + std::to_string(rect.width) + "x" +
+                                                      std::to_string(rect.height) + " is empty or outside the " +
+                                                      std::to_string(n) + "^2 view");
+    if (rect.width > maxRegion_ || rect.height > maxRegion_)
+      throw Error(ErrorCategory::InvalidArgument, "depth renderer: region " + std::to_string(rect.width) + "x" +
+                                                      std::to_string(rect.height) +
+                                                      " exceeds the largest this context renders (" +
+                                                      std::to_string(maxRegion_) + ")");
+    if (n > (1u << 24))
+      throw Error(ErrorCategory::NotSupported, "depth renderer: resolutions above 2^24 are not supported");
   }
-
-  gl::CurrentContext current(*context_);
-  const gl::Functions& g = context_->gl();
-  g.GetError();
-  ensureTargets(rect.width, rect.height, closedCount > 0);
-  const Targets& t = targets_;
-
-  g.Finish();
-  Stopwatch phase;
 
   // The viewport covers the aligned block of viewportSize_ texels that holds the region, so vertices and GL's
   // clipping are the same for every region of the block (the whole view when N <= viewportSize_); only the
   // viewport's integer origin differs. A region that straddles blocks gets a viewport at its own origin.
-  ViewportBlock block;
-  block.size = viewportSize_;
-  block.x0 = rect.x0 / viewportSize_ * viewportSize_;
-  block.y0 = rect.y0 / viewportSize_ * viewportSize_;
-  if (rect.x0 + rect.width > block.x0 + block.size || rect.y0 + rect.height > block.y0 + block.size ||
-      int64_t(block.x0) - int64_t(rect.x0) < viewportMin_ || int64_t(block.y0) - int64_t(rect.y0) < viewportMin_) {
-    block.x0 = rect.x0;
-    block.y0 = rect.y0;
+  ViewportBlock viewportBlock(const RegionRect& rect) const {
+    ViewportBlock block;
+    block.size = viewportSize_;
+    block.x0 = rect.x0 / viewportSize_ * viewportSize_;
+    block.y0 = rect.y0 / viewportSize_ * viewportSize_;
+    if (rect.x0 + rect.width > block.x0 + block.size || rect.y0 + rect.height > block.y0 + block.size ||
+        int64_t(block.x0) - int64_t(rect.x0) < viewportMin_ || int64_t(block.y0) - int64_t(rect.y0) < viewportMin_) {
+      block.x0 = rect.x0;
+      block.y0 = rect.y0;
+    }
+    return block;
   }
-  std::vector<GpuVertex> vertices(3 * (closedCount + openCount));
-  buildVertices(culled, view, block, vertices.data());
-  g.BindVertexArray(geometryVao_);
-  g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer_);
-  g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(GpuVertex)), vertices.data(), GL_STREAM_DRAW);
-  const bool masked = culled.hasMasks();
-  if (masked) {
-    uploadMasks(*culled.masks);
-    std::vector<GpuMaskVertex> maskVertices(vertices.size());
-    buildMaskVertices(culled, view, maskVertices.data());
-    g.BindBuffer(GL_ARRAY_BUFFER, maskVertexBuffer_);
-    g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(maskVertices.size() * sizeof(GpuMaskVertex)), maskVertices.data(),
-                 GL_STREAM_DRAW);
-    for (GLuint a = 4; a < 8; ++a) g.EnableVertexAttribArray(a);
-  } else {
-    for (GLuint a = 4; a < 8; ++a) g.DisableVertexAttribArray(a);
-    g.VertexAttribI4i(4, -1, 0, 0, 0);  // every triangle opaque
+
+  // The region's triangles (`triangles` of them, closed then open) into the vertex buffer, and their masks where
+  // some are alpha-tested (then it returns true).
+  bool uploadGeometry(const ViewGeometry& culled, const LightView& view, const ViewportBlock& block, size_t triangles) {
+    const gl::Functions& g = context_->gl();
+    std::vector<GpuVertex> vertices(3 * triangles);
+    buildVertices(culled, view, block, vertices.data());
+    g.BindVertexArray(geometryVao_);
+    g.BindBuffer(GL_ARRAY_BUFFER, vertexBuffer_);
+    g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(GpuVertex)), vertices.data(), GL_STREAM_DRAW);
+    const bool masked = culled.hasMasks();
+    if (masked) {
+      uploadMasks(*culled.masks);
+      std::vector<GpuMaskVertex> maskVertices(vertices.size());
+      buildMaskVertices(culled, view, maskVertices.data());
+      g.BindBuffer(GL_ARRAY_BUFFER, maskVertexBuffer_);
+      g.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(maskVertices.size() * sizeof(GpuMaskVertex)), maskVertices.data(),
+                   GL_STREAM_DRAW);
+      for (GLuint a = 4; a < 8; ++a) g.EnableVertexAttribArray(a);
+    } else {
+      for (GLuint a = 4; a < 8; ++a) g.DisableVertexAttribArray(a);
+      g.VertexAttribI4i(4, -1, 0, 0, 0);  // every triangle opaque
+    }
+    checkError("uploading geometry");
+    return masked;
   }
-  checkError("uploading geometry");
-  auto drawClosed = [&] {
-    if (closedCount) g.DrawArrays(GL_TRIANGLES, 0, GLsizei(3 * closedCount));
-  };
-  auto drawOpen = [&] {
-    if (openCount) g.DrawArrays(GL_TRIANGLES, GLint(3 * closedCount), GLsizei(3 * openCount));
-  };
 
-  // A view transform with a reflection would swap what GL calls front (CCW in the window).
-  const double det = glm::determinant(glm::dmat3(view.viewFromWorld));
-  g.FrontFace(det < 0 ? GL_CW : GL_CCW);
-  // Window x = texel u - x0 exactly; the scissor keeps the region.
-  g.Viewport(GLint(int64_t(block.x0) - int64_t(rect.x0)), GLint(int64_t(block.y0) - int64_t(rect.y0)),
-             GLsizei(block.size), GLsizei(block.size));
-  g.Enable(GL_SCISSOR_TEST);
-  g.Scissor(0, 0, GLsizei(rect.width), GLsizei(rect.height));
-  g.Disable(GL_BLEND);
-  g.ColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  const GLfloat clearDepth = 1.0f, zero[4] = {0, 0, 0, 0};
-  const GLuint zeroU[4] = {0, 0, 0, 0};
-
-  // 1. Enter pass. Draw order decides exact ties (GL_LESS keeps the first): open, closed back, closed front,
-  //    so a tie never makes the exit later.
-  g.BindFramebuffer(GL_FRAMEBUFFER, t.enterFbo);
-  g.ClearBufferfv(GL_DEPTH, 0, &clearDepth);
-  g.ClearBufferuiv(GL_COLOR, 0, zeroU);
-  g.Enable(GL_DEPTH_TEST);
-  g.DepthFunc(GL_LESS);
-  g.DepthMask(GL_TRUE);
-  g.UseProgram(enterProgram_);
-  setDepthUniforms(enterProgram_, view, rect);
-  if (masked) {
-    g.ActiveTexture(GL_TEXTURE0);
-    g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[0]);
-    g.Uniform1i(uniform(enterProgram_, "maskBytes"), 0);
-    g.ActiveTexture(GL_TEXTURE1);
-    g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[1]);
-    g.Uniform1i(uniform(enterProgram_, "maskHeaders"), 1);
+  void drawClosed(size_t closedCount) const {
+    if (closedCount) context_->gl().DrawArrays(GL_TRIANGLES, 0, GLsizei(3 * closedCount));
   }
-  g.Disable(GL_CULL_FACE);
-  g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 0);
-  drawOpen();
-  g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 1);
-  g.Enable(GL_CULL_FACE);
-  g.CullFace(GL_FRONT);
-  drawClosed();
-  g.CullFace(GL_BACK);
-  drawClosed();
-  g.Finish();
-  checkError("rendering enter depth");
-  local.enterMs = phase.ms();
-  phase.restart();
-
-  // 2. Init state.
-  auto fullscreen = [&](GLuint program) {
+  void drawOpen(size_t closedCount, size_t openCount) const {
+    if (openCount) context_->gl().DrawArrays(GL_TRIANGLES, GLint(3 * closedCount), GLsizei(3 * openCount));
+  }
+  void fullscreen(GLuint program) const {
+    const gl::Functions& g = context_->gl();
     g.UseProgram(program);
     g.BindVertexArray(emptyVao_);
     g.DrawArrays(GL_TRIANGLES, 0, 3);
     g.BindVertexArray(geometryVao_);
-  };
-  g.Disable(GL_DEPTH_TEST);
-  g.Disable(GL_CULL_FACE);
-  // Without closed triangles no texel is of kind 1: the resolve never reads the state, and every exit is
-  // enter + 1 (N where nothing was hit), so the state passes are skipped and only the enter slices read back.
-  const bool openOnly = closedCount == 0;
-  if (!openOnly) {
+  }
+
+  // Front faces, viewport, scissor, blending and colour mask for the region's passes.
+  void setUpRasterState(const LightView& view, const RegionRect& rect, const ViewportBlock& block) const {
+    const gl::Functions& g = context_->gl();
+    // A view transform with a reflection would swap what GL calls front (CCW in the window).
+    const double det = glm::determinant(glm::dmat3(view.viewFromWorld));
+    g.FrontFace(det < 0 ? GL_CW : GL_CCW);
+    // Window x = texel u - x0 exactly; the scissor keeps the region.
+    g.Viewport(GLint(int64_t(block.x0) - int64_t(rect.x0)), GLint(int64_t(block.y0) - int64_t(rect.y0)),
+               GLsizei(block.size), GLsizei(block.size));
+    g.Enable(GL_SCISSOR_TEST);
+    g.Scissor(0, 0, GLsizei(rect.width), GLsizei(rect.height));
+    g.Disable(GL_BLEND);
+    g.ColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  }
+
+  // 1. Enter pass. Draw order decides exact ties (GL_LESS keeps the first): open, closed back, closed front,
+  //    so a tie never makes the exit later.
+  void enterPass(const LightView& view, const RegionRect& rect, bool masked, size_t closedCount,
+                 size_t openCount) const {
+    const gl::Functions& g = context_->gl();
+    const Targets& t = targets_;
+    const GLfloat clearDepth = 1.0f;
+    const GLuint zeroU[4] = {0, 0, 0, 0};
+    g.BindFramebuffer(GL_FRAMEBUFFER, t.enterFbo);
+    g.ClearBufferfv(GL_DEPTH, 0, &clearDepth);
+    g.ClearBufferuiv(GL_COLOR, 0, zeroU);
+    g.Enable(GL_DEPTH_TEST);
+    g.DepthFunc(GL_LESS);
+    g.DepthMask(GL_TRUE);
+    g.UseProgram(enterProgram_);
+    setDepthUniforms(enterProgram_, view, rect);
+    if (masked) {
+      g.ActiveTexture(GL_TEXTURE0);
+      g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[0]);
+      g.Uniform1i(uniform(enterProgram_, "maskBytes"), 0);
+      g.ActiveTexture(GL_TEXTURE1);
+      g.BindTexture(GL_TEXTURE_BUFFER, maskTextures_[1]);
+      g.Uniform1i(uniform(enterProgram_, "maskHeaders"), 1);
+    }
+    g.Disable(GL_CULL_FACE);
+    g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 0);
+    drawOpen(closedCount, openCount);
+    g.Uniform1i(uniform(enterProgram_, "closedGeometry"), 1);
+    g.Enable(GL_CULL_FACE);
+    g.CullFace(GL_FRONT);
+    drawClosed(closedCount);
+    g.CullFace(GL_BACK);
+    drawClosed(closedCount);
+    g.Finish();
+    checkError("rendering enter depth");
+  }
+
+  // 2. Init state (with closed triangles only).
+  void initPeelState(const PeelSettings& peel) const {
+    const gl::Functions& g = context_->gl();
+    const Targets& t = targets_;
     g.BindFramebuffer(GL_FRAMEBUFFER, t.stateFbo[0]);
     g.UseProgram(initProgram_);
     bindTexture(initProgram_, "enterDepth", 0, t.enterDepth);
@@ -574,10 +555,15 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
     g.Uniform1i(uniform(initProgram_, "noPeel"), peel.maxPeels == 0 ? 1 : 0);
     fullscreen(initProgram_);
   }
-  int cur = 0;
 
-  // 3. Peel iterations (only when there are closed triangles to peel).
-  if (closedCount > 0) {
+  // 3. Peel iterations (only when there are closed triangles to peel). Returns the ping-pong state that holds
+  // the result.
+  int peelPasses(const LightView& view, const RegionRect& rect, const PeelSettings& peel, size_t texels,
+                 size_t closedCount, RenderStats& local) const {
+    const gl::Functions& g = context_->gl();
+    const Targets& t = targets_;
+    const GLfloat clearDepth = 1.0f, zero[4] = {0, 0, 0, 0};
+    int cur = 0;
     for (uint32_t iteration = 0; iteration < peel.maxPeels; ++iteration) {
       ++local.peelIterations;
       g.Enable(GL_DEPTH_TEST);
@@ -594,7 +580,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       g.CullFace(GL_BACK);
       g.Uniform1i(uniform(peelProgram_, "side"), 0);
       g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[0]);
-      drawClosed();
+      drawClosed(closedCount);
       g.EndQuery(GL_ANY_SAMPLES_PASSED);
       // Back faces: nearest layer, then its multiplicity (depth EQUAL, additive).
       g.BindFramebuffer(GL_FRAMEBUFFER, t.backFbo);
@@ -604,7 +590,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       g.Uniform1i(uniform(peelProgram_, "side"), 1);
       g.ColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
       g.BeginQuery(GL_ANY_SAMPLES_PASSED, queries_[1]);
-      drawClosed();
+      drawClosed(closedCount);
       g.EndQuery(GL_ANY_SAMPLES_PASSED);
       g.ColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
       GLuint anyFront = 0, anyBack = 0;
@@ -616,7 +602,7 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
         g.Enable(GL_BLEND);
         g.BlendEquation(GL_FUNC_ADD);
         g.BlendFunc(GL_ONE, GL_ONE);
-        drawClosed();
+        drawClosed(closedCount);
         g.Disable(GL_BLEND);
         g.DepthMask(GL_TRUE);
         g.DepthFunc(GL_LESS);
@@ -648,49 +634,124 @@ DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightVie
       g.GetQueryObjectuiv(queries_[2], GL_QUERY_RESULT, &active);
       if (uint64_t(active) * 1000000u <= uint64_t(peel.stopBelowPerMillion) * texels) break;
     }
+    return cur;
   }
 
   // 4. Resolve into the spare state texture and read back once.
-  g.BindFramebuffer(GL_FRAMEBUFFER, openOnly ? t.resolveFbo : t.stateFbo[1 - cur]);
-  g.UseProgram(resolveProgram_);
-  bindTexture(resolveProgram_, "enterDepth", 0, t.enterDepth);
-  bindTexture(resolveProgram_, "kinds", 1, t.kinds);
-  bindTexture(resolveProgram_, "cursors", 2, t.cursors[cur]);
-  bindTexture(resolveProgram_, "counts", 3, t.counts[cur]);
-  g.Uniform1f(uniform(resolveProgram_, "resolution"), float(n));
-  fullscreen(resolveProgram_);
-  std::vector<float> slices(openOnly ? texels : 2 * texels);
-  g.ReadBuffer(GL_COLOR_ATTACHMENT0);
-  g.PixelStorei(GL_PACK_ALIGNMENT, 4);
-  g.ReadPixels(0, 0, GLsizei(rect.width), GLsizei(rect.height), openOnly ? GL_RED : GL_RG, GL_FLOAT, slices.data());
-  for (int unit = 4; unit >= 0; --unit) {
-    g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
-    g.BindTexture(GL_TEXTURE_2D, 0);
+  // Per texel its enter slice, and unless `openOnly` its exit slice (-(x + 1) where the peel cap left it).
+  std::vector<float> resolveSlices(const RegionRect& rect, uint32_t n, size_t texels, bool openOnly, int cur) const {
+    const gl::Functions& g = context_->gl();
+    const Targets& t = targets_;
+    g.BindFramebuffer(GL_FRAMEBUFFER, openOnly ? t.resolveFbo : t.stateFbo[1 - cur]);
+    g.UseProgram(resolveProgram_);
+    bindTexture(resolveProgram_, "enterDepth", 0, t.enterDepth);
+    bindTexture(resolveProgram_, "kinds", 1, t.kinds);
+    bindTexture(resolveProgram_, "cursors", 2, t.cursors[cur]);
+    bindTexture(resolveProgram_, "counts", 3, t.counts[cur]);
+    g.Uniform1f(uniform(resolveProgram_, "resolution"), float(n));
+    fullscreen(resolveProgram_);
+    std::vector<float> slices(openOnly ? texels : 2 * texels);
+    g.ReadBuffer(GL_COLOR_ATTACHMENT0);
+    g.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    g.ReadPixels(0, 0, GLsizei(rect.width), GLsizei(rect.height), openOnly ? GL_RED : GL_RG, GL_FLOAT, slices.data());
+    for (int unit = 4; unit >= 0; --unit) {
+      g.ActiveTexture(GLenum(GL_TEXTURE0 + unit));
+      g.BindTexture(GL_TEXTURE_2D, 0);
+    }
+    g.BindFramebuffer(GL_FRAMEBUFFER, 0);
+    g.BindVertexArray(0);
+    g.UseProgram(0);
+    g.Disable(GL_SCISSOR_TEST);
+    checkError("peeling exit depth");
+    return slices;
   }
-  g.BindFramebuffer(GL_FRAMEBUFFER, 0);
-  g.BindVertexArray(0);
-  g.UseProgram(0);
-  g.Disable(GL_SCISSOR_TEST);
-  checkError("peeling exit depth");
 
-  region.enter.resize(texels);
-  region.exit.resize(texels);
-  for (size_t i = 0; i < texels; ++i) {
-    if (openOnly) {
-      const uint32_t e = uint32_t(slices[i]);
-      region.enter[i] = e;
-      region.exit[i] = e >= n ? n : e + 1;  // the resolve's x = e + 1, and N where nothing was hit
-      continue;
-    }
-    const float e = slices[2 * i], x = slices[2 * i + 1];
-    region.enter[i] = uint32_t(e);
-    if (x < 0) {
-      region.exit[i] = uint32_t(-x - 1.0f);
-      ++local.texelsAtPeelCap;
-    } else {
-      region.exit[i] = uint32_t(x);
+  // The slices read back (resolveSlices) into the region's maps, and the texels left at the peel cap counted.
+  static void unpackSlices(const std::vector<float>& slices, size_t texels, bool openOnly, uint32_t n,
+                           DepthRegion& region, RenderStats& local) {
+    region.enter.resize(texels);
+    region.exit.resize(texels);
+    for (size_t i = 0; i < texels; ++i) {
+      if (openOnly) {
+        const uint32_t e = uint32_t(slices[i]);
+        region.enter[i] = e;
+        region.exit[i] = e >= n ? n : e + 1;  // the resolve's x = e + 1, and N where nothing was hit
+        continue;
+      }
+      const float e = slices[2 * i], x = slices[2 * i + 1];
+      region.enter[i] = uint32_t(e);
+      if (x < 0) {
+        region.exit[i] = uint32_t(-x - 1.0f);
+        ++local.texelsAtPeelCap;
+      } else {
+        region.exit[i] = uint32_t(x);
+      }
     }
   }
+
+  std::unique_ptr<gl::Context> context_;
+  uint32_t maxRegion_ = 0;
+  uint32_t viewportSize_ = 0;
+  int64_t viewportMin_ = 0;  // lowest viewport origin GL accepts
+  GLuint enterProgram_ = 0, peelProgram_ = 0, initProgram_ = 0, updateProgram_ = 0, resolveProgram_ = 0,
+         activeProgram_ = 0;
+  GLuint geometryVao_ = 0, emptyVao_ = 0, vertexBuffer_ = 0;
+  GLuint maskVertexBuffer_ = 0, maskBuffers_[2] = {0, 0}, maskTextures_[2] = {0, 0};  // mask bytes, headers
+  const std::vector<CoverageMask>* uploadedMasks_ = nullptr;  // what maskBuffers_ hold
+  std::vector<uint64_t> uploadedMaskHashes_;
+  GLuint queries_[3] = {0, 0, 0};
+  Targets targets_;
+};
+
+DepthRegion GlDepthRenderer::render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
+                                    const PeelSettings& peel, RenderStats* stats, const RowSpans*, bool) {
+  const uint32_t n = view.resolution;
+  checkRegion(n, rect);
+
+  DepthRegion region;
+  region.rect = rect;
+  region.resolution = n;
+  const size_t texels = size_t(rect.width) * rect.height;
+  RenderStats local;
+
+  const ViewGeometry culled = cullToRegion(geometry, rect);
+  const size_t closedCount = culled.closedIndices.size() / 3, openCount = culled.openIndices.size() / 3;
+  local.trianglesSubmitted = closedCount + openCount;
+  if (view.empty || local.trianglesSubmitted == 0) {
+    region.enter.assign(texels, n);
+    region.exit.assign(texels, n);
+    if (stats) *stats = local;
+    return region;
+  }
+
+  gl::CurrentContext current(*context_);
+  const gl::Functions& g = context_->gl();
+  g.GetError();
+  ensureTargets(rect.width, rect.height, closedCount > 0);
+
+  g.Finish();
+  Stopwatch phase;
+  const ViewportBlock block = viewportBlock(rect);
+  const bool masked = uploadGeometry(culled, view, block, closedCount + openCount);
+  setUpRasterState(view, rect, block);
+  enterPass(view, rect, masked, closedCount, openCount);
+  local.enterMs = phase.ms();
+  phase.restart();
+
+  // 2. Init state.
+  g.Disable(GL_DEPTH_TEST);
+  g.Disable(GL_CULL_FACE);
+  // Without closed triangles no texel is of kind 1: the resolve never reads the state, and every exit is
+  // enter + 1 (N where nothing was hit), so the state passes are skipped and only the enter slices read back.
+  const bool openOnly = closedCount == 0;
+  if (!openOnly) initPeelState(peel);
+  int cur = 0;
+
+  // 3. Peel iterations (only when there are closed triangles to peel).
+  if (closedCount > 0) cur = peelPasses(view, rect, peel, texels, closedCount, local);
+
+  const std::vector<float> slices = resolveSlices(rect, n, texels, openOnly, cur);
+  unpackSlices(slices, texels, openOnly, n, region, local);
   local.peelMs = phase.ms();
   if (stats) *stats = local;
   return region;

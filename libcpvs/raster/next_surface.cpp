@@ -40,6 +40,55 @@ void scanGrown(const RasterTriangle& t, int32_t reach, int32_t rowBegin, int32_t
   }
 }
 
+// A surface counts for a texel from the first key of its exit slice on (a summarised tile: its minExit).
+// Texels whose exit is N (nothing seen, or inside a solid to the far plane) need no next surface. Per row and
+// 8 texels, the least threshold (infinite where none is needed): a triangle wholly in front of it there (its
+// keys along a row are monotone, so its two ends say) is skipped without visiting the texels, which spares
+// most first surfaces their own texels.
+// Fills in each texel's threshold and each chunk's least (`chunks` per row); returns whether any texel needs a
+// next surface.
+bool findThresholds(const DepthRegion& region, const SliceTable& table, uint32_t chunks,
+                    std::vector<double>& threshold, std::vector<double>& chunkMin) {
+  const RegionRect& rect = region.rect;
+  const uint32_t n = region.resolution, width = rect.width;
+  const size_t texels = size_t(rect.width) * rect.height;
+  constexpr double kNone = std::numeric_limits<double>::infinity();
+  threshold.assign(texels, kNone);
+  chunkMin.assign(size_t(rect.height) * chunks, kNone);
+  bool anyNeeded = false;
+  for (uint32_t j = 0; j < rect.height; ++j) {
+    for (uint32_t tx = 0; tx < chunks; ++tx) {
+      const bool summarized = region.summarized(tx, j / 8);
+      const uint32_t tileExit = summarized ? region.tiles[size_t(j / 8) * chunks + tx].minExit : n;
+      double least = kNone;
+      for (uint32_t i = tx * 8; i < tx * 8 + 8; ++i) {
+        const size_t at = size_t(j) * width + i;
+        const uint32_t x = summarized ? tileExit : region.exit[at];
+        if (x >= n) continue;
+        threshold[at] = table.bound[x];
+        least = std::min(least, threshold[at]);
+      }
+      chunkMin[size_t(j) * chunks + tx] = least;
+      anyNeeded = anyNeeded || least != kNone;
+    }
+  }
+  return anyNeeded;
+}
+
+// The next slices of the rows [r0, r1), from the nearest key each texel found (none: +inf).
+void sliceNextSurfaces(const SliceTable& table, const std::vector<float>& nearest, uint32_t width, uint32_t n,
+                       int32_t r0, int32_t r1, DepthTexels& next) {
+  constexpr float kInfinity = std::numeric_limits<float>::infinity();
+  for (int32_t j = r0; j < r1; ++j) {
+    uint32_t hint = 0;
+    for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
+      if (nearest[at] == kInfinity) continue;
+      hint = table.slice(nearest[at], hint);
+      next[at] = std::min(n, hint);
+    }
+  }
+}
+
 }  // namespace
 
 void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view, DepthRegion& region) {
@@ -65,33 +114,9 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
   if (!table.matches(view, depthOf.mode)) table.build(view, depthOf);
   const double keySign = depthOf.mode >= 2 ? -1.0 : 1.0;  // keys grow with depth, as the renderers compare them
   constexpr float kInfinity = std::numeric_limits<float>::infinity();
-  // A surface counts for a texel from the first key of its exit slice on (a summarised tile: its minExit).
-  // Texels whose exit is N (nothing seen, or inside a solid to the far plane) need no next surface. Per row and
-  // 8 texels, the least threshold (infinite where none is needed): a triangle wholly in front of it there (its
-  // keys along a row are monotone, so its two ends say) is skipped without visiting the texels, which spares
-  // most first surfaces their own texels.
-  constexpr double kNone = std::numeric_limits<double>::infinity();
   const uint32_t chunks = width / 8;
-  threshold.assign(texels, kNone);
-  chunkMin.assign(size_t(rect.height) * chunks, kNone);
+  const bool anyNeeded = findThresholds(region, table, chunks, threshold, chunkMin);
   nearest.assign(texels, kInfinity);
-  bool anyNeeded = false;
-  for (uint32_t j = 0; j < rect.height; ++j) {
-    for (uint32_t tx = 0; tx < chunks; ++tx) {
-      const bool summarized = region.summarized(tx, j / 8);
-      const uint32_t tileExit = summarized ? region.tiles[size_t(j / 8) * chunks + tx].minExit : n;
-      double least = kNone;
-      for (uint32_t i = tx * 8; i < tx * 8 + 8; ++i) {
-        const size_t at = size_t(j) * width + i;
-        const uint32_t x = summarized ? tileExit : region.exit[at];
-        if (x >= n) continue;
-        threshold[at] = table.bound[x];
-        least = std::min(least, threshold[at]);
-      }
-      chunkMin[size_t(j) * chunks + tx] = least;
-      anyNeeded = anyNeeded || least != kNone;
-    }
-  }
   if (!anyNeeded) return;
 
   std::vector<MaskedTriangle> masked;
@@ -154,14 +179,7 @@ void findNextSurfaces(const ViewGeometry& regionGeometry, const LightView& view,
       else
         scanGrown<__int128>(t, kNextSurfaceReach, r0, r1, row);
     }
-    for (int32_t j = r0; j < r1; ++j) {
-      uint32_t hint = 0;
-      for (size_t at = size_t(j) * width; at < size_t(j + 1) * width; ++at) {
-        if (nearest[at] == kInfinity) continue;
-        hint = table.slice(nearest[at], hint);
-        region.next[at] = std::min(n, hint);
-      }
-    }
+    sliceNextSurfaces(table, nearest, width, n, r0, r1, region.next);
   }, 1);
 }
 
