@@ -5,15 +5,11 @@
 // zigzag difference to the one before. The leaves of one leaf parent were mostly interned one after the other
 // (the slices of one tile), so the differences are small: on the foliage sun at 64k the level takes 601 MB
 // instead of 1,194 MB of words (a one-off measurement: docs/construction.md, "Memory that follows the file").
-// The code is canonical and prefix-free, so two nodes are equal exactly when their bytes are, and the index
-// compares bytes.
+// The code is canonical and prefix-free, so two nodes are equal exactly when their bytes are, and the table
+// (interned_records.h) compares bytes.
 #include <cstdint>
-#include <cstring>
-#include <utility>
 
-#include <xxhash.h>
-
-#include "libcpvs/dag/hash_index.h"
+#include "libcpvs/dag/interned_records.h"
 #include "libcpvs/dag/mapped_array.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
@@ -63,42 +59,23 @@ public:
   uint32_t intern(uint32_t header, const uint32_t* refs, unsigned count) {
     uint8_t node[kMaxNodeBytes];
     const unsigned length = encode(header, refs, count, node);
-    if (index_.full(size_, bytes_.size())) {
-      index_.rebuild(size_, bytes_.size(), [&](auto&& insert) {
-        uint32_t h, r[8];
-        for (size_t i = 0; i < bytes_.size();) {
-          const unsigned n = decode(&bytes_[i], h, r);
-          insert(uint32_t(i), XXH3_64bits(&bytes_[i], n));
-          i += n;
-        }
-      });
-    }
-    // A stored node may be shorter than this one: the comparison may read past it, but not past the mapping.
-    bytes_.reserve(bytes_.size() + kMaxNodeBytes);
-    const uint32_t newOffset = uint32_t(bytes_.size());
-    const uint32_t offset = index_.findOrInsert(XXH3_64bits(node, length), newOffset, [&](uint32_t at) {
-      return std::memcmp(&bytes_[at], node, length) == 0;  // prefix-free: equal bytes are an equal node
-    });
-    if (offset == newOffset) {
-      bytes_.append(node, length);
-      ++size_;
-    }
-    return offset;
+    return nodes_.intern(node, length);
   }
-  const MappedArray<uint8_t>& bytes() const { return bytes_; }
-  uint64_t size() const { return size_; }
+  const MappedArray<uint8_t>& bytes() const { return nodes_.records(); }
+  uint64_t size() const { return nodes_.size(); }
   // Hands the bytes over (to the encoder, which consumes them): no intern() after this.
-  MappedArray<uint8_t> takeBytes() {
-    releaseIndex();
-    return std::move(bytes_);
-  }
-  void releaseIndex() { index_.release(); }
-  uint64_t indexBytes() const { return index_.bytes(); }
+  MappedArray<uint8_t> takeBytes() { return nodes_.take(); }
+  void releaseIndex() { nodes_.releaseIndex(); }
+  uint64_t indexBytes() const { return nodes_.indexBytes(); }
 
 private:
-  MappedArray<uint8_t> bytes_;  // every leaf parent once, in the order they were added
-  HashIndex index_;             // by byte offset
-  uint64_t size_ = 0;
+  struct NodeLength {
+    uint32_t operator()(const uint8_t* node) const {
+      uint32_t header, refs[8];
+      return decode(node, header, refs);
+    }
+  };
+  InternedRecords<uint8_t, NodeLength> nodes_;  // every leaf parent once, in the order they were added
 };
 
 }  // namespace cpvs

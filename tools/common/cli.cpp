@@ -105,33 +105,33 @@ void LightOptions::applyTo(Scene& scene) const {
   if (!excludedMeshes.empty()) forFlag("--exclude-mesh", [&] { excludeMeshes(scene, excludedMeshes); });
   if (!any()) return;
   scene.lights.clear();
-  for (size_t i = 0; i < suns.size(); ++i) {
-    const auto v = parseNumbers("--sun", suns[i], 3, 4);
-    Light light = namedLight(LightType::Directional, "sun", i);
-    light.direction = unitDirection("--sun", suns[i], v[0], v[1], v[2]);
-    light.intensity = lightIntensity("--sun", suns[i], v, 3);
-    scene.lights.push_back(light);
-  }
-  for (size_t i = 0; i < spots.size(); ++i) {
-    const auto v = parseNumbers("--spot", spots[i], 8, 9);
-    Light light = namedLight(LightType::Spot, "spot", i);
+  // Each option's lights in turn: its required values (and the optional intensity after them) parsed, the light
+  // named after the option and its index, its parameters set by `fill`.
+  const auto addLights = [&](const std::vector<std::string>& specs, const char* flag, size_t required,
+                             LightType type, const char* stem, auto&& fill) {
+    for (size_t i = 0; i < specs.size(); ++i) {
+      const auto v = parseNumbers(flag, specs[i], required, required + 1);
+      Light light = namedLight(type, stem, i);
+      fill(light, specs[i], v);
+      light.intensity = lightIntensity(flag, specs[i], v, required);
+      scene.lights.push_back(light);
+    }
+  };
+  addLights(suns, "--sun", 3, LightType::Directional, "sun", [](Light& light, const std::string& spec, const auto& v) {
+    light.direction = unitDirection("--sun", spec, v[0], v[1], v[2]);
+  });
+  addLights(spots, "--spot", 8, LightType::Spot, "spot", [](Light& light, const std::string& spec, const auto& v) {
     light.position = {v[0], v[1], v[2]};
-    light.direction = unitDirection("--spot", spots[i], v[3], v[4], v[5]);
+    light.direction = unitDirection("--spot", spec, v[3], v[4], v[5]);
     if (!(v[6] > 0 && v[6] <= M_PI / 2))
-      throw Error(ErrorCategory::InvalidArgument, "--spot '" + spots[i] + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
+      throw Error(ErrorCategory::InvalidArgument, "--spot '" + spec + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
     light.outerConeAngle = v[6];
-    light.range = lightRange("--spot", spots[i], v[7]);
-    light.intensity = lightIntensity("--spot", spots[i], v, 8);
-    scene.lights.push_back(light);
-  }
-  for (size_t i = 0; i < points.size(); ++i) {
-    const auto v = parseNumbers("--point", points[i], 4, 5);
-    Light light = namedLight(LightType::Point, "point", i);
+    light.range = lightRange("--spot", spec, v[7]);
+  });
+  addLights(points, "--point", 4, LightType::Point, "point", [](Light& light, const std::string& spec, const auto& v) {
     light.position = {v[0], v[1], v[2]};
-    light.range = lightRange("--point", points[i], v[3]);
-    light.intensity = lightIntensity("--point", points[i], v, 4);
-    scene.lights.push_back(light);
-  }
+    light.range = lightRange("--point", spec, v[3]);
+  });
 }
 
 int runMain(const char* toolName, const std::function<int()>& body) {
