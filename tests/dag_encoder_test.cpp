@@ -151,9 +151,9 @@ TEST(LeafParentTable, DecodesWhatItStoredAndKeepsEachNodeOnce) {
     for (unsigned c = 0; c < 8; ++c) header |= (c < refs.size() ? 2u : 1u) << (2 * c);
     offsets.push_back(table.intern(header, refs.data(), unsigned(refs.size())));
     uint32_t decodedHeader, decoded[8];
-    const unsigned length = LeafParentTable::decode(&table.bytes()[offsets.back()], decodedHeader, decoded);
+    const unsigned length = LeafParentTable::decode(&table.records()[offsets.back()], decodedHeader, decoded);
     EXPECT_EQ(decodedHeader, header);
-    EXPECT_LE(offsets.back() + length, table.bytes().size());
+    EXPECT_LE(offsets.back() + length, table.records().size());
     EXPECT_EQ(std::vector<uint32_t>(decoded, decoded + refs.size()), refs);
   }
   EXPECT_EQ(table.size(), 6u);

@@ -125,7 +125,7 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
       childNeighbour = {neighbour.code, 0, neighbour.farNextT[c], true};
       for (uint32_t& t : childNeighbour.farNextT) t = childNeighbour.nextT;
       if (neighbour.code == ChildCode::Ref) {
-        const MappedArray<uint32_t>& words = tables_[level].words();
+        const MappedArray<uint32_t>& words = tables_[level].records();
         const uint32_t header = words[neighbour.ref];
         childNeighbour.code = ChildCode(wordCodeOf(header, c + 4));
         if (childNeighbour.code == ChildCode::Ref)
@@ -193,8 +193,8 @@ ShadowDag DagBuilder::finish() {
   if (root.code == ChildCode::Ref && root.ref != 0)
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: root is not the first node");
   std::vector<MappedArray<uint32_t>> levelWords;
-  for (NodeTable& table : tables_) levelWords.push_back(table.takeWords());
-  return encodeBuiltDag(resolution_, root.code, std::move(levelWords), leafParents_.takeBytes(),
+  for (NodeTable& table : tables_) levelWords.push_back(table.take());
+  return encodeBuiltDag(resolution_, root.code, std::move(levelWords), leafParents_.take(),
                         std::move(leafTable_.leaves()));
 }
 
@@ -206,10 +206,10 @@ uint64_t DagBuilder::finishExtraBytes() const {
   // leaf parent) before the level's table is given back. The stored levels below take no more than the words
   // they replaced, and the final concatenation gives each level back as it copies it.
   const uint64_t leafBytes = 4 * uint64_t(leafTable_.leaves().size());
-  const uint64_t leafParentBytes = leafParents_.bytes().size();
+  const uint64_t leafParentBytes = leafParents_.records().size();
   uint64_t largestLevel = leafBytes + leafParentBytes / 5 + leafParents_.size() * (4 + 34);
   for (const NodeTable& table : tables_) {
-    const uint64_t words = table.words().size();
+    const uint64_t words = table.records().size();
     largestLevel = std::max(largestLevel, words * 4 + words / 5 + table.size() * 4);
   }
   uint64_t released = leafTable_.indexBytes() + leafParents_.indexBytes() + regionColumns_.capacity() * 4;

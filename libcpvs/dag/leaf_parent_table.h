@@ -10,13 +10,20 @@
 #include <cstdint>
 
 #include "libcpvs/dag/interned_records.h"
-#include "libcpvs/dag/mapped_array.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs {
 
-class LeafParentTable {
+// A stored leaf parent's length in bytes, found by decoding it (the code is prefix-free).
+struct LeafParentLength {
+  uint32_t operator()(const uint8_t* node) const;
+};
+
+// Leaf parents interned by their bytes; records() are the bytes.
+class LeafParentTable : public InternedRecords<uint8_t, LeafParentLength> {
 public:
+  using InternedRecords::intern;
+
   static constexpr unsigned kMaxNodeBytes = 2 + 8 * 5;  // header, eight 33-bit varints
 
   // Writes the node (a build-form header, codes 0..2, and its leaf references in child order) to `out`;
@@ -59,23 +66,13 @@ public:
   uint32_t intern(uint32_t header, const uint32_t* refs, unsigned count) {
     uint8_t node[kMaxNodeBytes];
     const unsigned length = encode(header, refs, count, node);
-    return nodes_.intern(node, length);
+    return intern(node, length);
   }
-  const MappedArray<uint8_t>& bytes() const { return nodes_.records(); }
-  uint64_t size() const { return nodes_.size(); }
-  // Hands the bytes over (to the encoder, which consumes them): no intern() after this.
-  MappedArray<uint8_t> takeBytes() { return nodes_.take(); }
-  void releaseIndex() { nodes_.releaseIndex(); }
-  uint64_t indexBytes() const { return nodes_.indexBytes(); }
-
-private:
-  struct NodeLength {
-    uint32_t operator()(const uint8_t* node) const {
-      uint32_t header, refs[8];
-      return decode(node, header, refs);
-    }
-  };
-  InternedRecords<uint8_t, NodeLength> nodes_;  // every leaf parent once, in the order they were added
 };
+
+inline uint32_t LeafParentLength::operator()(const uint8_t* node) const {
+  uint32_t header, refs[8];
+  return LeafParentTable::decode(node, header, refs);
+}
 
 }  // namespace cpvs
