@@ -150,43 +150,30 @@ bool overlaps(const Building& b, double x0, double z0, double x1, double z1) {
   return b.x0 < x1 && x0 < b.x1 && b.z0 < z1 && z0 < b.z1;
 }
 
-}  // namespace
+bool inStreet(double x, double z, double margin) {
+  return std::abs(x) < kStreetHalf + margin || std::abs(z) < kStreetHalf + margin;
+}
 
-GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
-  Rng layout(hash64(o.seed, 0x464F4C49ULL));  // "FOLI"
-  GenScene scene;
-
-  // Materials (indices as in the enum above) and the leaf texture.
-  {
-    scene.materials = {opaqueMaterial("Grass", {0.30, 0.42, 0.20, 1.0}),
-                       opaqueMaterial("Concrete", {0.62, 0.6, 0.56, 1.0}),
-                       blendedMaterial("Glass", {0.6, 0.8, 0.9, 0.15}),
-                       opaqueMaterial("Bark", {0.33, 0.24, 0.16, 1.0}), alphaTestedMaterial("Leaves", 0)};
+bool inClearing(const std::vector<Clearing>& clearings, double x, double z, double margin) {
+  for (const Clearing& c : clearings) {
+    const double dx = x - c.centre.x, dz = z - c.centre.y, r = c.radius + margin;
+    if (dx * dx + dz * dz < r * r) return true;
   }
-  auto [texels, coverage] = leafTexture(o.seed);
-  GenTexture leafTex;
-  leafTex.name = "LeafCluster";
-  leafTex.png = encodePngRgba(kLeafTexture, kLeafTexture, texels);
-  scene.textures.push_back(std::move(leafTex));
+  return false;
+}
 
-  // Clearings: one per quadrant.
+std::vector<Clearing> placeClearings(Rng& layout) {
+  // One per quadrant.
   std::vector<Clearing> clearings;
   for (int q = 0; q < 4; ++q) {
     const double sx = (q & 1) ? 1.0 : -1.0, sz = (q & 2) ? 1.0 : -1.0;
     clearings.push_back({{sx * layout.uniform(50.0, 150.0), sz * layout.uniform(50.0, 150.0)},
                          layout.uniform(12.0, 20.0)});
   }
-  const auto inStreet = [](double x, double z, double margin) {
-    return std::abs(x) < kStreetHalf + margin || std::abs(z) < kStreetHalf + margin;
-  };
-  const auto inClearing = [&](double x, double z, double margin) {
-    for (const Clearing& c : clearings) {
-      const double dx = x - c.centre.x, dz = z - c.centre.y, r = c.radius + margin;
-      if (dx * dx + dz * dz < r * r) return true;
-    }
-    return false;
-  };
+  return clearings;
+}
 
+std::vector<Building> placeBuildings(Rng& layout, const std::vector<Clearing>& clearings) {
   // Buildings: boxes centred in [-165, 165]^2, at least 4 units off the streets and clearings and 10 apart.
   std::vector<Building> buildings;
   const int wanted = layout.range(6, 12);
@@ -206,6 +193,13 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     if (ok) buildings.push_back(b);
   }
 
+  return buildings;
+}
+
+// The ground and the buildings' meshes, with their windows and canopies, as nodes of their own; returns the
+// footprints trees avoid (buildings and their canopies) and adds the triangles to `triangles`.
+std::vector<Building> addGroundAndBuildings(GenScene& scene, const std::vector<Building>& buildings, Rng& layout,
+                                            std::uint64_t& triangles) {
   GenMesh ground;
   ground.name = "Ground";
   ground.material = kGrass;
@@ -263,7 +257,6 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
   GenMesh buildingMesh = solid.take("Buildings");
   buildingMesh.material = kConcrete;
 
-  std::uint64_t triangles = 0;
   for (GenMesh* m : {&ground, &buildingMesh, &windows, &canopies}) {
     if (m->indices.empty()) continue;
     triangles += m->triangles();
@@ -274,7 +267,13 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     scene.meshes.push_back(std::move(*m));
   }
 
-  // Trees until the budget is met (the last tree may overshoot it by at most half a tree).
+  return keepOut;
+}
+
+// Trees until the budget is met (the last tree may overshoot it by at most half a tree), each prototype's
+// instances on one node per mesh; returns the number of trees and sets the number of prototypes used.
+int plantTrees(GenScene& scene, const FoliageOptions& o, const std::vector<Clearing>& clearings,
+               const std::vector<Building>& keepOut, std::uint64_t& triangles, int& usedPrototypes) {
   std::vector<TreePrototype> protos;
   for (int k = 0; k < kPrototypes; ++k) protos.push_back(buildTree(o.seed, k));
   std::vector<std::vector<GenInstance>> placed(kPrototypes);
@@ -289,7 +288,7 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     for (int attempt = 0; attempt < 1000; ++attempt) {
       x = forest.uniform(-kTreeLimit, kTreeLimit);
       z = forest.uniform(-kTreeLimit, kTreeLimit);
-      bool ok = !inStreet(x, z, 3.0) && !inClearing(x, z, 2.0);
+      bool ok = !inStreet(x, z, 3.0) && !inClearing(clearings, x, z, 2.0);
       for (const Building& b : keepOut)
         if (ok && overlaps(b, x - 6.0, z - 6.0, x + 6.0, z + 6.0)) ok = false;
       if (ok) break;
@@ -301,7 +300,7 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     triangles += cost;
     ++trees;
   }
-  int usedPrototypes = 0;
+  usedPrototypes = 0;
   for (int k = 0; k < kPrototypes; ++k) {
     std::vector<GenInstance>& instances = placed[static_cast<std::size_t>(k)];
     if (instances.empty()) continue;  // an instanced node needs at least one instance
@@ -316,6 +315,10 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     }
   }
 
+  return trees;
+}
+
+void addLights(GenScene& scene, const FoliageOptions& o, const std::vector<Clearing>& clearings) {
   // The sun, then the spots: above the streets (every 30 units) and the clearings' centres, shuffled.
   GenLight sun;
   sun.name = "sun";
@@ -371,6 +374,32 @@ GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
     scene.lights.push_back(l);
     scene.nodes.push_back(n);
   }
+
+}
+
+}  // namespace
+
+GenScene generateFoliage(const FoliageOptions& o, FoliageInfo* info) {
+  Rng layout(hash64(o.seed, 0x464F4C49ULL));  // "FOLI"
+  GenScene scene;
+
+  // Materials (indices as in the enum above) and the leaf texture.
+  scene.materials = {opaqueMaterial("Grass", {0.30, 0.42, 0.20, 1.0}), opaqueMaterial("Concrete", {0.62, 0.6, 0.56, 1.0}),
+                     blendedMaterial("Glass", {0.6, 0.8, 0.9, 0.15}), opaqueMaterial("Bark", {0.33, 0.24, 0.16, 1.0}),
+                     alphaTestedMaterial("Leaves", 0)};
+  auto [texels, coverage] = leafTexture(o.seed);
+  GenTexture leafTex;
+  leafTex.name = "LeafCluster";
+  leafTex.png = encodePngRgba(kLeafTexture, kLeafTexture, texels);
+  scene.textures.push_back(std::move(leafTex));
+
+  const std::vector<Clearing> clearings = placeClearings(layout);
+  const std::vector<Building> buildings = placeBuildings(layout, clearings);
+  std::uint64_t triangles = 0;
+  const std::vector<Building> keepOut = addGroundAndBuildings(scene, buildings, layout, triangles);
+  int usedPrototypes = 0;
+  const int trees = plantTrees(scene, o, clearings, keepOut, triangles, usedPrototypes);
+  addLights(scene, o, clearings);
 
   if (info) {
     info->trees = trees;

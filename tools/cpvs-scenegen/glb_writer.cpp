@@ -34,21 +34,32 @@ std::size_t appendBytes(std::string& bin, const std::vector<T>& data) {
 
 nlohmann::json vec3(const glm::dvec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
 
-}  // namespace
+using nlohmann::json;
 
-std::string writeGlb(const GenScene& scene, const std::string& generator, const nlohmann::json& extras) {
-  using nlohmann::json;
-  json gltf = json::object();
-  gltf["asset"] = {{"version", "2.0"}, {"generator", generator}};
-  if (!extras.is_null()) gltf["asset"]["extras"] = extras;
-
+// The binary chunk and the buffer views and accessors into it, appended to in the order the file lists them.
+struct BinaryChunk {
   std::string bin;
-  json bufferViews = json::array(), accessors = json::array(), meshes = json::array();
-  for (const GenMesh& m : scene.meshes) {
-    if (!m.texcoords.empty() && m.texcoords.size() != m.positions.size())
-      throw std::logic_error("mesh '" + m.name + "': texcoords and positions differ in count");
-    if (m.material >= static_cast<int>(scene.materials.size()))
-      throw std::logic_error("mesh '" + m.name + "': no such material");
+  json bufferViews = json::array(), accessors = json::array();
+  // EXT_mesh_gpu_instancing attributes already written, by their instances (nodes with the same instances, a
+  // tree's trunk and crown, share them).
+  std::vector<std::pair<const std::vector<GenInstance>*, json>> instancesWritten;
+
+  // A buffer view of `data` and an accessor of it; returns the accessor's index.
+  template <typename T>
+  std::size_t addAccessor(const std::vector<T>& data, std::size_t components, const char* type, int componentType,
+                          int target) {
+    const std::size_t offset = appendBytes(bin, data);
+    json view = {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * components * sizeof(float)}};
+    if (target) view["target"] = target;
+    bufferViews.push_back(std::move(view));
+    accessors.push_back({{"bufferView", bufferViews.size() - 1},
+                         {"componentType", componentType},
+                         {"count", data.size()},
+                         {"type", type}});
+    return accessors.size() - 1;
+  }
+
+  json mesh(const GenMesh& m) {
     glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
     for (const glm::vec3& p : m.positions) {
       lo = glm::min(lo, p);
@@ -77,29 +88,17 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
                          {"count", m.indices.size()},
                          {"type", "SCALAR"}});
     json attributes = {{"POSITION", posAccessor}};
-    if (!m.texcoords.empty()) {  // after the indices, so that meshes without them keep their layout
-      const std::size_t uvOffset = appendBytes(bin, m.texcoords);
-      bufferViews.push_back({{"buffer", 0},
-                             {"byteOffset", uvOffset},
-                             {"byteLength", m.texcoords.size() * sizeof(glm::vec2)},
-                             {"target", kArrayBuffer}});
-      attributes["TEXCOORD_0"] = accessors.size();
-      accessors.push_back({{"bufferView", bufferViews.size() - 1},
-                           {"componentType", kFloat},
-                           {"count", m.texcoords.size()},
-                           {"type", "VEC2"}});
-    }
+    if (!m.texcoords.empty())  // after the indices, so that meshes without them keep their layout
+      attributes["TEXCOORD_0"] = addAccessor(m.texcoords, 2, "VEC2", kFloat, kArrayBuffer);
     json primitive = {{"attributes", std::move(attributes)}, {"indices", posAccessor + 1}, {"mode", 4}};
     if (m.material >= 0) primitive["material"] = m.material;
-    meshes.push_back({{"name", m.name}, {"primitives", json::array({std::move(primitive)})}});
+    return {{"name", m.name}, {"primitives", json::array({std::move(primitive)})}};
   }
 
-  // EXT_mesh_gpu_instancing: per instanced node three float accessors (no buffer-view target: they are not
-  // vertex attributes). Nodes with the same instances (a tree's trunk and crown) share them.
-  static_assert(sizeof(GenInstance) == 10 * sizeof(float), "GenInstance is compared byte for byte");
-  std::vector<std::pair<const std::vector<GenInstance>*, json>> written;  // instances -> their attributes
-  const auto instanceAttributes = [&](const std::vector<GenInstance>& instances) -> json {
-    for (const auto& [other, attributes] : written) {
+  // EXT_mesh_gpu_instancing: three float accessors (no buffer-view target: they are not vertex attributes).
+  json instanceAttributes(const std::vector<GenInstance>& instances) {
+    static_assert(sizeof(GenInstance) == 10 * sizeof(float), "GenInstance is compared byte for byte");
+    for (const auto& [other, attributes] : instancesWritten) {
       if (other->size() == instances.size() &&
           std::memcmp(other->data(), instances.data(), instances.size() * sizeof(GenInstance)) == 0)
         return attributes;
@@ -115,126 +114,74 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
       s.push_back(i.scale);
     }
     json attributes = json::object();
-    const auto add = [&](const char* semantic, const auto& data, const char* type, std::size_t components) {
-      const std::size_t offset = appendBytes(bin, data);
-      bufferViews.push_back(
-          {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", data.size() * components * sizeof(float)}});
-      attributes[semantic] = accessors.size();
-      accessors.push_back({{"bufferView", bufferViews.size() - 1},
-                           {"componentType", kFloat},
-                           {"count", data.size()},
-                           {"type", type}});
-    };
-    add("TRANSLATION", t, "VEC3", 3);
-    add("ROTATION", r, "VEC4", 4);
-    add("SCALE", s, "VEC3", 3);
-    written.emplace_back(&instances, attributes);
+    attributes["TRANSLATION"] = addAccessor(t, 3, "VEC3", kFloat, 0);
+    attributes["ROTATION"] = addAccessor(r, 4, "VEC4", kFloat, 0);
+    attributes["SCALE"] = addAccessor(s, 3, "VEC3", kFloat, 0);
+    instancesWritten.emplace_back(&instances, attributes);
     return attributes;
-  };
+  }
+};
 
-  json nodes = json::array(), roots = json::array();
-  bool instancing = false;
-  for (std::size_t i = 0; i < scene.nodes.size(); ++i) {
-    const GenNode& n = scene.nodes[i];
-    if (n.mesh >= static_cast<int>(scene.meshes.size())) throw std::logic_error("node '" + n.name + "': no such mesh");
-    json node = {{"name", n.name}};
-    if (n.mesh >= 0) node["mesh"] = n.mesh;
-    if (n.light >= 0) node["extensions"]["KHR_lights_punctual"] = {{"light", n.light}};
-    if (!n.instances.empty()) {
-      if (n.mesh < 0) throw std::logic_error("node '" + n.name + "': instances without a mesh");
-      node["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", instanceAttributes(n.instances)}};
-      instancing = true;
-    }
-    // The transforms of nodes that place meshes are written as 32-bit float values (printed as the doubles they
-    // are): a rewrite into EXT_mesh_gpu_instancing (gltf-transform instance, gltfpack -mi), whose accessors are
-    // floats, then places every instance exactly where its node was. Lights keep their double directions.
-    const auto asFloat = [&n](double v) { return n.mesh >= 0 ? double(float(v)) : v; };
-    if (n.translation != glm::dvec3(0.0))
-      node["translation"] = json::array({asFloat(n.translation.x), asFloat(n.translation.y), asFloat(n.translation.z)});
-    if (!n.rotation.isIdentity())
-      node["rotation"] = json::array({asFloat(n.rotation.x), asFloat(n.rotation.y), asFloat(n.rotation.z), asFloat(n.rotation.w)});
-    nodes.push_back(std::move(node));
-    roots.push_back(i);
+json nodeJson(const GenScene& scene, const GenNode& n, BinaryChunk& chunk, bool& instancing) {
+  if (n.mesh >= static_cast<int>(scene.meshes.size())) throw std::logic_error("node '" + n.name + "': no such mesh");
+  json node = {{"name", n.name}};
+  if (n.mesh >= 0) node["mesh"] = n.mesh;
+  if (n.light >= 0) node["extensions"]["KHR_lights_punctual"] = {{"light", n.light}};
+  if (!n.instances.empty()) {
+    if (n.mesh < 0) throw std::logic_error("node '" + n.name + "': instances without a mesh");
+    node["extensions"]["EXT_mesh_gpu_instancing"] = {{"attributes", chunk.instanceAttributes(n.instances)}};
+    instancing = true;
   }
+  // The transforms of nodes that place meshes are written as 32-bit float values (printed as the doubles they
+  // are): a rewrite into EXT_mesh_gpu_instancing (gltf-transform instance, gltfpack -mi), whose accessors are
+  // floats, then places every instance exactly where its node was. Lights keep their double directions.
+  const auto asFloat = [&n](double v) { return n.mesh >= 0 ? double(float(v)) : v; };
+  if (n.translation != glm::dvec3(0.0))
+    node["translation"] = json::array({asFloat(n.translation.x), asFloat(n.translation.y), asFloat(n.translation.z)});
+  if (!n.rotation.isIdentity())
+    node["rotation"] = json::array({asFloat(n.rotation.x), asFloat(n.rotation.y), asFloat(n.rotation.z), asFloat(n.rotation.w)});
+  return node;
+}
 
-  // Materials and embedded PNG textures (one image and one sampler per texture).
-  json materials = json::array(), textures = json::array(), images = json::array(), samplers = json::array();
-  for (const GenMaterial& m : scene.materials) {
-    json pbr = {{"baseColorFactor",
-                 json::array({m.baseColorFactor.r, m.baseColorFactor.g, m.baseColorFactor.b, m.baseColorFactor.a})},
-                {"metallicFactor", 0.0},
-                {"roughnessFactor", 1.0}};
-    if (m.baseColorTexture >= 0) {
-      if (m.baseColorTexture >= static_cast<int>(scene.textures.size()))
-        throw std::logic_error("material '" + m.name + "': no such texture");
-      pbr["baseColorTexture"] = {{"index", m.baseColorTexture}, {"texCoord", m.texCoord}};
-    }
-    json j = {{"name", m.name}, {"pbrMetallicRoughness", std::move(pbr)}, {"doubleSided", m.doubleSided}};
-    switch (m.alphaMode) {
-      case GenMaterial::AlphaMode::Opaque: j["alphaMode"] = "OPAQUE"; break;
-      case GenMaterial::AlphaMode::Mask:
-        j["alphaMode"] = "MASK";
-        j["alphaCutoff"] = m.alphaCutoff;
-        break;
-      case GenMaterial::AlphaMode::Blend: j["alphaMode"] = "BLEND"; break;
-    }
-    materials.push_back(std::move(j));
+json materialJson(const GenScene& scene, const GenMaterial& m) {
+  json pbr = {{"baseColorFactor",
+               json::array({m.baseColorFactor.r, m.baseColorFactor.g, m.baseColorFactor.b, m.baseColorFactor.a})},
+              {"metallicFactor", 0.0},
+              {"roughnessFactor", 1.0}};
+  if (m.baseColorTexture >= 0) {
+    if (m.baseColorTexture >= static_cast<int>(scene.textures.size()))
+      throw std::logic_error("material '" + m.name + "': no such texture");
+    pbr["baseColorTexture"] = {{"index", m.baseColorTexture}, {"texCoord", m.texCoord}};
   }
-  for (std::size_t i = 0; i < scene.textures.size(); ++i) {
-    const GenTexture& t = scene.textures[i];
-    const std::size_t offset = bin.size();
-    bin += t.png;
-    while (bin.size() % 4 != 0) bin.push_back('\0');
-    bufferViews.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", t.png.size()}});
-    images.push_back({{"name", t.name}, {"bufferView", bufferViews.size() - 1}, {"mimeType", "image/png"}});
-    samplers.push_back(
-        {{"magFilter", t.magFilter}, {"minFilter", t.minFilter}, {"wrapS", t.wrapS}, {"wrapT", t.wrapT}});
-    textures.push_back({{"name", t.name}, {"sampler", i}, {"source", i}});
+  json j = {{"name", m.name}, {"pbrMetallicRoughness", std::move(pbr)}, {"doubleSided", m.doubleSided}};
+  switch (m.alphaMode) {
+    case GenMaterial::AlphaMode::Opaque: j["alphaMode"] = "OPAQUE"; break;
+    case GenMaterial::AlphaMode::Mask:
+      j["alphaMode"] = "MASK";
+      j["alphaCutoff"] = m.alphaCutoff;
+      break;
+    case GenMaterial::AlphaMode::Blend: j["alphaMode"] = "BLEND"; break;
   }
+  return j;
+}
 
-  gltf["buffers"] = json::array({{{"byteLength", bin.size()}}});
-  gltf["bufferViews"] = std::move(bufferViews);
-  gltf["accessors"] = std::move(accessors);
-  gltf["meshes"] = std::move(meshes);
-  gltf["nodes"] = std::move(nodes);
-  if (!materials.empty()) gltf["materials"] = std::move(materials);
-  if (!textures.empty()) {
-    gltf["textures"] = std::move(textures);
-    gltf["images"] = std::move(images);
-    gltf["samplers"] = std::move(samplers);
+json lightJson(const GenLight& l) {
+  json j = {{"name", l.name}, {"color", vec3(l.color)}, {"intensity", l.intensity}};
+  if (l.type == GenLight::Type::Directional) {
+    j["type"] = "directional";
+  } else if (l.type == GenLight::Type::Point) {
+    j["type"] = "point";
+  } else {
+    j["type"] = "spot";
+    j["spot"] = {{"innerConeAngle", l.innerConeAngle}, {"outerConeAngle", l.outerConeAngle}};
   }
-  gltf["scenes"] = json::array({{{"name", "scene"}, {"nodes", std::move(roots)}}});
-  gltf["scene"] = 0;
+  if (l.range > 0.0) j["range"] = l.range;
+  return j;
+}
 
-  if (!scene.lights.empty()) {
-    json lights = json::array();
-    for (const GenLight& l : scene.lights) {
-      json j = {{"name", l.name}, {"color", vec3(l.color)}, {"intensity", l.intensity}};
-      if (l.type == GenLight::Type::Directional) {
-        j["type"] = "directional";
-      } else if (l.type == GenLight::Type::Point) {
-        j["type"] = "point";
-      } else {
-        j["type"] = "spot";
-        j["spot"] = {{"innerConeAngle", l.innerConeAngle}, {"outerConeAngle", l.outerConeAngle}};
-      }
-      if (l.range > 0.0) j["range"] = l.range;
-      lights.push_back(std::move(j));
-    }
-    gltf["extensions"] = {{"KHR_lights_punctual", {{"lights", std::move(lights)}}}};
-  }
-  // A loader without EXT_mesh_gpu_instancing would draw each instanced mesh once, at its node: required.
-  json used = json::array();
-  if (instancing) {
-    used.push_back("EXT_mesh_gpu_instancing");
-    gltf["extensionsRequired"] = json::array({"EXT_mesh_gpu_instancing"});
-  }
-  if (!scene.lights.empty()) used.push_back("KHR_lights_punctual");
-  if (!used.empty()) gltf["extensionsUsed"] = std::move(used);
-
-  std::string text = gltf.dump();
+// The GLB container: header, the JSON chunk (padded with spaces) and the binary chunk.
+std::string glbContainer(std::string text, const std::string& bin) {
   while (text.size() % 4 != 0) text.push_back(' ');
-
   std::string out;
   const std::uint64_t total = 12 + 8 + text.size() + 8 + bin.size();
   if (total > std::numeric_limits<std::uint32_t>::max())
@@ -250,6 +197,74 @@ std::string writeGlb(const GenScene& scene, const std::string& generator, const 
   put32(out, 0x004E4942u);  // "BIN\0"
   out += bin;
   return out;
+}
+
+}  // namespace
+
+std::string writeGlb(const GenScene& scene, const std::string& generator, const nlohmann::json& extras) {
+  json gltf = json::object();
+  gltf["asset"] = {{"version", "2.0"}, {"generator", generator}};
+  if (!extras.is_null()) gltf["asset"]["extras"] = extras;
+
+  BinaryChunk chunk;
+  json meshes = json::array();
+  for (const GenMesh& m : scene.meshes) {
+    if (!m.texcoords.empty() && m.texcoords.size() != m.positions.size())
+      throw std::logic_error("mesh '" + m.name + "': texcoords and positions differ in count");
+    if (m.material >= static_cast<int>(scene.materials.size()))
+      throw std::logic_error("mesh '" + m.name + "': no such material");
+    meshes.push_back(chunk.mesh(m));
+  }
+  json nodes = json::array(), roots = json::array();
+  bool instancing = false;
+  for (std::size_t i = 0; i < scene.nodes.size(); ++i) {
+    nodes.push_back(nodeJson(scene, scene.nodes[i], chunk, instancing));
+    roots.push_back(i);
+  }
+
+  // Materials and embedded PNG textures (one image and one sampler per texture).
+  json materials = json::array(), textures = json::array(), images = json::array(), samplers = json::array();
+  for (const GenMaterial& m : scene.materials) materials.push_back(materialJson(scene, m));
+  for (std::size_t i = 0; i < scene.textures.size(); ++i) {
+    const GenTexture& t = scene.textures[i];
+    const std::size_t offset = chunk.bin.size();
+    chunk.bin += t.png;
+    while (chunk.bin.size() % 4 != 0) chunk.bin.push_back('\0');
+    chunk.bufferViews.push_back({{"buffer", 0}, {"byteOffset", offset}, {"byteLength", t.png.size()}});
+    images.push_back({{"name", t.name}, {"bufferView", chunk.bufferViews.size() - 1}, {"mimeType", "image/png"}});
+    samplers.push_back(
+        {{"magFilter", t.magFilter}, {"minFilter", t.minFilter}, {"wrapS", t.wrapS}, {"wrapT", t.wrapT}});
+    textures.push_back({{"name", t.name}, {"sampler", i}, {"source", i}});
+  }
+
+  gltf["buffers"] = json::array({{{"byteLength", chunk.bin.size()}}});
+  gltf["bufferViews"] = std::move(chunk.bufferViews);
+  gltf["accessors"] = std::move(chunk.accessors);
+  gltf["meshes"] = std::move(meshes);
+  gltf["nodes"] = std::move(nodes);
+  if (!materials.empty()) gltf["materials"] = std::move(materials);
+  if (!textures.empty()) {
+    gltf["textures"] = std::move(textures);
+    gltf["images"] = std::move(images);
+    gltf["samplers"] = std::move(samplers);
+  }
+  gltf["scenes"] = json::array({{{"name", "scene"}, {"nodes", std::move(roots)}}});
+  gltf["scene"] = 0;
+
+  if (!scene.lights.empty()) {
+    json lights = json::array();
+    for (const GenLight& l : scene.lights) lights.push_back(lightJson(l));
+    gltf["extensions"] = {{"KHR_lights_punctual", {{"lights", std::move(lights)}}}};
+  }
+  // A loader without EXT_mesh_gpu_instancing would draw each instanced mesh once, at its node: required.
+  json used = json::array();
+  if (instancing) {
+    used.push_back("EXT_mesh_gpu_instancing");
+    gltf["extensionsRequired"] = json::array({"EXT_mesh_gpu_instancing"});
+  }
+  if (!scene.lights.empty()) used.push_back("KHR_lights_punctual");
+  if (!used.empty()) gltf["extensionsUsed"] = std::move(used);
+  return glbContainer(gltf.dump(), chunk.bin);
 }
 
 }  // namespace cpvs::scenegen
