@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Sizes the code may not pass (docs/architecture.md, "Sizes"): no function longer than MAX_FUNCTION lines and no
-file longer than MAX_FILE lines in the library folders. A function is measured from its header's first line to
-its closing brace, lambdas and local classes included. Exit 1 and one line per offender, else a summary line.
+file longer than MAX_FILE lines in the given folders (default: the library). A function is measured from its
+header's first line to its closing brace, lambdas and local classes included. Exit 1 and one line per offender, else a summary line.
 Usage: structure_check.py SOURCE_DIR [FOLDER...]"""
 import os
 import re
