@@ -5,10 +5,13 @@ queried by both builds' cpvs-query on the same points, unfiltered and with 9x9 P
 builds in turn, `--rounds` times, their order swapped every round (old-new, new-old, ...), and takes each
 build's best; the answers of the two builds are compared byte for byte (the CSVs). The throughput is the
 report's `lookups_per_s` (single-threaded, best of --timing-rounds; docs/query.md, "How throughput is
-measured"). Writes DOC (JSON) and prints a table; the load average is taken before and after.
+measured"). With --point each scene also gets a point light at its spot's position and range (six cube faces:
+the per-point view selection of point lights). Each row also keeps the single-point rate (LightShadow::visibility
+one point at a time, `lookups_per_s_single`). Writes DOC (JSON) and prints a table; the load average is taken
+before and after.
 
     python3 benchmarks/query_speed.py --old /tmp/base/build/bin [--new build/bin] [--out out/query-speed]
-                                      [--doc docs/query/speed.json] [--resolutions 4k,16k] [--rounds 3]
+                                      [--doc docs/query/speed.json] [--resolutions 4k,16k] [--rounds 3] [--point]
 
 Python 3 standard library only. Exit status: 0 done, 1 usage, 2 a tool failed or the answers differ.
 """
@@ -36,9 +39,9 @@ def query(binary, cpvs, points, k, out, timing_rounds):
     run([os.path.join(binary, "cpvs-query"), cpvs, "--points", points, "-o", csv, "--pcf", str(k), "--report",
          report, "--threads", "2", "--timing-rounds", str(timing_rounds), "--quiet"])
     with open(report) as f:
-        rate = json.load(f)["lookups_per_s"]
+        figures = json.load(f)
     with open(csv, "rb") as f:
-        return rate, f.read()
+        return figures["lookups_per_s"], figures["lookups_per_s_single"], f.read()
 
 
 def main():
@@ -51,6 +54,7 @@ def main():
     p.add_argument("--points", type=int, default=50000)
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--timing-rounds", type=int, default=5)
+    p.add_argument("--point", action="store_true", help="also a point light at each scene's spot")
     a = p.parse_args()
     os.makedirs(a.out, exist_ok=True)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
@@ -63,24 +67,31 @@ def main():
         run([os.path.join(a.new, "cpvs-sample"), scene, "-n", str(a.points), "--seed", "1", "-o", points])
         for res in a.resolutions.split(","):
             cpvs = os.path.join(a.out, "%s-%s.cpvs" % (key, res))
-            run([os.path.join(a.new, "cpvs-bake"), scene, "-o", cpvs, "--resolution", res, "--sun", sun,
-                 "--spot", spot, "--quiet"])
+            lights = ["--sun", sun, "--spot", spot]
+            if a.point:
+                v = spot.split(",")
+                lights += ["--point", ",".join(v[0:3] + [v[7]])]
+            run([os.path.join(a.new, "cpvs-bake"), scene, "-o", cpvs, "--resolution", res, *lights, "--quiet"])
             for k in KERNELS:
                 best = {"old": 0.0, "new": 0.0}
+                single = {"old": 0.0, "new": 0.0}
                 answers = {}
                 for r in range(a.rounds):
                     for side in (("old", "new") if r % 2 == 0 else ("new", "old")):
-                        rate, csv = query(a.old if side == "old" else a.new, cpvs, points, k,
-                                          os.path.join(a.out, "%s-%s-k%d-%s" % (key, res, k, side)), a.timing_rounds)
+                        rate, one, csv = query(a.old if side == "old" else a.new, cpvs, points, k,
+                                               os.path.join(a.out, "%s-%s-k%d-%s" % (key, res, k, side)),
+                                               a.timing_rounds)
                         best[side] = max(best[side], rate)
+                        single[side] = max(single[side], one)
                         answers[side] = csv
                 same = answers["old"] == answers["new"]
                 row = {"scene": label, "resolution": res, "pcf": k, "old_lookups_per_s": best["old"],
                        "new_lookups_per_s": best["new"], "speedup": best["new"] / best["old"],
-                       "same_answers": same}
+                       "old_single_per_s": single["old"], "new_single_per_s": single["new"],
+                       "single_speedup": single["new"] / single["old"], "same_answers": same}
                 result["rows"].append(row)
-                print("%-15s %4s K=%d: old %6.2f M/s, new %6.2f M/s, %.2fx%s" % (
-                    label, res, k, best["old"] / 1e6, best["new"] / 1e6, row["speedup"],
+                print("%-15s %4s K=%d: old %6.2f M/s, new %6.2f M/s, %.2fx; one at a time %.2fx%s" % (
+                    label, res, k, best["old"] / 1e6, best["new"] / 1e6, row["speedup"], row["single_speedup"],
                     "" if same else "  ANSWERS DIFFER"), flush=True)
                 if not same:
                     sys.exit(2)

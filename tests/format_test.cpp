@@ -701,7 +701,14 @@ TEST(Format, MalformedContentBehindValidChecksumsIsRejected) {
       {"name length overflow", [](RawFile& f) { setLight(f, 1, 8, 0xFFFFFFFFu, 4); }, "string pool"},
       {"views out of order", [](RawFile& f) { setLight(f, 1, 12, 0, 4); }, "do not follow"},
       {"too many views", [](RawFile& f) { setLight(f, 2, 16, 7, 4); }, "do not follow"},
-      {"orphan views", [](RawFile& f) { setLight(f, 2, 16, 5, 4); }, "belong to no light"},
+      {"orphan views", [](RawFile& f) {
+         Bytes& views = sectionOf(f, kView).bytes;
+         const Bytes last(views.end() - ptrdiff_t(kViewRecordSize), views.end());
+         views.insert(views.end(), last.begin(), last.end());
+       }, "belong to no light"},
+      {"point light with five views", [](RawFile& f) { setLight(f, 2, 16, 5, 4); }, "a point light has 6"},
+      {"cube faces out of order", [](RawFile& f) { setView(f, 2, 2, 3, 1); }, "cube face 3 (expected 0)"},
+      {"spot view on a cube face", [](RawFile& f) { setView(f, 1, 2, 0, 1); }, "cube face 0 (expected -1)"},
       {"NaN range", [nan](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, nan); }, "range"},
       {"zero range", [](RawFile& f) { putF64(sectionOf(f, kLght).bytes, 40, 0.0); }, "range"},
       {"NaN colour", [](RawFile& f) { setLight(f, 0, 24, 0x7FC00000u, 4); }, "not finite"},

@@ -104,6 +104,22 @@ TEST(Light, ParametersOfEachType) {
   EXPECT_EQ(towardLight(point, {0, 1, 0}), glm::dvec3(0, 3, 0));
 }
 
+// The shape bits the shaders branch on are the predicates', and every type's views are the ones the light model
+// promises (one view of face -1, or the six cube faces in order), as the reader requires of every file.
+TEST(Light, ShapeBitsAndViewsOfEachType) {
+  const WorldGeometry world = test::groundAndRidge();
+  for (const Light& light : {sunLight("sun", {0, -1, 0}), spotLight("spot", {0, 4, 0}, {0, -1, 0}, 0.5, 10),
+                             pointLight("lamp", {0, 4, 0}, 10)}) {
+    const uint32_t bits = shapeBits(light);
+    EXPECT_EQ((bits & CPVS_SHAPE_POSITION) != 0, hasPosition(light)) << lightTypeName(light.type);
+    EXPECT_EQ((bits & CPVS_SHAPE_CONE) != 0, hasCone(light)) << lightTypeName(light.type);
+    EXPECT_EQ((bits & CPVS_SHAPE_CUBE_FACES) != 0, hasCubeFaces(light)) << lightTypeName(light.type);
+    const std::vector<LightView> views = makeLightViews(light, world, 64);
+    ASSERT_EQ(views.size(), viewCountOf(light)) << lightTypeName(light.type);
+    for (size_t v = 0; v < views.size(); ++v) EXPECT_EQ(views[v].face, hasCubeFaces(light) ? int(v) : -1);
+  }
+}
+
 TEST(Light, TypeCodesAndNames) {
   EXPECT_EQ(kLightTypeCount, CPVS_LIGHT_TYPE_COUNT);
   EXPECT_STREQ(lightTypeName(LightType(CPVS_LIGHT_DIRECTIONAL)), "directional");

@@ -229,6 +229,7 @@ TEST(Preview, RecordLayoutEqualsTheShadersDefines) {
       {"CPVS_LIGHT_REALS", kLightReals}, {"CPVS_LIGHT_TYPE", kLightType}, {"CPVS_LIGHT_FIRST_VIEW", kLightFirstView},
       {"CPVS_LIGHT_VIEW_COUNT", kLightViewCount}, {"CPVS_LIGHT_DISABLED", kLightDisabled},
       {"CPVS_LIGHT_FACE_VIEW", kLightFaceView}, {"CPVS_LIGHT_SHADOW_LIGHT", kLightShadowLight},
+      {"CPVS_LIGHT_SHAPE", kLightShape},
       {"CPVS_LIGHT_WORDS", kLightWords}, {"CPVS_VIEW_FLAGS", kViewFlags}, {"CPVS_VIEW_NODE_BASE", kViewNodeBase},
       {"CPVS_VIEW_LEAF_BASE", kViewLeafBase}, {"CPVS_VIEW_ROOT_CODE", kViewRootCode},
       {"CPVS_VIEW_RESOLUTION", kViewResolution}, {"CPVS_VIEW_LAYER", kViewLayer},

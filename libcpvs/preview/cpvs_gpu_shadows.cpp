@@ -17,8 +17,8 @@ public:
       (record ? recording_ : plain_) = gl::linkProgram(
           c, {{GL_COMPUTE_SHADER, computeSource({record ? "#define RECORD_CELLS\n" : "",
                                                  "layout(local_size_x = 8, local_size_y = 8) in;\n",
-                                                 counters.c_str(), glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
-                                                 glsl::lookup_cell_glsl, glsl::dag_walk_glsl_h,
+                                                 counters.c_str(), glsl::light_glsl_h, glsl::lookup_records_glsl,
+                                                 glsl::scene_buffers_glsl, glsl::lookup_cell_glsl, glsl::dag_walk_glsl_h,
                                                  glsl::cpvs_shadows_comp})}},
           record ? "CPVS shadow (recording)" : "CPVS shadow");
   }

@@ -35,6 +35,7 @@ void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vecto
   r.lightReals.insert(r.lightReals.end(), reals.begin(), reals.end());
   std::vector<uint32_t> words(kLightWords, 0);
   words[kLightType] = uint32_t(light.type);
+  words[kLightShape] = shapeBits(light);
   words[kLightFirstView] = uint32_t(firstView);
   words[kLightViewCount] = uint32_t(views.size());
   words[kLightShadowLight] = uint32_t(r.lightWords.size() / kLightWords);  // itself

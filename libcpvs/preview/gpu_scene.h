@@ -38,7 +38,7 @@ inline constexpr uint32_t kMapRow = 0, kMapXMin = 12, kMapYMin = 13, kMapUScale 
 inline constexpr uint32_t kLightPosition = 0, kLightDirection = 3, kLightRange = 6, kLightCosOuter = 7,
                           kLightSinOuter = 8, kLightCosInner = 9, kLightColor = 10, kLightIntensity = 13;
 inline constexpr uint32_t kLightType = 0, kLightFirstView = 1, kLightViewCount = 2, kLightDisabled = 3, kLightFaceView = 4,
-                          kLightShadowLight = 10;
+                          kLightShadowLight = 10, kLightShape = 11;
 inline constexpr uint32_t kViewFlags = 0, kViewNodeBase = 1, kViewLeafBase = 2, kViewRootCode = 3,
                           kViewResolution = 4, kViewLayer = 5, kViewAtlasX = 6, kViewAtlasY = 7,
                           kViewChildBase = 8;

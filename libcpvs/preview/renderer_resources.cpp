@@ -76,21 +76,23 @@ void RendererResources::linkPrograms() {
                                        {GL_FRAGMENT_SHADER, version + kMaskTexelGlsl + glsl::coverage_mask_glsl + glsl::gbuffer_frag}}, "G-buffer");
   boundsProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::tile_bounds_comp})}}, "tile bounds");
   countProgram = gl::linkProgram(
-      c, {{GL_COMPUTE_SHADER, computeSource({"#define COUNT_PASS\n", glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::light_cull_glsl,
-                                             glsl::light_lists_comp})}}, "light count");
+      c, {{GL_COMPUTE_SHADER, computeSource({"#define COUNT_PASS\n", glsl::light_glsl_h, glsl::lookup_records_glsl,
+                                             glsl::light_cull_glsl, glsl::light_lists_comp})}}, "light count");
   fillProgram = gl::linkProgram(
-      c, {{GL_COMPUTE_SHADER, computeSource({glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::light_cull_glsl, glsl::light_lists_comp})}},
+      c, {{GL_COMPUTE_SHADER, computeSource({glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::light_cull_glsl,
+                                             glsl::light_lists_comp})}},
       "light list");
   prefixProgram = gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::prefix_sum_comp})}}, "prefix sum");
   superBoundsProgram =
       gl::linkProgram(c, {{GL_COMPUTE_SHADER, computeSource({glsl::super_bounds_comp})}}, "super-tile bounds");
   const char* superTiles = "#define SUPER_TILES\n#define CPVS_SPHERE_SCALE 2.0LF\n";
   superListProgram = gl::linkProgram(
-      c, {{GL_COMPUTE_SHADER, computeSource({superTiles, glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::light_cull_glsl,
-                                             glsl::light_lists_comp})}}, "super-tile light list");
+      c, {{GL_COMPUTE_SHADER, computeSource({superTiles, glsl::light_glsl_h, glsl::lookup_records_glsl,
+                                             glsl::light_cull_glsl, glsl::light_lists_comp})}}, "super-tile light list");
   shadingProgram = gl::linkProgram(
-      c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n", glsl::light_glsl_h, glsl::lookup_records_glsl,
-                                             glsl::scene_buffers_glsl, glsl::shading_comp})}}, "shading");
+      c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n", glsl::light_glsl_h,
+                                             glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
+                                             glsl::shading_comp})}}, "shading");
 }
 
 // The scene's triangles, one vertex each corner: world position, face normal, base colour factor, texture

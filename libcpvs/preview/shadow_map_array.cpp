@@ -58,8 +58,8 @@ MapLookupProgram linkMapLookupProgram(const gl::Context& c, size_t lights) {
   const std::string counters = GpuWorkCounters::glsl(out.counters);
   out.program = gl::linkProgram(
       c, {{GL_COMPUTE_SHADER, computeSource({"layout(local_size_x = 8, local_size_y = 8) in;\n", counters.c_str(),
-                                             glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::scene_buffers_glsl, glsl::lookup_cell_glsl,
-                                             glsl::shadow_map_lookups_comp})}},
+                                             glsl::light_glsl_h, glsl::lookup_records_glsl, glsl::scene_buffers_glsl,
+                                             glsl::lookup_cell_glsl, glsl::shadow_map_lookups_comp})}},
       "shadow-map lookup");
   return out;
 }

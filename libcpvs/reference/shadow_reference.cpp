@@ -59,8 +59,8 @@ bool ShadowReference::shadowRay(const Light& light, const SurfacePoint& point, R
   if (nLength > 0) {
     glm::dvec3 n = point.normal / nLength;
     if (orientation_ == NormalOrientation::TowardLight && glm::dot(n, toLight) < 0) n = -n;
-    // A surface facing away from the light (facesLight's rule, on the unit vectors): the ray from the surface point itself enters that surface at
-    // once, so the point is in its own shadow. (Moved epsilon off the surface first, a ray that meets an
+    // A surface facing away from the light (facesLight's rule, on the unit vectors): the ray from the surface
+    // point itself enters that surface at once, so the point is in its own shadow. (Moved epsilon off the surface first, a ray that meets an
     // almost edge-on facet would cross the facet's plane epsilon / |n . L| further on, past its edge, and
     // escape: an artefact of the offset, not light.)
     if (glm::dot(n, toLight) < 0) {

@@ -409,7 +409,7 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
     else countFootprints(view, pending, k, counts);
     for (size_t p = 0; p < pending.size(); ++p) out[pending[p].out] = value(counts[p]);
   };
-  if (views_.size() == 1) {  // directional and spot lights: the influence test runs in mapCells
+  if (!hasCubeFaces(light_)) {  // one view (directional and spot lights): the influence test runs in mapCells
     in.mapping = &mappings_[0];
     in.spot = hasCone(light_) ? &spot_ : nullptr;
     in.count = count;

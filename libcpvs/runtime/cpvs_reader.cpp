@@ -400,7 +400,6 @@ void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::Sect
     if (checksum != r.u64(e + 24)) r.fail(label + " checksum mismatch — the file is corrupt");
     sections.push_back({typeName(s.type), s.elementSize, s.offset, s.size, checksum, true});
   }
-
 }
 
 // Step 3: header, table and sections do not overlap; every byte between them is zero padding.
@@ -460,7 +459,6 @@ void findSections(const Reader& r, FileLayout& f) {
   for (const auto& [slot, type] : std::initializer_list<std::pair<int64_t, uint32_t>>{
            {bake, kBake}, {strs, kStrs}, {lght, kLght}, {view, kView}})
     if (slot < 0) r.fail("no '" + typeName(type) + "' section");
-
 }
 
 // One view record (record `index`, view vi of light li), its DAG validated (a format-1 DAG converted into
@@ -626,9 +624,18 @@ CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li
   if (!finite) r.fail(named + ": a colour, intensity, cone, position or direction value is not finite");
   if (!(l.range > 0)) r.fail(named + ": range " + num(l.range) + " (expected > 0 or +inf)");
 
+  // The views the light model gives the type (light.h, viewCountOf): view selection relies on them.
+  if (views != viewCountOf(l))
+    r.fail(named + ": " + std::to_string(views) + " views (a " + lightTypeName(l.type) + " light has " +
+           std::to_string(viewCountOf(l)) + ")");
   entry.views.reserve(views);
-  for (uint64_t vi = 0; vi < views; ++vi)
+  for (uint64_t vi = 0; vi < views; ++vi) {
     entry.views.push_back(readView(r, f, li, named, vi, firstView + vi, converted));
+    const int face = hasCubeFaces(l) ? int(vi) : -1;
+    if (entry.views.back().view.face != face)
+      r.fail(named + ": view " + std::to_string(vi) + " is cube face " + std::to_string(entry.views.back().view.face) +
+             " (expected " + std::to_string(face) + ")");
+  }
   return entry;
 }
 

@@ -19,7 +19,6 @@ inline const uint16_t* nodeUnits(const DagView& dag) {
   return dag.nodes.empty() ? kNoNodes : dag.nodes.data();
 }
 
-
 inline bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // The kernel's footprint, inclusive texel bounds already clipped to [0, N).

@@ -25,13 +25,9 @@ const char* lightTypeName(LightType type) {
   return i < std::size(kNames) ? kNames[i] : "unknown";
 }
 
-bool hasPosition(const Light& light) { return light.type != LightType::Directional; }
-bool hasDirection(const Light& light) { return light.type != LightType::Point; }
-bool hasRange(const Light& light) { return light.type != LightType::Directional; }
-bool hasCone(const Light& light) { return light.type == LightType::Spot; }
-
-double influenceRange(const Light& light) {
-  return hasRange(light) ? light.range : std::numeric_limits<double>::infinity();
+uint32_t shapeBits(const Light& light) {
+  return (hasPosition(light) ? CPVS_SHAPE_POSITION : 0u) | (hasCone(light) ? CPVS_SHAPE_CONE : 0u) |
+         (hasCubeFaces(light) ? CPVS_SHAPE_CUBE_FACES : 0u);
 }
 
 SpotInfluence spotInfluence(const Light& light) {
@@ -52,10 +48,6 @@ bool withinInfluence(const Light& light, const glm::dvec3& point) {
     case LightType::Point: break;
   }
   return glm::length(point - light.position) <= light.range;
-}
-
-glm::dvec3 towardLight(const Light& light, const glm::dvec3& point) {
-  return hasPosition(light) ? light.position - point : -light.direction;
 }
 
 bool facesLight(const Light& light, const glm::dvec3& point, const glm::dvec3& normal,

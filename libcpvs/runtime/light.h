@@ -30,14 +30,26 @@ struct Light {
   glm::dvec3 direction{0.0, 0.0, -1.0};                    // where hasDirection: the way the light travels (unit)
 };
 
-// Which of Light's parameters a type uses (what a report prints, what a cache key must hold).
-bool hasPosition(const Light& light);   // spot, point
-bool hasDirection(const Light& light);  // directional, spot
-bool hasRange(const Light& light);      // spot, point (infinite where unset)
-bool hasCone(const Light& light);       // spot
+// Which of Light's parameters a type uses (what a report prints, what a cache key must hold). Inline: the
+// lookups ask them per point.
+inline bool hasPosition(const Light& light) { return light.type != LightType::Directional; }  // spot, point
+inline bool hasDirection(const Light& light) { return light.type != LightType::Point; }       // directional, spot
+inline bool hasRange(const Light& light) { return light.type != LightType::Directional; }     // spot, point
+inline bool hasCone(const Light& light) { return light.type == LightType::Spot; }             // spot
+
+// The views a type is baked into: one (face -1) that covers its whole influence, or the six cube faces
+// (point; view i is face i: +X, -X, +Y, -Y, +Z, -Z). The reader holds every file to it, and view selection
+// relies on it.
+inline bool hasCubeFaces(const Light& light) { return light.type == LightType::Point; }
+inline uint32_t viewCountOf(const Light& light) { return hasCubeFaces(light) ? 6u : 1u; }
+
+// The shape bits the shaders read instead of the type (light.glsl.h: CPVS_SHAPE_POSITION, _CONE, _CUBE_FACES).
+uint32_t shapeBits(const Light& light);
 
 // How far the light reaches from its position: `range` where the type has one, else infinity.
-double influenceRange(const Light& light);
+inline double influenceRange(const Light& light) {
+  return hasRange(light) ? light.range : std::numeric_limits<double>::infinity();
+}
 
 // Whether a point lies in the light's influence: directional: always; spot and point: within range (and not at
 // the light itself, for a spot); spot: inside the outer cone, capped at pi/2. Bit for bit the runtime's test
@@ -50,7 +62,9 @@ SpotInfluence spotInfluence(const Light& light);
 
 // The vector from a point toward the light, not normalised: a directional light's -direction, else
 // position - point (zero at the light itself).
-glm::dvec3 towardLight(const Light& light, const glm::dvec3& point);
+inline glm::dvec3 towardLight(const Light& light, const glm::dvec3& point) {
+  return hasPosition(light) ? light.position - point : -light.direction;
+}
 
 // How a query's normal is read: as given (outward normals; a back face answers 0), or flipped where it faces
 // away from the light before biasing (two-sided surfaces, normals of unknown sign).
@@ -62,7 +76,8 @@ enum class NormalOrientation : uint8_t {
 // The facing rule, the one every stage uses: a surface point faces the light when n . towardLight >= 0. A zero
 // normal faces every light, a normal at a right angle to the light faces it (a lookup answers it from its
 // voxel, not 0), and with NormalOrientation::TowardLight every normal faces the light, since the lookup flips
-// the others. The lookup's own test (cell_lanes.h: back = the grid-space normal's z > 0) is the same sign.
+// the others. The lookup's own test (cell_lanes.h: back = the grid-space normal's z > 0) has the same sign, up
+// to rounding where n . l is within a hair of 0; the reference tests it on unit vectors.
 bool facesLight(const Light& light, const glm::dvec3& point, const glm::dvec3& normal,
                 NormalOrientation orientation = NormalOrientation::AsGiven);
 

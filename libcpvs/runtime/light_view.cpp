@@ -75,7 +75,7 @@ Ray texelRay(const LightView& view, double u, double v) {
 
 std::optional<size_t> selectView(const Light& light, const std::vector<LightView>& views, const glm::dvec3& world) {
   if (views.empty() || !withinInfluence(light, world)) return std::nullopt;
-  if (views.front().face < 0) return 0;  // a view that is no cube face covers the whole influence
+  if (!hasCubeFaces(light)) return 0;  // one view covers the whole influence
   // Cube faces: the face of the major axis (ties go to the lower face index).
   const glm::dvec3 toPoint = world - light.position;
   const glm::dvec3 m = glm::abs(toPoint);

@@ -9,7 +9,7 @@
 //   double cpvsMappingReal(uint i)   the view's ViewMapping constants, i = CPVS_MAP_* below
 //   uint   cpvsMappingFlags()        CPVS_FLAG_* bits
 //   double cpvsLightReal(uint i)     the light's constants, i = CPVS_LIGHT_* below
-//   uint   cpvsLightType()           0 directional, 1 spot, 2 point
+//   uint   cpvsLightShape()          CPVS_SHAPE_* bits (light.glsl.h)
 //   uint   cpvsLightWord(uint i)     the light's words, i = CPVS_LIGHT_* below (the view count)
 //   int    cpvsFaceView(uint face)   a point light's view index of cube face 0..5 (+X, -X, +Y, -Y, +Z, -Z), -1: none
 // The record layouts (CPVS_MAP_*, CPVS_LIGHT_*) are lookup_records.glsl's, included before this text.
@@ -55,28 +55,26 @@ bool cpvsFinite(double x) {
 }
 
 // The view a point falls in (LightShadow::viewIndex), or -1 outside the light's influence: a light without a
-// position has one view everywhere; else within range, inside the cone where the light has one (cos outer > -1:
-// gpu_scene.cpp writes -1 for lights without), then the view that is no cube face, or the major axis's face.
+// position has one view everywhere; else within range, inside the cone where the light has one, then its one
+// view or the cube face of the major axis.
 int cpvsSelectView(dvec3 p) {
   if (cpvsLightWord(CPVS_LIGHT_VIEW_COUNT) == 0u) return -1;  // a light without views: 0, as viewIndex answers
-  if (cpvsLightType() == CPVS_LIGHT_DIRECTIONAL) return 0;
+  uint shape = cpvsLightShape();
+  if ((shape & CPVS_SHAPE_POSITION) == 0u) return 0;
   precise double tx = p.x - cpvsLightReal(CPVS_LIGHT_POSITION);
   precise double ty = p.y - cpvsLightReal(CPVS_LIGHT_POSITION + 1u);
   precise double tz = p.z - cpvsLightReal(CPVS_LIGHT_POSITION + 2u);
   precise double distance = sqrt((tx * tx + ty * ty) + tz * tz);
   double range = cpvsLightReal(CPVS_LIGHT_RANGE);
-  double cosOuter = cpvsLightReal(CPVS_LIGHT_COS_OUTER);
-  if (cosOuter > -1.0LF) {  // insideSpot
+  if ((shape & CPVS_SHAPE_CONE) != 0u) {  // insideSpot
     precise double along = (tx * cpvsLightReal(CPVS_LIGHT_DIRECTION) + ty * cpvsLightReal(CPVS_LIGHT_DIRECTION + 1u)) +
                            tz * cpvsLightReal(CPVS_LIGHT_DIRECTION + 2u);
     precise double cosine = along / distance;
-    bool inside = distance <= range && distance != 0.0LF && !(cosine < cosOuter);
+    bool inside = distance <= range && distance != 0.0LF && !(cosine < cpvsLightReal(CPVS_LIGHT_COS_OUTER));
     return inside ? 0 : -1;
   }
   if (!(distance <= range)) return -1;  // selectView: the one view, or the major axis's cube face
-  bool cubeFaces = false;
-  for (uint f = 0u; f < 6u; ++f) cubeFaces = cubeFaces || cpvsLightWord(CPVS_LIGHT_FACE_VIEW + f) != ~0u;
-  if (!cubeFaces) return 0;
+  if ((shape & CPVS_SHAPE_CUBE_FACES) == 0u) return 0;
   dvec3 m = abs(dvec3(tx, ty, tz));
   uint axis = m.x >= m.y && m.x >= m.z ? 0u : (m.y >= m.z ? 1u : 2u);
   double along = axis == 0u ? tx : (axis == 1u ? ty : tz);

@@ -37,6 +37,7 @@
 #define CPVS_LIGHT_SHADOW_LIGHT 10u // the light record whose views hold this light's shadow maps (cpvs-view's
                                  // shadow-map modes: itself, or its LightCluster cluster)
 #define CPVS_LIGHT_FACE_VIEW 4u  // 6 values: a point light's view (relative to the first) per cube face, ~0u: none
+#define CPVS_LIGHT_SHAPE 11u     // CPVS_SHAPE_* bits (light.glsl.h): what the shaders branch on
 #define CPVS_LIGHT_WORDS 12u     // per light
 
 #define CPVS_VIEW_FLAGS 0u       // CPVS_FLAG_*

@@ -11,7 +11,8 @@ set(CPVS_RUNTIME_SOURCES ${_cpvs_runtime_files})
 # the scalar, AVX2 and AVX-512 paths (view_mapping.h) must round alike, and alike with the baker, whatever
 # -march a build adds. GCC fuses by default where the target has FMA, clang within an expression.
 function(cpvs_runtime_floating_point)
-  set(mapping_files batch_cells batch_cells_avx2 batch_cells_avx512 batch_lookup light light_view view_mapping shadow_lookup)
+  set(mapping_files batch_cells batch_cells_avx2 batch_cells_avx512 batch_lookup light light_view view_mapping shadow_lookup
+    shadowed_texels)
   list(TRANSFORM mapping_files PREPEND "${_cpvs_runtime_dir}/")
   list(TRANSFORM mapping_files APPEND ".cpp")
   set_source_files_properties(${mapping_files}

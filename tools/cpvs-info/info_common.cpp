@@ -70,8 +70,7 @@ nlohmann::ordered_json lightJson(const Light& light) {
                                   {"color", {shortest(light.color.r), shortest(light.color.g), shortest(light.color.b)}},
                                   {"intensity", shortest(light.intensity)}};
   if (hasPosition(light)) entry["position"] = jsonVec(light.position);
-  // null: unlimited
-  if (hasRange(light))
+  if (hasRange(light))  // null: unlimited
     entry["range"] = std::isinf(light.range) ? nlohmann::ordered_json(nullptr) : nlohmann::ordered_json(light.range);
   if (hasDirection(light)) entry["direction"] = jsonVec(light.direction);
   if (hasCone(light)) {

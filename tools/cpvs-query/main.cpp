@@ -388,9 +388,14 @@ void printReferenceSummary(const ErrorStats& pooled, const Totals& totals) {
                static_cast<unsigned long long>(totals.insideClosed));
 }
 
-// Throughput, one thread each, over the first chunk of points (the whole set when it fits in one). Returned after
-// its rounds have run: only its figures (best, median) are read from it.
-Throughput measureThroughput(const Options& options, const std::vector<SelectedLight>& lights,
+// What the report gives of the throughput: best and median lookups, rays and one figure per light.
+struct ThroughputFigures {
+  double lookups = 0, lookupsMedian = 0, unfiltered = 0, single = 0, rays = 0, raysMedian = 0, packets = 0;
+  std::vector<double> perLight;  // with more than one light
+};
+
+// Throughput, one thread each, over the first chunk of points (the whole set when it fits in one).
+ThroughputFigures measureThroughput(const Options& options, const std::vector<SelectedLight>& lights,
                              const LookupOptions& lookup, const ShadowReference* reference,
                              const std::vector<QueryPoint>& timing) {
   const size_t nl = lights.size();
@@ -424,11 +429,23 @@ Throughput measureThroughput(const Options& options, const std::vector<SelectedL
       throughput.add("light" + std::to_string(l),
                      [&, l] { return lookupsPerSecond(*lights[l].method, timing, lookup, kRoundSeconds / 2); });
   throughput.run(options.timingRounds);
-  return throughput;
+  ThroughputFigures figures;
+  figures.lookups = throughput.best("lookups");
+  figures.lookupsMedian = throughput.median("lookups");
+  figures.unfiltered = options.pcf > 1 ? throughput.best("unfiltered") : figures.lookups;
+  figures.single = throughput.best("single");
+  if (reference) {
+    figures.rays = throughput.best("rays");
+    figures.raysMedian = throughput.median("rays");
+    figures.packets = throughput.best("packets");
+  }
+  if (nl > 1)
+    for (size_t l = 0; l < nl; ++l) figures.perLight.push_back(throughput.best("light" + std::to_string(l)));
+  return figures;
 }
 
 nlohmann::json lightsJson(const CpvsFile& file, const std::vector<SelectedLight>& lights, const Totals& totals,
-                          const Throughput& throughput, bool withReference) {
+                          const ThroughputFigures& throughput, bool withReference) {
   const size_t nl = lights.size();
   nlohmann::json out = nlohmann::json::array();
   const uint64_t valid = totals.points - totals.invalid;
@@ -441,7 +458,7 @@ nlohmann::json lightsJson(const CpvsFile& file, const std::vector<SelectedLight>
                         {"views", entry.views.size()},
                         {"resolution", entry.views.empty() ? 0u : entry.views[0].view.resolution},
                         {"mean_visibility", valid ? totals.visibilitySum[l] / double(valid) : 0.0}};
-    if (nl > 1) j["lookups_per_s"] = throughput.best("light" + std::to_string(l));
+    if (nl > 1) j["lookups_per_s"] = throughput.perLight[l];
     if (withReference) j["reference"] = errorJson(totals.errors[l]);
     out.push_back(j);
   }
@@ -449,15 +466,14 @@ nlohmann::json lightsJson(const CpvsFile& file, const std::vector<SelectedLight>
 }
 
 nlohmann::json referenceJson(const Options& options, const ShadowReference& reference, const ErrorStats& pooled,
-                             const Totals& totals, const Throughput& throughput, double lookupsPerS,
-                             double unfilteredPerS) {
+                             const Totals& totals, const ThroughputFigures& throughput) {
   nlohmann::json r = errorJson(pooled);
-  const double raysPerS = throughput.best("rays");
+  const double raysPerS = throughput.rays;
   r["rays_per_s"] = raysPerS;
-  r["rays_per_s_median"] = throughput.median("rays");
-  r["rays_per_s_packets"] = throughput.best("packets");
-  r["lookup_speedup"] = raysPerS > 0 ? lookupsPerS / raysPerS : 0.0;
-  r["unfiltered_speedup"] = raysPerS > 0 ? unfilteredPerS / raysPerS : 0.0;
+  r["rays_per_s_median"] = throughput.raysMedian;
+  r["rays_per_s_packets"] = throughput.packets;
+  r["lookup_speedup"] = raysPerS > 0 ? throughput.lookups / raysPerS : 0.0;
+  r["unfiltered_speedup"] = raysPerS > 0 ? throughput.unfiltered / raysPerS : 0.0;
   r["epsilon"] = reference.epsilon();
   r["relative_epsilon"] = options.referenceEpsilon;
   r["triangles"] = reference.triangles();
@@ -516,10 +532,8 @@ int run(const Options& options) {
   }
 
   const std::vector<QueryPoint> timing = validPoints(eval.timingSet);
-  const Throughput throughput = measureThroughput(options, lights, lookup, reference.get(), timing);
-  const double lookupsPerS = throughput.best("lookups");
-  const double unfilteredPerS = options.pcf > 1 ? throughput.best("unfiltered") : lookupsPerS;
-  const double singlePerS = throughput.best("single");
+  const ThroughputFigures throughput = measureThroughput(options, lights, lookup, reference.get(), timing);
+  const double lookupsPerS = throughput.lookups, unfilteredPerS = throughput.unfiltered;
   size_t topGridBytes = 0;
   for (const SelectedLight& l : lights) topGridBytes += l.shadow().topGridBytes();
 
@@ -544,8 +558,8 @@ int run(const Options& options) {
       {"first_invalid_points", totals.firstInvalid},
       {"lookups_per_s", lookupsPerS},
       {"lookups_per_s_unfiltered", unfilteredPerS},
-      {"lookups_per_s_single", singlePerS},
-      {"lookups_per_s_median", throughput.median("lookups")},
+      {"lookups_per_s_single", throughput.single},
+      {"lookups_per_s_median", throughput.lookupsMedian},
       {"pcf_cost", lookupsPerS > 0 ? unfilteredPerS / lookupsPerS : 0.0},
       {"timing_rounds", options.timingRounds},
       {"timing_points", timing.size()},
@@ -556,7 +570,7 @@ int run(const Options& options) {
       {"timings_ms", {{"evaluate", eval.evalMs}, {"reference_load", referenceLoadMs}, {"total", total.ms()}}},
       {"lights", lightsJson(*file, lights, totals, throughput, reference != nullptr)}};
   if (reference)
-    report["reference"] = referenceJson(options, *reference, pooled, totals, throughput, lookupsPerS, unfilteredPerS);
+    report["reference"] = referenceJson(options, *reference, pooled, totals, throughput);
   reportFile->write(report.dump(2) + "\n");
   tools::commitTogether({csvFile ? &csvFile->file() : nullptr, &*reportFile});
   return 0;

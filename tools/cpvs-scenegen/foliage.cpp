@@ -374,7 +374,6 @@ void addLights(GenScene& scene, const FoliageOptions& o, const std::vector<Clear
     scene.lights.push_back(l);
     scene.nodes.push_back(n);
   }
-
 }
 
 }  // namespace

@@ -7,13 +7,13 @@
 #ifndef CPVS_SPHERE_SCALE
 #define CPVS_SPHERE_SCALE 1.0LF  // light_lists.comp doubles it for super-tiles
 #endif
-bool cpvsLightMeetsBox(uint type, dvec3 position, dvec3 direction, double range, double cosOuter, double sinOuter,
+bool cpvsLightMeetsBox(uint shape, dvec3 position, dvec3 direction, double range, double cosOuter, double sinOuter,
                        dvec3 lo, dvec3 hi) {
-  if (type == CPVS_LIGHT_DIRECTIONAL) return true;
+  if ((shape & CPVS_SHAPE_POSITION) == 0u) return true;
   precise dvec3 gap = max(lo - position, dvec3(0.0LF)) + max(position - hi, dvec3(0.0LF));
   precise double gap2 = (gap.x * gap.x + gap.y * gap.y) + gap.z * gap.z;
   if (gap2 > range * range * 1.000001LF) return false;
-  if (type == CPVS_LIGHT_POINT || cosOuter <= 0.0LF) return true;
+  if ((shape & CPVS_SHAPE_CONE) == 0u || cosOuter <= 0.0LF) return true;
   precise dvec3 centre = 0.5LF * (lo + hi);
   precise dvec3 size = hi - lo;
   precise double radius = (0.5LF * sqrt((size.x * size.x + size.y * size.y) + size.z * size.z) * 1.000001LF +

@@ -28,7 +28,7 @@ uniform int lightCount;
 bool meets(uint light, vec4 lo, vec4 hi) {
   if (lightWords[light * CPVS_LIGHT_WORDS + CPVS_LIGHT_DISABLED] != 0u) return false;
   uint r = light * CPVS_LIGHT_REALS;
-  return cpvsLightMeetsBox(lightWords[light * CPVS_LIGHT_WORDS + CPVS_LIGHT_TYPE],
+  return cpvsLightMeetsBox(lightWords[light * CPVS_LIGHT_WORDS + CPVS_LIGHT_SHAPE],
                            dvec3(lightReals[r], lightReals[r + 1u], lightReals[r + 2u]),
                            dvec3(lightReals[r + 3u], lightReals[r + 4u], lightReals[r + 5u]),
                            lightReals[r + CPVS_LIGHT_RANGE], lightReals[r + CPVS_LIGHT_COS_OUTER],

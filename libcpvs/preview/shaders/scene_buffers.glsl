@@ -18,7 +18,7 @@ uint gLight = 0u, gView = 0u;
 uint gDagBytesRead = 0u;  // by this invocation's DAG walks: 2 per node unit, 8 per leaf (the work counters)
 double cpvsLightReal(uint i) { return lightReals[gLight * CPVS_LIGHT_REALS + i]; }
 uint cpvsLightWord(uint i) { return lightWords[gLight * CPVS_LIGHT_WORDS + i]; }
-uint cpvsLightType() { return cpvsLightWord(CPVS_LIGHT_TYPE); }
+uint cpvsLightShape() { return cpvsLightWord(CPVS_LIGHT_SHAPE); }
 int cpvsFaceView(uint face) {
   uint v = cpvsLightWord(CPVS_LIGHT_FACE_VIEW + face);
   return v == 0xFFFFFFFFu ? -1 : int(v);

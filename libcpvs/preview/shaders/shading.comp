@@ -27,14 +27,14 @@ void main() {
   uint shadowed = 0u;
   for (uint slot = 0u; slot < count; ++slot) {
     gLight = tileLights[tileOffsets[tile] + slot];
-    uint type = cpvsLightType();
+    uint shape = cpvsLightShape();
     vec3 color = vec3(cpvsLightReal(CPVS_LIGHT_COLOR), cpvsLightReal(CPVS_LIGHT_COLOR + 1u),
                       cpvsLightReal(CPVS_LIGHT_COLOR + 2u)) * float(cpvsLightReal(CPVS_LIGHT_INTENSITY));
     vec3 direction = vec3(cpvsLightReal(CPVS_LIGHT_DIRECTION), cpvsLightReal(CPVS_LIGHT_DIRECTION + 1u),
                           cpvsLightReal(CPVS_LIGHT_DIRECTION + 2u));
     vec3 toLight;
     float attenuation = 1.0;
-    if (type == CPVS_LIGHT_DIRECTIONAL) {
+    if ((shape & CPVS_SHAPE_POSITION) == 0u) {
       toLight = -direction;
     } else {
       vec3 offset = vec3(dvec3(cpvsLightReal(CPVS_LIGHT_POSITION), cpvsLightReal(CPVS_LIGHT_POSITION + 1u),
@@ -49,7 +49,7 @@ void main() {
         window *= window;
       }
       attenuation = window / distance2;
-      if (type == CPVS_LIGHT_SPOT) {
+      if ((shape & CPVS_SHAPE_CONE) != 0u) {
         float cosOuter = float(cpvsLightReal(CPVS_LIGHT_COS_OUTER)), cosInner = float(cpvsLightReal(CPVS_LIGHT_COS_INNER));
         float scale = 1.0 / max(0.001, cosInner - cosOuter);
         float t = clamp(dot(direction, -toLight) * scale - cosOuter * scale, 0.0, 1.0);
