@@ -47,7 +47,7 @@ bool withinInfluence(const Light& light, const glm::dvec3& point) {
     case LightType::Spot: return insideSpot<double, bool>(spotInfluence(light), point.x, point.y, point.z);
     case LightType::Point: break;
   }
-  return glm::length(point - light.position) <= light.range;
+  return withinRange(light, point - light.position);
 }
 
 bool facesLight(const Light& light, const glm::dvec3& point, const glm::dvec3& normal,

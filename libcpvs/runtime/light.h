@@ -55,6 +55,9 @@ inline double influenceRange(const Light& light) {
 // the light itself, for a spot); spot: inside the outer cone, capped at pi/2. Bit for bit the runtime's test
 // (cell_lanes.h insideSpot of spotInfluence, selectView).
 bool withinInfluence(const Light& light, const glm::dvec3& point);
+// The influence of a light with a position and no cone: toPoint (point - position) within range. Inline:
+// view selection asks it per point.
+inline bool withinRange(const Light& light, const glm::dvec3& toPoint) { return glm::length(toPoint) <= light.range; }
 
 // A spot light's cone and range in the form the lookups' lanes test (cell_lanes.h).
 struct SpotInfluence;

@@ -74,10 +74,11 @@ Ray texelRay(const LightView& view, double u, double v) {
 }
 
 std::optional<size_t> selectView(const Light& light, const std::vector<LightView>& views, const glm::dvec3& world) {
-  if (views.empty() || !withinInfluence(light, world)) return std::nullopt;
-  if (!hasCubeFaces(light)) return 0;  // one view covers the whole influence
-  // Cube faces: the face of the major axis (ties go to the lower face index).
+  if (views.empty()) return std::nullopt;
+  if (!hasCubeFaces(light)) return withinInfluence(light, world) ? std::optional<size_t>(0) : std::nullopt;
+  // Cube faces (lights with a range, no cone): the face of the major axis (ties go to the lower face index).
   const glm::dvec3 toPoint = world - light.position;
+  if (!withinRange(light, toPoint)) return std::nullopt;
   const glm::dvec3 m = glm::abs(toPoint);
   int axis = m.x >= m.y && m.x >= m.z ? 0 : (m.y >= m.z ? 1 : 2);
   const int face = 2 * axis + (toPoint[axis] < 0 ? 1 : 0);
