@@ -5,6 +5,9 @@
 
 namespace cpvs::gltf {
 
+// The most elements an accessor (or a decoded compressed stream) may have: cpvs meshes index with uint32.
+inline constexpr size_t kMaxElements = size_t(0xFFFFFFFFu);
+
 // Bytes of one component: 1, 2 or 4 for the six component types glTF 2.0 allows (BYTE, UNSIGNED_BYTE, SHORT,
 // UNSIGNED_SHORT, UNSIGNED_INT, FLOAT); 0 for any other value, INT and DOUBLE included (OpenGL has them,
 // glTF accessors do not).

@@ -24,7 +24,6 @@ static_assert(std::endian::native == std::endian::little, "glTF buffers are read
 // An accessor without a bufferView is all zeros (plus sparse values); its count costs memory but no file
 // bytes, so it is capped to keep hostile files from exhausting memory.
 inline constexpr size_t kMaxZeroInitialisedElements = size_t(1) << 24;
-inline constexpr size_t kMaxElements = size_t(UINT32_MAX);  // cpvs meshes index with uint32
 
 template <typename T>
 T loadUnaligned(const unsigned char* bytes) {

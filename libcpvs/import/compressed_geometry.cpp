@@ -19,7 +19,6 @@ namespace {
 
 constexpr const char* kMeshoptExtensions[] = {"EXT_meshopt_compression", "KHR_meshopt_compression"};
 constexpr const char* kDracoExtension = "KHR_draco_mesh_compression";
-constexpr size_t kMaxElements = size_t(UINT32_MAX);        // cpvs meshes index with uint32
 constexpr size_t kMaxDecodedBytes = size_t(1) << 32;        // a glTF buffer holds at most 4 GiB
 // libmeshoptimizer decodes vertex streams of these versions (0.23 added version 1, which
 // KHR_meshopt_compression allows; Debian 12 ships 0.18).
