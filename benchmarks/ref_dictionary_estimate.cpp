@@ -24,29 +24,14 @@
 #include <unordered_map>
 #include <vector>
 
+#include "benchmarks/node_pool.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/cpvs_file.h"
 
 namespace {
 
 using namespace cpvs;
-
-// A distinct subtree: the node's edge, its child codes (references as 2) and the pooled ids of its children
-// (leaf ids for a leaf parent, node ids otherwise).
-struct NodeKey {
-  uint32_t edge;
-  uint32_t codes;
-  std::vector<uint32_t> children;
-  bool operator<(const NodeKey& o) const {
-    return std::tie(edge, codes, children) < std::tie(o.edge, o.codes, o.children);
-  }
-};
-
-struct PooledNode {
-  uint32_t edge;
-  uint32_t ownUnits;                // header plus references as stored in the view that first had it
-  std::vector<uint32_t> children;   // pooled ids (leaves below edge 8)
-};
+using namespace cpvs::study;
 
 unsigned varintBytes(uint64_t v) {
   unsigned n = 1;
@@ -55,57 +40,6 @@ unsigned varintBytes(uint64_t v) {
 }
 
 unsigned fixedBytes(uint64_t v) { return v < (1u << 8) ? 1 : v < (1u << 16) ? 2 : v < (1u << 24) ? 3 : 4; }
-
-struct Pool {
-  std::vector<PooledNode> nodes;
-  uint64_t leaves = 0, roots = 0, views = 0, storedBytes = 0;
-};
-
-Pool poolOf(const CpvsFile& file) {
-  Pool pool;
-  std::unordered_map<uint64_t, uint32_t> leafIds;
-  std::map<NodeKey, uint32_t> nodeIds;
-  for (const CpvsFile::LightEntry& light : file.lights())
-    for (const CpvsFile::View& v : light.views) {
-      ++pool.views;
-      const DagView& dag = v.dag;
-      pool.storedBytes += dag.nodes.size() * 2 + dag.leaves.size() * 8;
-      if (dag.rootCode == ChildCode::Ref) ++pool.roots;
-      std::vector<uint32_t> leafId(dag.leaves.size());
-      for (size_t i = 0; i < dag.leaves.size(); ++i)
-        leafId[i] = leafIds.emplace(dag.leaves[i], uint32_t(leafIds.size())).first->second;
-      const size_t levels = v.nodesPerLevel.size();
-      std::vector<std::vector<uint32_t>> offsets(levels);
-      uint32_t at = 0;
-      for (size_t l = 0; l < levels; ++l)
-        for (uint64_t k = 0; k < v.nodesPerLevel[l]; ++k) {
-          offsets[l].push_back(at);
-          at += nodeUnitCount(dag.nodes[at]);
-        }
-      std::unordered_map<uint32_t, uint32_t> below;  // unit offset (or leaf index) -> pooled id
-      for (size_t l = levels; l-- > 0;) {
-        const uint32_t edge = dag.resolution >> l;
-        std::unordered_map<uint32_t, uint32_t> here;
-        for (const uint32_t offset : offsets[l]) {
-          const uint32_t header = dag.nodes[offset];
-          NodeKey key{edge, 0, {}};
-          for (unsigned c = 0; c < 8; ++c) {
-            const uint32_t code = childCodeOf(header, c);
-            key.codes |= code << (2 * c);
-            if (code != uint32_t(ChildCode::Ref)) continue;
-            const uint32_t target = dag.child(offset, header, c, edge);
-            key.children.push_back(edge == 8 ? leafId.at(target) : below.at(target));
-          }
-          const auto [it, fresh] = nodeIds.emplace(key, uint32_t(nodeIds.size()));
-          if (fresh) pool.nodes.push_back({edge, nodeUnitCount(header), key.children});
-          here[offset] = it->second;
-        }
-        below = std::move(here);
-      }
-    }
-  pool.leaves = leafIds.size();
-  return pool;
-}
 
 // Ranks by popularity within each level: rank[id] for nodes (per edge) and leafRank[id].
 struct Ranks {
