@@ -3,7 +3,7 @@
 // KHR_lights_punctual model), and every rule about a light that more than one stage needs: which parameters a
 // type has, where its influence ends, which way the light lies from a point, and which surfaces face it. A new
 // light type is a value of LightType plus its cases here and in light.cpp (docs/architecture.md lists the rest).
-// The GLSL readers take the type codes from light.glsl.h, checked against LightType in light.cpp.
+// The GLSL readers take the shape bits (shapeBits) and the type codes from light.glsl.h.
 #include <cstdint>
 #include <limits>
 #include <string>
