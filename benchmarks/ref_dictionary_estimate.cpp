@@ -72,7 +72,7 @@ struct Weights {
 
 Weights weigh(const Pool& pool, const Ranks& r) {
   Weights w;
-  const uint64_t leafBytes = pool.leaves * 8, rootBytes = pool.roots * 4;
+  const uint64_t leafBytes = pool.leaves * 8, rootBytes = pool.referencedRoots * 4;
   w.ownWidths = leafBytes + rootBytes;
   w.rankVarint = leafBytes + rootBytes;
   for (const PooledNode& n : pool.nodes) {

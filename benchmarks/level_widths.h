@@ -1,0 +1,186 @@
+#pragma once
+// A pool of DAG nodes laid out with two reference widths per level, in bytes: the candidate coding for a
+// .cpvs 3.0 that benchmarks/level_width_estimate weighs and benchmarks/level_width_walk times. A study's
+// tool, not a format.
+//
+// Every node edge (8, 16, ... N) is one level of the pool, its nodes most referenced first (ties as first
+// seen, as cpvs-bake orders a view's levels). A node is a 16-bit header, 2 bits per child as in format 2.0
+// (0 lit, 1 shadowed, 2 short reference, 3 long reference), then its references in child order, each in the
+// level's short or long width (1 to 4 bytes, little-endian). A reference is the child's byte offset in its
+// level (below a leaf parent: the leaf's index in the pool's leaves, most referenced first); each level picks
+// the pair of widths that makes it smallest. Child k's reference is read directly: it starts after the
+// header and the references before it, whose widths the header gives.
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <vector>
+
+#include "benchmarks/node_pool.h"
+#include "libcpvs/runtime/shadow_dag.h"
+
+namespace cpvs::study {
+
+struct Widths {
+  unsigned shortBytes = 0, longBytes = 0;
+};
+
+// The bytes of a reference of this value in a pair of widths: the short one when it fits, else the long one,
+// else "does not fit" (a huge count, so that the pair loses).
+inline uint64_t referenceBytes(uint64_t value, Widths w) {
+  if (w.shortBytes < 8 && value < (uint64_t(1) << (8 * w.shortBytes))) return w.shortBytes;
+  if (w.longBytes >= 8 || value < (uint64_t(1) << (8 * w.longBytes))) return w.longBytes;
+  return std::numeric_limits<uint32_t>::max();
+}
+
+inline constexpr std::array<Widths, 10> kWidthPairs{
+    {{1, 1}, {2, 2}, {3, 3}, {4, 4}, {1, 2}, {1, 3}, {1, 4}, {2, 3}, {2, 4}, {3, 4}}};
+
+// Reference counts capped at 2^16 (encodeDag's order), ids ordered most referenced first, ties by id.
+inline std::vector<uint32_t> popularityOrder(std::vector<uint32_t> ids, const std::vector<uint64_t>& refs) {
+  std::stable_sort(ids.begin(), ids.end(), [&](uint32_t a, uint32_t b) {
+    return std::min<uint64_t>(refs[a], 1u << 16) > std::min<uint64_t>(refs[b], 1u << 16);
+  });
+  return ids;
+}
+
+struct PoolLevel {
+  uint32_t edge = 0;
+  std::vector<uint32_t> order;  // pooled node ids as laid out
+  uint64_t references = 0, begin = 0, bytes = 0;  // begin: the level's first byte in ByteDag::bytes
+  Widths widths;
+};
+
+// The laid-out pool. `bytes` ends with 3 zero bytes so that a reference is read with one 4-byte load.
+struct ByteDag {
+  std::vector<uint8_t> bytes;
+  std::vector<uint64_t> leaves;          // masks, most referenced first
+  std::vector<PoolLevel> levels;         // ascending edge
+  std::vector<uint64_t> nodeOffset;      // by pooled id: byte offset in its level
+  std::vector<uint32_t> leafIndex;       // by pooled leaf id
+  // Per log2(edge) of a node: where its children's level starts (0 for leaf parents: leaf indices), and its
+  // level's widths.
+  uint32_t childBase[kMaxDagLevels] = {};
+  uint8_t shortBytes[kMaxDagLevels] = {}, longBytes[kMaxDagLevels] = {};
+  uint32_t levelBegin[kMaxDagLevels] = {};  // by log2(edge): the level's first byte
+
+  uint64_t nodeBytes() const { return bytes.size() - 3; }
+};
+
+inline ByteDag layOut(const Pool& pool) {
+  ByteDag out;
+  std::vector<uint64_t> refs(pool.nodes.size(), 0), leafRefs(pool.leaves, 0);
+  for (const PooledNode& n : pool.nodes)
+    for (const uint32_t c : n.children) (n.edge == 8 ? leafRefs : refs)[c] += 1;
+  std::vector<uint32_t> leafIds(pool.leaves);
+  std::iota(leafIds.begin(), leafIds.end(), 0u);
+  const std::vector<uint32_t> leafOrder = popularityOrder(leafIds, leafRefs);
+  out.leafIndex.assign(pool.leaves, 0);
+  for (uint32_t i = 0; i < leafOrder.size(); ++i) {
+    out.leafIndex[leafOrder[i]] = i;
+    out.leaves.push_back(pool.leafMasks[leafOrder[i]]);
+  }
+  std::map<uint32_t, std::vector<uint32_t>> byEdge;  // ascending edge: children are laid out before parents
+  for (uint32_t id = 0; id < pool.nodes.size(); ++id) byEdge[pool.nodes[id].edge].push_back(id);
+  out.nodeOffset.assign(pool.nodes.size(), 0);
+  const auto valueOf = [&](const PooledNode& n, uint32_t c) {
+    return n.edge == 8 ? uint64_t(out.leafIndex[c]) : out.nodeOffset[c];
+  };
+  for (auto& [edge, ids] : byEdge) {
+    PoolLevel level;
+    level.edge = edge;
+    level.order = popularityOrder(ids, refs);
+    uint64_t best = std::numeric_limits<uint64_t>::max();
+    for (const Widths pair : kWidthPairs) {
+      uint64_t bytes = 0;
+      for (const uint32_t id : level.order) {
+        bytes += 2;
+        for (const uint32_t c : pool.nodes[id].children) bytes += referenceBytes(valueOf(pool.nodes[id], c), pair);
+      }
+      if (bytes < best) best = bytes, level.widths = pair;
+    }
+    level.begin = out.bytes.size();
+    for (const uint32_t id : level.order) {
+      const PooledNode& n = pool.nodes[id];
+      out.nodeOffset[id] = out.bytes.size() - level.begin;
+      const size_t headerAt = out.bytes.size();
+      out.bytes.resize(headerAt + 2);
+      uint32_t header = 0;
+      for (unsigned c = 0, k = 0; c < 8; ++c) {
+        uint32_t code = (n.codes >> (2 * c)) & 3u;
+        if (code == uint32_t(ChildCode::Ref)) {
+          const uint64_t value = valueOf(n, n.children[k++]);
+          const unsigned width = unsigned(referenceBytes(value, level.widths));
+          code = width == level.widths.shortBytes ? 2u : 3u;
+          for (unsigned b = 0; b < width; ++b) out.bytes.push_back(uint8_t(value >> (8 * b)));
+          level.references += 1;
+        }
+        header |= code << (2 * c);
+      }
+      out.bytes[headerAt] = uint8_t(header);
+      out.bytes[headerAt + 1] = uint8_t(header >> 8);
+    }
+    level.bytes = out.bytes.size() - level.begin;
+    const unsigned log2Edge = unsigned(std::countr_zero(edge));
+    out.shortBytes[log2Edge] = uint8_t(level.widths.shortBytes);
+    out.longBytes[log2Edge] = uint8_t(level.widths.longBytes);
+    out.levelBegin[log2Edge] = uint32_t(level.begin);
+    out.levels.push_back(std::move(level));
+  }
+  for (const PoolLevel& level : out.levels)
+    if (level.edge > 8) out.childBase[std::countr_zero(level.edge)] = out.levelBegin[std::countr_zero(level.edge) - 1];
+  out.bytes.insert(out.bytes.end(), 3, 0);
+  return out;
+}
+
+// One view of a ByteDag: the walk of DagView::shadowed over the byte form.
+struct ByteDagView {
+  const ByteDag* dag = nullptr;
+  uint32_t resolution = 0;
+  ChildCode rootCode = ChildCode::Lit;
+  uint32_t root = 0;  // the root node's first byte
+
+  static ByteDagView of(const ByteDag& dag, const PooledRoot& r) {
+    const unsigned log2 = unsigned(std::countr_zero(r.resolution));
+    return {&dag, r.resolution, r.code, r.code == ChildCode::Ref ? dag.levelBegin[log2] + uint32_t(dag.nodeOffset[r.node]) : 0u};
+  }
+
+  // Child c's reference value (c must be a reference) of the node at byte `at` with this header, edge 2^log2.
+  uint32_t readRef(uint32_t at, uint32_t header, unsigned c, unsigned log2) const {
+    const uint32_t below = (1u << (2 * c)) - 1u;
+    const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
+    const uint32_t shortBytes = dag->shortBytes[log2], longBytes = dag->longBytes[log2];
+    const uint32_t skip = shortBytes * popcount32(refs & below) + (longBytes - shortBytes) * popcount32(wide & below);
+    uint32_t value;
+    std::memcpy(&value, dag->bytes.data() + at + 2 + skip, 4);
+    const uint32_t width = (wide >> (2 * c + 1)) & 1u ? longBytes : shortBytes;
+    return width == 4 ? value : value & ((1u << (8 * width)) - 1u);
+  }
+
+  bool shadowed(uint32_t x, uint32_t y, uint32_t z) const {
+    const uint8_t* bytes = dag->bytes.data();
+    uint32_t code = uint32_t(rootCode);
+    uint32_t at = root;
+    for (uint32_t half = resolution >> 1; half >= 8; half >>= 1) {
+      if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+      const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
+      const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
+      code = childCodeOf(header, c);
+      const unsigned log2 = unsigned(std::countr_zero(half)) + 1;
+      if (code == uint32_t(ChildCode::Ref)) at = dag->childBase[log2] + readRef(at, header, c, log2);
+    }
+    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    const unsigned c = z & 7u;
+    const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
+    code = childCodeOf(header, c);
+    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    const uint64_t mask = dag->leaves[readRef(at, header, c, 3)];
+    return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+  }
+};
+
+}  // namespace cpvs::study
