@@ -4,6 +4,8 @@
 #include <bit>
 #include <string>
 
+#include "libcpvs/runtime/popularity_order.h"
+
 
 namespace cpvs {
 
@@ -41,39 +43,6 @@ bool DagView::shadowed(uint32_t x, uint32_t y, uint32_t z) const {
   const uint64_t mask = leaves[child(offset, header, c, 8)];
   return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
 }
-
-namespace {
-
-// References per node of one level, indexed by the node's word offset (leaf index for leaves), counted over
-// the references of the level above.
-std::vector<uint32_t> referenceCounts(std::span<const uint32_t> parentWords, size_t targetCount) {
-  std::vector<uint32_t> counts(targetCount, 0);
-  for (size_t i = 0; i < parentWords.size();) {
-    const uint32_t header = parentWords[i];
-    const unsigned count = nodeWordCount(header);
-    for (unsigned k = 1; k < count; ++k) {
-      uint32_t& n = counts[parentWords[i + k]];
-      n += n != UINT32_MAX;
-    }
-    i += count;
-  }
-  return counts;
-}
-
-// `items` (word offsets or leaf indices) ordered by reference count, most first, ties in the given order:
-// a stable counting sort on the count capped at kCap (only the head of a level needs an exact order — what
-// fits one-unit references — and every node referenced kCap times or more belongs there).
-std::vector<uint32_t> mostReferencedFirst(const std::vector<uint32_t>& items, const std::vector<uint32_t>& counts) {
-  constexpr uint32_t kCap = 1u << 16;
-  std::vector<uint32_t> bucketStart(kCap + 2, 0);
-  for (uint32_t item : items) ++bucketStart[kCap - std::min(counts[item], kCap) + 1];
-  for (size_t b = 1; b < bucketStart.size(); ++b) bucketStart[b] += bucketStart[b - 1];
-  std::vector<uint32_t> ordered(items.size());
-  for (uint32_t item : items) ordered[bucketStart[kCap - std::min(counts[item], kCap)]++] = item;
-  return ordered;
-}
-
-}  // namespace
 
 Result<ShadowDag> encodeDag(uint32_t resolution, ChildCode rootCode, std::span<const std::span<const uint32_t>> levelWords,
                     std::span<const uint64_t> nodesPerLevel, std::vector<uint64_t> leaves, NodeOrder order) {

@@ -1,0 +1,72 @@
+#pragma once
+// One pool of DAG nodes and leaf masks for many views: each distinct subtree (the same node edge, child codes
+// and children) and each distinct leaf mask is kept once, whichever view it came from, and laid out with two
+// reference widths per level (docs/format-3-study.md: the coding a format 3.0 is to use; no file holds it yet).
+//
+// Laid-out form: one level per node edge (8, 16, ... the largest root's), ascending, each level's nodes most
+// referenced first (popularity_order.h; a view's root counts as a reference). A node is a 16-bit header, 2 bits
+// per child (0 lit, 1 shadowed, 2 short reference, 3 long reference; children in the order of shadow_dag.h),
+// then its references in child order, little-endian, each in its level's short or long width (1 to 4 bytes).
+// A reference is the child's byte offset in the level below; below a leaf parent (edge 8) it is the leaf's
+// index. Each level takes the pair of widths that makes it smallest (the first such pair in kWidthPairs).
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "libcpvs/dag/leaf_table.h"
+#include "libcpvs/dag/node_table.h"
+#include "libcpvs/runtime/shadow_dag.h"
+
+namespace cpvs {
+
+struct ReferenceWidths {
+  uint8_t shortBytes = 0, longBytes = 0;
+};
+// The pairs a level may take, in the order ties are broken.
+inline constexpr ReferenceWidths kWidthPairs[] = {{1, 1}, {2, 2}, {3, 3}, {4, 4}, {1, 2},
+                                                   {1, 3}, {1, 4}, {2, 3}, {2, 4}, {3, 4}};
+
+struct PooledLevel {
+  uint32_t edge = 0;
+  ReferenceWidths widths;
+  uint64_t nodes = 0;
+  std::vector<uint8_t> bytes;
+};
+
+struct LaidOutPool {
+  std::vector<PooledLevel> levels;  // ascending edge, from 8 up to the largest root's
+  std::vector<uint64_t> leaves;     // masks, most referenced first
+  struct Root {
+    ChildCode code = ChildCode::Lit;
+    uint32_t edge = 0;    // the view's resolution
+    uint64_t offset = 0;  // a reference: the root node's byte offset in the level of its edge
+  };
+  std::vector<Root> roots;  // one per view, in the order they were added
+};
+
+class NodePool {
+public:
+  // Adds one view's DAG in the stored form of format 2.0 (a validated file's, or encodeDag's) and returns its
+  // index among the views. Only nodes reachable from the root are pooled.
+  size_t add(const DagView& dag);
+  // Lays the pool out. The same views added in the same order give the same bytes.
+  LaidOutPool layOut() const;
+
+  uint64_t nodes() const;
+  uint64_t leaves() const { return leaves_.leaves().size(); }
+  size_t views() const { return roots_.size(); }
+
+private:
+  struct Root {
+    ChildCode code;
+    uint32_t log2Edge;
+    uint32_t word;  // a reference: the root's word offset in levels_[log2Edge]
+  };
+  // levels_[log2(edge)]: the nodes of that edge in build form (a header of codes 0..2, then one word per
+  // referenced child: its word offset in the level below, or its leaf index below a leaf parent).
+  std::vector<NodeTable> levels_;
+  LeafTable leaves_;
+  std::vector<Root> roots_;
+};
+
+}  // namespace cpvs

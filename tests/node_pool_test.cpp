@@ -1,0 +1,164 @@
+// The node pool (libcpvs/dag/node_pool.h): views of several files pooled together read back every voxel as
+// their own DAGs do, shared subtrees are stored once, each level takes the narrowest widths its references
+// allow, and the same views give the same bytes.
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstring>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/dag/node_pool.h"
+#include "libcpvs/runtime/cpvs_file.h"
+#include "support/test_dags.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+// The walk of DagView::shadowed over the laid-out pool, written from its description in node_pool.h.
+bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y, uint32_t z) {
+  const LaidOutPool::Root& root = pool.roots[view];
+  const auto levelOf = [&](uint32_t edge) -> const PooledLevel& { return pool.levels[std::countr_zero(edge) - 3]; };
+  uint32_t code = uint32_t(root.code);
+  uint64_t at = root.offset;
+  for (uint32_t edge = root.edge;; edge >>= 1) {
+    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    const PooledLevel& level = levelOf(edge);
+    const unsigned c = edge == 8 ? (z & 7u) : ((z & (edge / 2)) ? 4u : 0u) | ((y & (edge / 2)) ? 2u : 0u) | ((x & (edge / 2)) ? 1u : 0u);
+    const uint32_t header = uint32_t(level.bytes.at(at)) | uint32_t(level.bytes.at(at + 1)) << 8;
+    code = childCodeOf(header, c);
+    if (code != uint32_t(ChildCode::Ref)) continue;
+    uint64_t ref = at + 2;
+    for (unsigned before = 0; before < c; ++before) {
+      const uint32_t raw = (header >> (2 * before)) & 3u;
+      ref += raw == 2 ? level.widths.shortBytes : raw == 3 ? level.widths.longBytes : 0;
+    }
+    const unsigned width = ((header >> (2 * c)) & 3u) == 3u ? level.widths.longBytes : level.widths.shortBytes;
+    uint64_t value = 0;
+    for (unsigned b = 0; b < width; ++b) value |= uint64_t(level.bytes.at(ref + b)) << (8 * b);
+    if (edge == 8) return (pool.leaves.at(value) >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+    at = value;
+  }
+}
+
+// A 256^3 DAG whose 9,000 leaf parents reference 70,000 distinct leaves: the pool's leaf parents then index
+// leaves past 65,535, which no golden file does. Every node references 8 children (shared modulo the level).
+ShadowDag manyLeavesDag() {
+  const uint32_t counts[6] = {1, 8, 64, 512, 4096, 9000};
+  std::vector<std::vector<uint32_t>> words(6);
+  for (size_t l = 0; l < 6; ++l)
+    for (uint32_t j = 0; j < counts[l]; ++j) {
+      words[l].push_back(0xAAAAu);
+      for (uint32_t c = 0; c < 8; ++c)
+        words[l].push_back(l + 1 < 6 ? 9 * ((j * 8 + c) % counts[l + 1]) : (j * 8 + c) % 70000);
+    }
+  std::vector<uint64_t> leaves(70000);
+  for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0x9E3779B97F4A7C15ull;
+  std::vector<std::span<const uint32_t>> levels(words.begin(), words.end());
+  const std::vector<uint64_t> perLevel(counts, counts + 6);
+  return orThrow(encodeDag(256, ChildCode::Ref, levels, perLevel, std::move(leaves)));
+}
+
+struct Views {
+  std::vector<std::shared_ptr<const CpvsFile>> files;
+  std::vector<DagView> dags;
+  ShadowDag wide = test::wideReferenceDag(), manyLeaves = manyLeavesDag();
+};
+
+Views goldenViews() {
+  Views v;
+  for (const char* name : {"tiny_v2.cpvs", "tiny_scene_bake64_v2.cpvs", "alpha_test_bake128_v2.cpvs"}) {
+    v.files.push_back(orThrow(CpvsFile::open(test::sourcePath(std::string("tests/golden/") + name))));
+    for (const auto& light : v.files.back()->lights())
+      for (const auto& view : light.views) v.dags.push_back(view.dag);
+  }
+  v.dags.push_back(v.wide.view());
+  v.dags.push_back(v.manyLeaves.view());
+  return v;
+}
+
+void expectEveryVoxelReadsBack(const LaidOutPool& pool, const std::vector<DagView>& dags, size_t firstView = 0) {
+  for (size_t v = 0; v < dags.size(); ++v) {
+    const uint32_t n = dags[v].resolution;
+    if (n == 0) continue;
+    const uint32_t step = n > 128 ? 3 : 1;  // every voxel up to 128^3, every third one on each axis beyond
+    size_t wrong = 0;
+    for (uint32_t z = 0; z < n; z += step)
+      for (uint32_t y = 0; y < n; y += step)
+        for (uint32_t x = 0; x < n; x += step) wrong += pooledShadowed(pool, firstView + v, x, y, z) != dags[v].shadowed(x, y, z);
+    EXPECT_EQ(wrong, 0u) << "view " << v << " (N " << n << ")";
+  }
+}
+
+TEST(NodePool, EveryViewReadsBackEveryVoxel) {
+  const Views views = goldenViews();
+  NodePool pool;
+  for (const DagView& dag : views.dags) pool.add(dag);
+  const LaidOutPool laid = pool.layOut();
+  ASSERT_EQ(laid.roots.size(), views.dags.size());
+  expectEveryVoxelReadsBack(laid, views.dags);
+}
+
+TEST(NodePool, KeepsEachSubtreeOnceAcrossViews) {
+  const Views views = goldenViews();
+  NodePool once, twice;
+  for (const DagView& dag : views.dags) {
+    once.add(dag);
+    twice.add(dag);
+  }
+  for (const DagView& dag : views.dags) twice.add(dag);
+  EXPECT_EQ(twice.nodes(), once.nodes());
+  EXPECT_EQ(twice.leaves(), once.leaves());
+  const LaidOutPool laid = twice.layOut();
+  for (size_t v = 0; v < views.dags.size(); ++v) {
+    EXPECT_EQ(laid.roots[v].offset, laid.roots[v + views.dags.size()].offset);
+    EXPECT_EQ(laid.roots[v].code, laid.roots[v + views.dags.size()].code);
+  }
+  expectEveryVoxelReadsBack(laid, views.dags, views.dags.size());
+  // Pooling the golden files' views shares something: fewer nodes than the views hold together.
+  uint64_t stored = 0;
+  for (const auto& file : views.files)
+    for (const auto& light : file->lights())
+      for (const auto& view : light.views)
+        for (const uint64_t n : view.nodesPerLevel) stored += n;
+  for (const ShadowDag* dag : {&views.wide, &views.manyLeaves})
+    for (const uint64_t n : dag->nodesPerLevel) stored += n;
+  EXPECT_LT(once.nodes(), stored);
+}
+
+TEST(NodePool, EachLevelTakesTheNarrowestWidthsItsReferencesAllow) {
+  const Views views = goldenViews();
+  NodePool pool;
+  for (const DagView& dag : views.dags) pool.add(dag);
+  const LaidOutPool laid = pool.layOut();
+  // manyLeavesDag's leaf parents index leaves past 65535: the leaf parents' long width is 3 bytes.
+  ASSERT_GT(laid.leaves.size(), 65536u);
+  EXPECT_EQ(laid.levels[0].edge, 8u);
+  EXPECT_EQ(laid.levels[0].widths.longBytes, 3u);
+  // So are its 9,000 leaf parents' offsets (26 bytes each) from the edge-16 level; every level above is small
+  // enough for references of 1 or 2 bytes.
+  EXPECT_EQ(laid.levels[1].widths.longBytes, 3u);
+  for (size_t l = 2; l < laid.levels.size(); ++l) EXPECT_LE(laid.levels[l].widths.longBytes, 2u) << laid.levels[l].edge;
+}
+
+TEST(NodePool, SameViewsGiveTheSameBytes) {
+  const Views views = goldenViews();
+  NodePool a, b;
+  for (const DagView& dag : views.dags) a.add(dag);
+  for (const DagView& dag : views.dags) b.add(dag);
+  const LaidOutPool la = a.layOut(), lb = b.layOut();
+  ASSERT_EQ(la.levels.size(), lb.levels.size());
+  for (size_t l = 0; l < la.levels.size(); ++l) {
+    EXPECT_EQ(la.levels[l].bytes, lb.levels[l].bytes);
+    EXPECT_EQ(la.levels[l].widths.shortBytes, lb.levels[l].widths.shortBytes);
+    EXPECT_EQ(la.levels[l].widths.longBytes, lb.levels[l].widths.longBytes);
+  }
+  EXPECT_EQ(la.leaves, lb.leaves);
+}
+
+}  // namespace
+}  // namespace cpvs
