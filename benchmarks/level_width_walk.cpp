@@ -1,6 +1,6 @@
-// What the per-level reference widths of benchmarks/level_widths.h cost a lookup: the scalar walk of format
-// 2.0 (DagView::shadowed over the file's own DAGs) against the same walk over the whole file's pool in the
-// byte form, on the same voxels, alternating. A study for a format 3.0, not a format: the runtime's batch
+// What the per-level reference widths cost a lookup: the scalar walk of format 2.0 (DagView::shadowed over the
+// file's own DAGs) against the same walk over the whole file's pool as the library's NodePool lays it out
+// (benchmarks/level_widths.h reads it), on the same voxels, alternating. A study for a format 3.0, not a format: the runtime's batch
 // walks (AVX-512 gathers) are not ported, so this weighs the decoding's cost, not the tools' throughput.
 //
 // Voxels are drawn at random (fixed seed) over the views, in two sets: uniform over each view's grid, and only
@@ -80,17 +80,15 @@ std::string loadAverage() {
 
 int run(const char* path, size_t count, int rounds) {
   const auto file = orThrow(CpvsFile::open(path));
-  PoolBuilder builder;
   std::vector<const DagView*> views;
   for (const CpvsFile::LightEntry& light : file->lights())
-    for (const CpvsFile::View& v : light.views) {
-      builder.add(v);
-      views.push_back(&v.dag);
-    }
-  const Pool& pool = builder.pool();
-  const ByteDag laid = layOut(pool);
+    for (const CpvsFile::View& v : light.views) views.push_back(&v.dag);
+  NodePool pool;
+  for (const DagView* v : views) pool.add(*v);
+  const LaidOutPool laidOut = pool.layOut();
+  const ByteDag laid(laidOut);
   std::vector<ByteDagView> byteViews;
-  for (const PooledRoot& r : pool.roots) byteViews.push_back(ByteDagView::of(laid, r));
+  for (const LaidOutPool::Root& r : laidOut.roots) byteViews.push_back(ByteDagView::of(laid, r));
   uint64_t stored = 0;
   for (const DagView* v : views) stored += v->nodes.size() * 2 + v->leaves.size() * 8;
   std::printf("%s: %zu views, 2.0 DAGs %.2f MB, pooled byte form %.2f MB; load %s\n", path, views.size(),

@@ -1,7 +1,7 @@
 #pragma once
 // A pool of DAG nodes laid out with two reference widths per level, in bytes: the candidate coding for a
-// .cpvs 3.0 that benchmarks/level_width_estimate weighs and benchmarks/level_width_walk times. A study's
-// tool, not a format.
+// .cpvs 3.0 that benchmarks/level_width_estimate weighs and benchmarks/level_width_walk times (the library's
+// NodePool, libcpvs/dag/node_pool.h, is its implementation). A study's tool, not a format.
 //
 // Every node edge (8, 16, ... N) is one level of the pool, its nodes most referenced first (ties as first
 // seen, as cpvs-bake orders a view's levels). A node is a 16-bit header, 2 bits per child as in format 2.0
@@ -21,13 +21,12 @@
 #include <vector>
 
 #include "benchmarks/node_pool.h"
+#include "libcpvs/dag/node_pool.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs::study {
 
-struct Widths {
-  unsigned shortBytes = 0, longBytes = 0;
-};
+using Widths = ReferenceWidths;  // the library's pairs (kWidthPairs), in the same order
 
 // The bytes of a reference of this value in a pair of widths: the short one when it fits, else the long one,
 // else "does not fit" (a huge count, so that the pair loses).
@@ -36,9 +35,6 @@ inline uint64_t referenceBytes(uint64_t value, Widths w) {
   if (w.longBytes >= 8 || value < (uint64_t(1) << (8 * w.longBytes))) return w.longBytes;
   return std::numeric_limits<uint32_t>::max();
 }
-
-inline constexpr std::array<Widths, 10> kWidthPairs{
-    {{1, 1}, {2, 2}, {3, 3}, {4, 4}, {1, 2}, {1, 3}, {1, 4}, {2, 3}, {2, 4}, {3, 4}}};
 
 // Reference counts capped at 2^16 (encodeDag's order), ids ordered most referenced first, ties by id.
 inline std::vector<uint32_t> popularityOrder(std::vector<uint32_t> ids, const std::vector<uint64_t>& refs) {
@@ -55,35 +51,28 @@ struct PoolLevel {
   Widths widths;
 };
 
-// The laid-out pool. `bytes` ends with 3 zero bytes so that a reference is read with one 4-byte load.
-struct ByteDag {
+// The study's layout of a pool: what the estimator weighs the other codings over. The library's NodePool
+// (libcpvs/dag/node_pool.h) lays out the same bytes (level_width_estimate checks it); the walks read those.
+struct StudyLayout {
   std::vector<uint8_t> bytes;
-  std::vector<uint64_t> leaves;          // masks, most referenced first
   std::vector<PoolLevel> levels;         // ascending edge
   std::vector<uint64_t> nodeOffset;      // by pooled id: byte offset in its level
   std::vector<uint32_t> leafIndex;       // by pooled leaf id
-  // Per log2(edge) of a node: where its children's level starts (0 for leaf parents: leaf indices), and its
-  // level's widths.
-  uint32_t childBase[kMaxDagLevels] = {};
-  uint8_t shortBytes[kMaxDagLevels] = {}, longBytes[kMaxDagLevels] = {};
-  uint32_t levelBegin[kMaxDagLevels] = {};  // by log2(edge): the level's first byte
-
-  uint64_t nodeBytes() const { return bytes.size() - 3; }
+  uint64_t nodeBytes() const { return bytes.size(); }
 };
 
-inline ByteDag layOut(const Pool& pool) {
-  ByteDag out;
+inline StudyLayout layOut(const Pool& pool) {
+  StudyLayout out;
   std::vector<uint64_t> refs(pool.nodes.size(), 0), leafRefs(pool.leaves, 0);
   for (const PooledNode& n : pool.nodes)
     for (const uint32_t c : n.children) (n.edge == 8 ? leafRefs : refs)[c] += 1;
+  for (const PooledRoot& r : pool.roots)  // a view's root counts as a reference, as NodePool counts it
+    if (r.code == ChildCode::Ref) refs[r.node] += 1;
   std::vector<uint32_t> leafIds(pool.leaves);
   std::iota(leafIds.begin(), leafIds.end(), 0u);
   const std::vector<uint32_t> leafOrder = popularityOrder(leafIds, leafRefs);
   out.leafIndex.assign(pool.leaves, 0);
-  for (uint32_t i = 0; i < leafOrder.size(); ++i) {
-    out.leafIndex[leafOrder[i]] = i;
-    out.leaves.push_back(pool.leafMasks[leafOrder[i]]);
-  }
+  for (uint32_t i = 0; i < leafOrder.size(); ++i) out.leafIndex[leafOrder[i]] = i;
   std::map<uint32_t, std::vector<uint32_t>> byEdge;  // ascending edge: children are laid out before parents
   for (uint32_t id = 0; id < pool.nodes.size(); ++id) byEdge[pool.nodes[id].edge].push_back(id);
   out.nodeOffset.assign(pool.nodes.size(), 0);
@@ -125,17 +114,35 @@ inline ByteDag layOut(const Pool& pool) {
       out.bytes[headerAt + 1] = uint8_t(header >> 8);
     }
     level.bytes = out.bytes.size() - level.begin;
-    const unsigned log2Edge = unsigned(std::countr_zero(edge));
-    out.shortBytes[log2Edge] = uint8_t(level.widths.shortBytes);
-    out.longBytes[log2Edge] = uint8_t(level.widths.longBytes);
-    out.levelBegin[log2Edge] = uint32_t(level.begin);
     out.levels.push_back(std::move(level));
   }
-  for (const PoolLevel& level : out.levels)
-    if (level.edge > 8) out.childBase[std::countr_zero(level.edge)] = out.levelBegin[std::countr_zero(level.edge) - 1];
-  out.bytes.insert(out.bytes.end(), 3, 0);
   return out;
 }
+
+// The library's laid-out pool in one array, as a file would map it: levels one after the other, then 3 zero
+// bytes so that a reference is read with one 4-byte load.
+struct ByteDag {
+  std::vector<uint8_t> bytes;
+  std::vector<uint64_t> leaves;
+  // Per log2(edge) of a node: where its children's level starts (0 for leaf parents: leaf indices), its level's
+  // widths, and where its own level starts.
+  uint32_t childBase[kMaxDagLevels] = {};
+  uint8_t shortBytes[kMaxDagLevels] = {}, longBytes[kMaxDagLevels] = {};
+  uint32_t levelBegin[kMaxDagLevels] = {};
+
+  explicit ByteDag(const LaidOutPool& pool) : leaves(pool.leaves) {
+    for (const PooledLevel& level : pool.levels) {
+      const unsigned log2 = unsigned(std::countr_zero(level.edge));
+      levelBegin[log2] = uint32_t(bytes.size());
+      if (log2 > 3) childBase[log2] = levelBegin[log2 - 1];
+      shortBytes[log2] = level.widths.shortBytes;
+      longBytes[log2] = level.widths.longBytes;
+      bytes.insert(bytes.end(), level.bytes.begin(), level.bytes.end());
+    }
+    bytes.insert(bytes.end(), 3, 0);
+  }
+  uint64_t nodeBytes() const { return bytes.size() - 3; }
+};
 
 // One view of a ByteDag: the walk of DagView::shadowed over the byte form.
 struct ByteDagView {
@@ -144,9 +151,9 @@ struct ByteDagView {
   ChildCode rootCode = ChildCode::Lit;
   uint32_t root = 0;  // the root node's first byte
 
-  static ByteDagView of(const ByteDag& dag, const PooledRoot& r) {
-    const unsigned log2 = unsigned(std::countr_zero(r.resolution));
-    return {&dag, r.resolution, r.code, r.code == ChildCode::Ref ? dag.levelBegin[log2] + uint32_t(dag.nodeOffset[r.node]) : 0u};
+  static ByteDagView of(const ByteDag& dag, const LaidOutPool::Root& r) {
+    const unsigned log2 = unsigned(std::countr_zero(r.edge));
+    return {&dag, r.edge, r.code, r.code == ChildCode::Ref ? dag.levelBegin[log2] + uint32_t(r.offset) : 0u};
   }
 
   // Child c's reference value (c must be a reference) of the node at byte `at` with this header, edge 2^log2.
