@@ -9,7 +9,8 @@
 // (benchmarks/node_pool.h: each distinct subtree and leaf mask once; a pooled level holds the nodes of one edge
 // from every view). In both, the 2.0 coding (units, widths 2 and 4 bytes) is weighed beside the chosen widths;
 // per view it must equal the file's own DAG bytes, which checks the layout; pooled, the widths per level must
-// weigh what the library's NodePool lays out, within 0.01 % (ties are broken in another order).
+// weigh what the library's NodePool lays out, within 0.01 % (ties are broken in another order), and so must the
+// hot tables.
 //
 // "Three widths" gives each child 3 bits (a 3-byte header): lit, shadowed, or a reference of 1, 2, 3 or 4
 // bytes, the narrowest its value fits; still read directly. The order-0 bound codes each header and each
@@ -181,9 +182,10 @@ int run(const char* path, bool showLevels) {
   NodePool library;
   for (const CpvsFile::LightEntry& light : file->lights())
     for (const CpvsFile::View& v : light.views) library.add(v.dag);
-  const LaidOutPool laidOut = library.layOut();
-  uint64_t libraryBytes = laidOut.leaves.size() * 8;
+  const LaidOutPool laidOut = library.layOut(), laidOutHot = library.layOut(true);
+  uint64_t libraryBytes = laidOut.leaves.size() * 8, libraryHotBytes = laidOutHot.leaves.size() * 8;
   for (const PooledLevel& level : laidOut.levels) libraryBytes += level.bytes.size();
+  for (const PooledLevel& level : laidOutHot.levels) libraryHotBytes += level.bytes.size() + 4 * level.hot.size();
   const auto entropy = [&](double bytes) { return uint64_t(std::ceil(bytes)); };
   std::printf("| %s | %llu | %.2f | %.2f | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | "
               "%.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) |\n",
@@ -210,10 +212,12 @@ int run(const char* path, bool showLevels) {
   }
   // Ties in popularity are broken in first-seen order, which differs (the study meets a view's nodes level by
   // level, NodePool depth first): the two may differ by a few bytes, no more.
-  const bool libraryAgrees = std::llabs((long long)libraryBytes - (long long)pooled.chosen) * 10000 <= (long long)pooled.chosen;
+  const auto agrees = [](uint64_t a, uint64_t b) { return std::llabs((long long)a - (long long)b) * 10000 <= (long long)b; };
+  const bool libraryAgrees = agrees(libraryBytes, pooled.chosen) && agrees(libraryHotBytes, pooled.hot);
   if (!libraryAgrees)
-    std::fprintf(stderr, "level_width_estimate: %s: NodePool lays out %llu bytes, the study %llu\n", path,
-                 (unsigned long long)libraryBytes, (unsigned long long)pooled.chosen);
+    std::fprintf(stderr, "level_width_estimate: %s: NodePool lays out %llu bytes (with hot tables %llu), the study "
+                 "%llu (%llu)\n", path, (unsigned long long)libraryBytes, (unsigned long long)libraryHotBytes,
+                 (unsigned long long)pooled.chosen, (unsigned long long)pooled.hot);
   return perView2 == stored && libraryAgrees ? 0 : 3;
 }
 

@@ -1,6 +1,6 @@
 // What the per-level reference widths cost a lookup: the scalar walk of format 2.0 (DagView::shadowed over the
 // file's own DAGs) against the same walk over the whole file's pool as the library's NodePool lays it out
-// (benchmarks/level_widths.h reads it), on the same voxels, alternating. A study for a format 3.0, not a format: the runtime's batch
+// (benchmarks/level_widths.h reads it), without and with hot tables, on the same voxels, alternating. A study for a format 3.0, not a format: the runtime's batch
 // walks (AVX-512 gathers) are not ported, so this weighs the decoding's cost, not the tools' throughput.
 //
 // Voxels are drawn at random (fixed seed) over the views, in two sets: uniform over each view's grid, and only
@@ -85,43 +85,48 @@ int run(const char* path, size_t count, int rounds) {
     for (const CpvsFile::View& v : light.views) views.push_back(&v.dag);
   NodePool pool;
   for (const DagView* v : views) pool.add(*v);
-  const LaidOutPool laidOut = pool.layOut();
-  const ByteDag laid(laidOut);
-  std::vector<ByteDagView> byteViews;
+  const LaidOutPool laidOut = pool.layOut(), laidOutHot = pool.layOut(true);
+  const ByteDag laid(laidOut), laidHot(laidOutHot);
+  std::vector<ByteDagView> byteViews, hotViews;
   for (const LaidOutPool::Root& r : laidOut.roots) byteViews.push_back(ByteDagView::of(laid, r));
+  for (const LaidOutPool::Root& r : laidOutHot.roots) hotViews.push_back(ByteDagView::of(laidHot, r));
   uint64_t stored = 0;
   for (const DagView* v : views) stored += v->nodes.size() * 2 + v->leaves.size() * 8;
-  std::printf("%s: %zu views, 2.0 DAGs %.2f MB, pooled byte form %.2f MB; load %s\n", path, views.size(),
-              double(stored) / 1e6, double(laid.nodeBytes() + laid.leaves.size() * 8) / 1e6, loadAverage().c_str());
+  std::printf("%s: %zu views, 2.0 DAGs %.2f MB, pooled byte form %.2f MB, with hot tables %.2f MB; load %s\n", path,
+              views.size(), double(stored) / 1e6, double(laid.nodeBytes() + laid.leaves.size() * 8) / 1e6,
+              double(laidHot.nodeBytes() + laidHot.tableBytes() + laidHot.leaves.size() * 8) / 1e6, loadAverage().c_str());
   const auto old = [&](const Lookup& l) { return views[l.view]->shadowed(l.x, l.y, l.z); };
   const auto pooled = [&](const Lookup& l) { return byteViews[l.view].shadowed(l.x, l.y, l.z); };
+  const auto hot = [&](const Lookup& l) { return hotViews[l.view].shadowed(l.x, l.y, l.z); };
   for (const bool deep : {false, true}) {
     const std::vector<Lookup> lookups = drawLookups(views, count, deep, deep ? 2 : 1);
     size_t mismatches = 0;
-    for (const Lookup& l : lookups) mismatches += old(l) != pooled(l);
+    for (const Lookup& l : lookups) mismatches += (old(l) != pooled(l)) + (old(l) != hot(l));
     if (mismatches) {
       std::fprintf(stderr, "level_width_walk: %s: %zu of %zu answers differ\n", path, mismatches, lookups.size());
       return 3;
     }
-    std::vector<double> a, b, ratio;
-    uint64_t sumA = 0, sumB = 0;
+    std::vector<double> a, b, h, ratio, ratioHot;
+    uint64_t sumA = 0, sumB = 0, sumH = 0;
     for (int r = 0; r < rounds; ++r) {
       a.push_back(nanosecondsPerLookup(lookups, old, sumA));
       b.push_back(nanosecondsPerLookup(lookups, pooled, sumB));
+      h.push_back(nanosecondsPerLookup(lookups, hot, sumH));
       ratio.push_back(b.back() / a.back());
-      if (sumA != sumB) {  // also keeps the compiler from dropping either loop
-        std::fprintf(stderr, "level_width_walk: %s: %llu vs %llu shadowed\n", path, (unsigned long long)sumA,
-                     (unsigned long long)sumB);
+      ratioHot.push_back(h.back() / a.back());
+      if (sumA != sumB || sumA != sumH) {  // also keeps the compiler from dropping any loop
+        std::fprintf(stderr, "level_width_walk: %s: %llu vs %llu vs %llu shadowed\n", path, (unsigned long long)sumA,
+                     (unsigned long long)sumB, (unsigned long long)sumH);
         return 3;
       }
     }
-    std::sort(a.begin(), a.end());
-    std::sort(b.begin(), b.end());
-    std::sort(ratio.begin(), ratio.end());
-    std::printf("  %s voxels (%zu, all answers equal, %llu shadowed): 2.0 walk best %.1f ns, median %.1f ns; "
-                "pooled byte walk best %.1f ns, median %.1f ns; ratio per round %.3f..%.3f, median %.3f\n",
+    for (auto* v : {&a, &b, &h, &ratio, &ratioHot}) std::sort(v->begin(), v->end());
+    std::printf("  %s voxels (%zu, all answers equal, %llu shadowed), ns per lookup best / median: 2.0 walk %.1f / "
+                "%.1f; pooled %.1f / %.1f (ratio per round %.3f..%.3f, median %.3f); pooled with hot tables %.1f / "
+                "%.1f (ratio %.3f..%.3f, median %.3f)\n",
                 deep ? "deep" : "uniform", lookups.size(), (unsigned long long)sumA, a.front(), a[a.size() / 2],
-                b.front(), b[b.size() / 2], ratio.front(), ratio.back(), ratio[ratio.size() / 2]);
+                b.front(), b[b.size() / 2], ratio.front(), ratio.back(), ratio[ratio.size() / 2], h.front(),
+                h[h.size() / 2], ratioHot.front(), ratioHot.back(), ratioHot[ratioHot.size() / 2]);
   }
   std::printf("  load after %s\n", loadAverage().c_str());
   return 0;

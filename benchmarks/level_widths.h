@@ -129,19 +129,27 @@ struct ByteDag {
   uint32_t childBase[kMaxDagLevels] = {};
   uint8_t shortBytes[kMaxDagLevels] = {}, longBytes[kMaxDagLevels] = {};
   uint32_t levelBegin[kMaxDagLevels] = {};
+  std::vector<uint32_t> hot[kMaxDagLevels];  // a level's hot table (NodePool::layOut(true)), or empty
 
   explicit ByteDag(const LaidOutPool& pool) : leaves(pool.leaves) {
     for (const PooledLevel& level : pool.levels) {
       const unsigned log2 = unsigned(std::countr_zero(level.edge));
+      if (log2 >= kMaxDagLevels) continue;  // never: edges are powers of two up to 2^20
       levelBegin[log2] = uint32_t(bytes.size());
       if (log2 > 3) childBase[log2] = levelBegin[log2 - 1];
       shortBytes[log2] = level.widths.shortBytes;
       longBytes[log2] = level.widths.longBytes;
+      hot[log2] = level.hot;
       bytes.insert(bytes.end(), level.bytes.begin(), level.bytes.end());
     }
     bytes.insert(bytes.end(), 3, 0);
   }
   uint64_t nodeBytes() const { return bytes.size() - 3; }
+  uint64_t tableBytes() const {
+    uint64_t n = 0;
+    for (const auto& table : hot) n += 4 * table.size();
+    return n;
+  }
 };
 
 // One view of a ByteDag: the walk of DagView::shadowed over the byte form.
@@ -178,7 +186,11 @@ struct ByteDagView {
       const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
       code = childCodeOf(header, c);
       const unsigned log2 = unsigned(std::countr_zero(half)) + 1;
-      if (code == uint32_t(ChildCode::Ref)) at = dag->childBase[log2] + readRef(at, header, c, log2);
+      if (code == uint32_t(ChildCode::Ref)) {
+        const uint32_t ref = readRef(at, header, c, log2);
+        const bool ranked = !dag->hot[log2].empty() && ((header >> (2 * c)) & 3u) == 2u;
+        at = dag->childBase[log2] + (ranked ? dag->hot[log2][ref] : ref);
+      }
     }
     if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
     const unsigned c = z & 7u;

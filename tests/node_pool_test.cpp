@@ -41,20 +41,23 @@ bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y
     uint64_t value = 0;
     for (unsigned b = 0; b < width; ++b) value |= uint64_t(level.bytes.at(ref + b)) << (8 * b);
     if (edge == 8) return (pool.leaves.at(value) >> ((y & 7u) * 8u + (x & 7u))) & 1u;
-    at = value;
+    at = !level.hot.empty() && ((header >> (2 * c)) & 3u) == 2u ? level.hot.at(value) : value;
   }
 }
 
 // A 256^3 DAG whose 9,000 leaf parents reference 70,000 distinct leaves: the pool's leaf parents then index
 // leaves past 65,535, which no golden file does. Every node references 8 children (shared modulo the level).
-ShadowDag manyLeavesDag() {
+// With `popular`, seven of the eight children of each edge-16 node are among the first 200 leaf parents: many
+// references to a few large nodes, where a hot table pays.
+ShadowDag manyLeavesDag(bool popular = false) {
   const uint32_t counts[6] = {1, 8, 64, 512, 4096, 9000};
   std::vector<std::vector<uint32_t>> words(6);
   for (size_t l = 0; l < 6; ++l)
     for (uint32_t j = 0; j < counts[l]; ++j) {
       words[l].push_back(0xAAAAu);
       for (uint32_t c = 0; c < 8; ++c)
-        words[l].push_back(l + 1 < 6 ? 9 * ((j * 8 + c) % counts[l + 1]) : (j * 8 + c) % 70000);
+        words[l].push_back(l + 1 < 6 ? 9 * ((j * 8 + c) % (popular && l == 4 && c < 7 ? 200 : counts[l + 1]))
+                                     : (j * 8 + c) % 70000);
     }
   std::vector<uint64_t> leaves(70000);
   for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0x9E3779B97F4A7C15ull;
@@ -101,6 +104,29 @@ TEST(NodePool, EveryViewReadsBackEveryVoxel) {
   const LaidOutPool laid = pool.layOut();
   ASSERT_EQ(laid.roots.size(), views.dags.size());
   expectEveryVoxelReadsBack(laid, views.dags);
+}
+
+TEST(NodePool, WithHotTablesEveryViewReadsBackEveryVoxel) {
+  const Views views = goldenViews();
+  NodePool pool;
+  for (const DagView& dag : views.dags) pool.add(dag);
+  const LaidOutPool plain = pool.layOut(), hot = pool.layOut(true);
+  expectEveryVoxelReadsBack(hot, views.dags);
+  // A table is only taken where it makes its level smaller, its entries counted.
+  for (size_t l = 0; l < hot.levels.size(); ++l)
+    EXPECT_LE(hot.levels[l].bytes.size() + 4 * hot.levels[l].hot.size(), plain.levels[l].bytes.size() + 0u);
+  EXPECT_TRUE(hot.levels[0].hot.empty());  // leaf parents index their leaves already
+
+  // Many references to a few large children: the edge-16 level takes a table of 1-byte ranks (256 entries, the
+  // 200 popular leaf parents among them).
+  const ShadowDag popular = manyLeavesDag(true);
+  NodePool popularPool;
+  popularPool.add(popular.view());
+  const LaidOutPool popularPlain = popularPool.layOut(), popularHot = popularPool.layOut(true);
+  ASSERT_EQ(popularHot.levels[1].edge, 16u);
+  EXPECT_EQ(popularHot.levels[1].hot.size(), 256u);
+  EXPECT_LT(popularHot.levels[1].bytes.size() + 4 * 256, popularPlain.levels[1].bytes.size());
+  expectEveryVoxelReadsBack(popularHot, {popular.view()});
 }
 
 TEST(NodePool, KeepsEachSubtreeOnceAcrossViews) {

@@ -5,7 +5,6 @@
 #include <limits>
 #include <numeric>
 #include <string>
-#include <unordered_map>
 
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/popularity_order.h"
@@ -14,8 +13,6 @@ namespace cpvs {
 
 namespace {
 
-using UnitMemo = std::unordered_map<uint32_t, uint32_t>;  // a view's unit offset -> pooled word offset
-
 // The bytes a reference of this value takes in a pair of widths, or 0 when it fits neither.
 unsigned referenceBytes(uint64_t value, ReferenceWidths w) {
   if (value < (uint64_t(1) << (8 * w.shortBytes))) return w.shortBytes;
@@ -23,25 +20,50 @@ unsigned referenceBytes(uint64_t value, ReferenceWidths w) {
   return 0;
 }
 
-// The pair of widths that makes a level smallest, given each node's reference values in order.
-ReferenceWidths narrowestPair(const std::vector<uint32_t>& order, std::span<const uint32_t> words,
-                              const std::vector<uint64_t>& valueOf, uint32_t edge) {
-  uint64_t best = std::numeric_limits<uint64_t>::max();
-  ReferenceWidths chosen{0, 0};
-  for (const ReferenceWidths pair : kWidthPairs) {
-    uint64_t bytes = 0;
-    bool fits = true;
-    for (const uint32_t at : order) {
-      bytes += 2;
-      for (unsigned k = 1; k < nodeWordCount(words[at]); ++k) {
-        const unsigned width = referenceBytes(valueOf[words[at + k]], pair);
-        fits = fits && width != 0;
-        bytes += width;
-      }
+unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1u << 16) ? 2 : value < (1u << 24) ? 3 : 4; }
+
+// How a level codes its references: the pair of widths, and how many of the level below's most referenced
+// nodes a short reference reaches by rank (0: none, short references are offsets too).
+struct LevelCoding {
+  ReferenceWidths widths{0, 0};
+  uint32_t hotEntries = 0;
+};
+
+// The coding that makes a level smallest, given each reference's child as its byte offset and its rank in the
+// level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
+// counts those and every coding is priced from the counts. Ties go to the first pair of kWidthPairs, without a
+// table before with one.
+LevelCoding narrowestCoding(const std::vector<uint32_t>& order, std::span<const uint32_t> words,
+                            const std::vector<uint32_t>& offsetBelow, const std::vector<uint32_t>& rankBelow,
+                            uint64_t nodesBelow, bool allowTable, uint32_t edge) {
+  uint64_t needing[5][5] = {};  // [bytes the rank needs][bytes the offset needs]
+  for (const uint32_t at : order)
+    for (unsigned k = 1; k < nodeWordCount(words[at]); ++k) {
+      const uint32_t child = words[at + k];
+      needing[bytesNeeded(rankBelow[child])][bytesNeeded(offsetBelow[child])] += 1;
     }
-    if (fits && bytes < best) best = bytes, chosen = pair;
+  uint64_t best = std::numeric_limits<uint64_t>::max();
+  LevelCoding chosen;
+  for (const bool table : {false, true}) {
+    if (table && !allowTable) continue;
+    for (const ReferenceWidths pair : kWidthPairs) {
+      if (table && (pair.shortBytes > 2 || pair.shortBytes >= pair.longBytes)) continue;
+      const uint64_t entries = table ? std::min<uint64_t>(nodesBelow, uint64_t(1) << (8 * pair.shortBytes)) : 0;
+      uint64_t bytes = 4 * entries;
+      bool fits = true;
+      for (unsigned rank = 1; rank <= 4; ++rank)
+        for (unsigned offset = 1; offset <= 4; ++offset) {
+          unsigned width = 0;
+          if (table && rank <= pair.shortBytes) width = pair.shortBytes;
+          else if (!table && offset <= pair.shortBytes) width = pair.shortBytes;
+          else if (offset <= pair.longBytes) width = pair.longBytes;
+          fits = fits && (width != 0 || needing[rank][offset] == 0);
+          bytes += needing[rank][offset] * width;
+        }
+      if (fits && bytes < best) best = bytes, chosen = {pair, uint32_t(entries)};
+    }
   }
-  if (chosen.shortBytes == 0)
+  if (chosen.widths.shortBytes == 0)
     throw Error(ErrorCategory::RuntimeFailure,
                 "node pool: the level of edge " + std::to_string(edge) + " is too large for 32-bit references");
   return chosen;
@@ -54,10 +76,12 @@ size_t NodePool::add(const DagView& dag) {
   const uint32_t log2Edge = uint32_t(std::countr_zero(dag.resolution));
   Root root{dag.rootCode, log2Edge, 0};
   if (dag.rootCode == ChildCode::Ref) {
-    std::vector<UnitMemo> memo(kMaxDagLevels);
+    // A view's unit offset -> its node's pooled word offset (every unit offset is one node's: levels do not
+    // share units).
+    std::vector<uint32_t> memo(dag.nodes.size(), UINT32_MAX);
     // Bottom-up by recursion: a node is interned after its children, which gives the build form's offsets.
     const auto intern = [&](const auto& self, uint32_t unit, uint32_t log2) -> uint32_t {
-      if (const auto found = memo[log2].find(unit); found != memo[log2].end()) return found->second;
+      if (memo[unit] != UINT32_MAX) return memo[unit];
       const uint32_t header = dag.nodes[unit];
       uint32_t words[9] = {0};
       unsigned count = 1;
@@ -68,9 +92,7 @@ size_t NodePool::add(const DagView& dag) {
         const uint32_t target = dag.child(unit, header, c, 1u << log2);
         words[count++] = log2 == 3 ? leaves_.intern(dag.leaves[target]) : self(self, target, log2 - 1);
       }
-      const uint32_t word = levels_[log2].intern(words, count);
-      memo[log2].emplace(unit, word);
-      return word;
+      return memo[unit] = levels_[log2].intern(words, count);
     };
     root.word = intern(intern, 0, log2Edge);
   }
@@ -84,7 +106,7 @@ uint64_t NodePool::nodes() const {
   return n;
 }
 
-LaidOutPool NodePool::layOut() const {
+LaidOutPool NodePool::layOut(bool hotTables) const {
   LaidOutPool out;
   uint32_t top = 0;  // log2 of the largest root's edge
   for (const Root& r : roots_)
@@ -97,9 +119,11 @@ LaidOutPool NodePool::layOut() const {
   const std::vector<uint32_t> leafOrder =
       mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3].records().span(), masks.size())
                                             : std::vector<uint32_t>(masks.size(), 0));
-  std::vector<uint64_t> valueBelow(masks.size());  // what a reference to each child of the level below codes
+  // Each child of the level below: its byte offset (leaves: index) and its rank, by its word offset (leaf id).
+  std::vector<uint32_t> offsetBelow(masks.size()), rankBelow(masks.size());
+  std::vector<uint32_t> orderBelow = leafOrder;
   for (uint32_t i = 0; i < leafOrder.size(); ++i) {
-    valueBelow[leafOrder[i]] = i;
+    offsetBelow[leafOrder[i]] = rankBelow[leafOrder[i]] = i;
     out.leaves.push_back(masks[leafOrder[i]]);
   }
 
@@ -118,19 +142,29 @@ LaidOutPool NodePool::layOut() const {
     PooledLevel level;
     level.edge = 1u << log2;
     level.nodes = order.size();
-    level.widths = narrowestPair(order, words, valueBelow, level.edge);
-    std::vector<uint64_t> position(words.size(), 0);
+    const LevelCoding coding = narrowestCoding(order, words, offsetBelow, rankBelow, orderBelow.size(),
+                                               hotTables && log2 > 3, level.edge);
+    level.widths = coding.widths;
+    for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
+    std::vector<uint32_t> position(words.size(), 0), rank(words.size(), 0);
+    for (uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
     for (const uint32_t at : order) {
-      position[at] = level.bytes.size();
+      if (level.bytes.size() > UINT32_MAX)
+        throw Error(ErrorCategory::RuntimeFailure,
+                    "node pool: the level of edge " + std::to_string(level.edge) + " passed 4 GiB");
+      position[at] = uint32_t(level.bytes.size());
       const size_t headerAt = level.bytes.size();
       level.bytes.resize(headerAt + 2);
       uint32_t header = 0;
       for (unsigned c = 0, k = 1; c < 8; ++c) {
         uint32_t code = wordCodeOf(words[at], c);
         if (code == uint32_t(ChildCode::Ref)) {
-          const uint64_t value = valueBelow[words[at + k++]];
-          const unsigned width = referenceBytes(value, level.widths);
-          code = width == level.widths.shortBytes ? 2u : 3u;
+          const uint32_t child = words[at + k++];
+          const bool hot = rankBelow[child] < coding.hotEntries;
+          const uint32_t value = hot ? rankBelow[child] : offsetBelow[child];
+          const unsigned width = hot ? level.widths.shortBytes
+                                     : coding.hotEntries ? level.widths.longBytes : referenceBytes(value, level.widths);
+          code = hot || (!coding.hotEntries && width == level.widths.shortBytes) ? 2u : 3u;
           for (unsigned b = 0; b < width; ++b) level.bytes.push_back(uint8_t(value >> (8 * b)));
         }
         header |= code << (2 * c);
@@ -140,7 +174,9 @@ LaidOutPool NodePool::layOut() const {
     }
     for (size_t v = 0; v < roots_.size(); ++v)
       if (roots_[v].code == ChildCode::Ref && roots_[v].log2Edge == log2) roots[v].offset = position[roots_[v].word];
-    valueBelow = std::move(position);
+    offsetBelow = std::move(position);
+    rankBelow = std::move(rank);
+    orderBelow = order;
     out.levels.push_back(std::move(level));
   }
   out.roots = std::move(roots);

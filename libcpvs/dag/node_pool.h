@@ -31,6 +31,9 @@ struct PooledLevel {
   ReferenceWidths widths;
   uint64_t nodes = 0;
   std::vector<uint8_t> bytes;
+  // With hot tables (a candidate still being measured): when not empty, a short reference is the child's rank
+  // in the level below (most referenced first) and hot[rank] its byte offset; a long one is the byte offset.
+  std::vector<uint32_t> hot;
 };
 
 struct LaidOutPool {
@@ -49,8 +52,10 @@ public:
   // Adds one view's DAG in the stored form of format 2.0 (a validated file's, or encodeDag's) and returns its
   // index among the views. Only nodes reachable from the root are pooled.
   size_t add(const DagView& dag);
-  // Lays the pool out. The same views added in the same order give the same bytes.
-  LaidOutPool layOut() const;
+  // Lays the pool out. The same views added in the same order give the same bytes. With hotTables, a level
+  // above the leaf parents may also code its short references as ranks (PooledLevel::hot) where that makes it
+  // smaller, the table's 4 bytes an entry counted.
+  LaidOutPool layOut(bool hotTables = false) const;
 
   uint64_t nodes() const;
   uint64_t leaves() const { return leaves_.leaves().size(); }

@@ -1,0 +1,92 @@
+// What pooling costs a bake: the time and memory of the library's NodePool (libcpvs/dag/node_pool.h) adding every
+// view of a baked .cpvs one after the other, as a bake would add each light as it finishes, then laying the
+// pool out. A study for format 3.0: the bake does not pool yet.
+//
+// Memory: the resident set before the first add (the file mapped and validated, every DAG touched) and after
+// the layout; the pool's share is the difference (the tables' index, the build-form nodes, the laid-out bytes).
+// Time: wall clock of the adds and of the layout, best of --rounds (fresh pools), with the load average.
+//
+//   node_pool_cost FILE.cpvs [--rounds R]
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include "libcpvs/base/error.h"
+#include "libcpvs/base/peak_memory.h"
+#include "libcpvs/dag/node_pool.h"
+#include "libcpvs/runtime/cpvs_file.h"
+
+namespace {
+
+using namespace cpvs;
+using Clock = std::chrono::steady_clock;
+
+std::string loadAverage() {
+  char text[128] = {};
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (!std::fgets(text, sizeof text, f)) text[0] = 0;
+    std::fclose(f);
+  }
+  std::string s(text);
+  return s.substr(0, s.find(' ', s.find(' ', s.find(' ') + 1) + 1));
+}
+
+double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+int run(const char* path, int rounds) {
+  const auto file = orThrow(CpvsFile::open(path));
+  uint64_t stored = 0, views = 0;
+  for (const CpvsFile::LightEntry& light : file->lights())
+    for (const CpvsFile::View& v : light.views) {
+      stored += v.dag.nodes.size() * 2 + v.dag.leaves.size() * 8;
+      ++views;
+    }
+  const std::string loadBefore = loadAverage();
+  const uint64_t rssBefore = currentRssBytes();
+  double bestAdd = 1e30, bestLayOut = 1e30;
+  uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0;
+  for (int r = 0; r < rounds; ++r) {
+    NodePool pool;
+    const auto t0 = Clock::now();
+    for (const CpvsFile::LightEntry& light : file->lights())
+      for (const CpvsFile::View& v : light.views) pool.add(v.dag);
+    const auto t1 = Clock::now();
+    const LaidOutPool laid = pool.layOut();
+    const auto t2 = Clock::now();
+    bestAdd = std::min(bestAdd, seconds(t0, t1));
+    bestLayOut = std::min(bestLayOut, seconds(t1, t2));
+    pooledBytes = laid.leaves.size() * 8;
+    for (const PooledLevel& level : laid.levels) pooledBytes += level.bytes.size();
+    nodes = pool.nodes();
+    rssAfter = std::max(rssAfter, currentRssBytes());
+  }
+  std::printf("%s: %llu views, DAGs %.2f MB as stored, pooled %.2f MB (%llu nodes); adding every view %.2f s, "
+              "laying out %.2f s (best of %d); resident %.0f MB before, %.0f MB with the pool (+%.0f MB), peak %.0f MB; "
+              "load %s -> %s\n",
+              path, (unsigned long long)views, double(stored) / 1e6, double(pooledBytes) / 1e6,
+              (unsigned long long)nodes, bestAdd, bestLayOut, rounds, double(rssBefore) / 1e6, double(rssAfter) / 1e6,
+              double(rssAfter - std::min(rssAfter, rssBefore)) / 1e6, double(peakRssBytes()) / 1e6,
+              loadBefore.c_str(), loadAverage().c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: node_pool_cost FILE.cpvs [--rounds R]\n");
+    return 1;
+  }
+  int rounds = 3;
+  if (argc >= 4 && std::strcmp(argv[2], "--rounds") == 0) rounds = std::max(1, std::atoi(argv[3]));
+  try {
+    return run(argv[1], rounds);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "node_pool_cost: %s\n", e.what());
+    return 2;
+  }
+}
