@@ -20,6 +20,7 @@
 //   level_width_estimate [--levels] FILE.cpvs...   a markdown row per file; --levels adds the pooled levels
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <cstdint>
@@ -46,10 +47,12 @@ struct LevelWeight {
   double entropyBits = 0;  // headers and references each coded by their frequency in the level (order 0)
   uint64_t bytesThree = 0;  // 3-bit child codes (a 3-byte header): lit, shadowed and references of 1, 2, 3 or 4 bytes
   uint64_t bytesHot = 0;    // short references by rank among the child level's most referenced nodes (a table)
+  uint64_t bytesBits = 0;   // two widths per level in bits (1-32), a node's references packed, the node whole bytes
+  unsigned shortBits = 0, longBits = 0;
 };
 
 struct Weight {
-  uint64_t leafBytes = 0, format2 = 0, chosen = 0, three = 0, hot = 0;
+  uint64_t leafBytes = 0, format2 = 0, chosen = 0, three = 0, hot = 0, bits = 0;
   double entropyBytes = 0;
   std::vector<LevelWeight> levels;
 };
@@ -62,6 +65,7 @@ Weight weigh(const Pool& pool) {
   const StudyLayout laid = layOut(pool);
   std::vector<uint64_t> offset2(pool.nodes.size()), offsetThree(pool.nodes.size()), offsetHot(pool.nodes.size());
   std::vector<uint32_t> rank(pool.nodes.size(), 0);  // place in its level's order
+  std::vector<uint64_t> offsetBits(pool.nodes.size());
   for (const PoolLevel& l : laid.levels) {
     LevelWeight level;
     level.edge = l.edge;
@@ -145,12 +149,45 @@ Weight weigh(const Pool& pool) {
     w.chosen += level.bytesChosen;
     w.three += level.bytesThree;
     w.hot += level.bytesHot;
+    // Bit widths: the pair chosen from the references' bit counts (their sum, without each node's rounding up
+    // to whole bytes), then laid out exactly.
+    {
+      const auto valueOf = [&](const PooledNode& n, uint32_t c) {
+        return n.edge == 8 ? uint64_t(laid.leafIndex[c]) : offsetBits[c];
+      };
+      uint64_t needing[65] = {};
+      for (const uint32_t id : l.order)
+        for (const uint32_t c : pool.nodes[id].children) needing[std::bit_width(valueOf(pool.nodes[id], c)) | 1] += 1;
+      uint64_t best = std::numeric_limits<uint64_t>::max();
+      for (unsigned sb = 1; sb <= 32; ++sb)
+        for (unsigned lb = sb; lb <= 32; ++lb) {
+          uint64_t total = 0;
+          bool fits = true;
+          for (unsigned k = 1; k <= 64; ++k) {
+            if (!needing[k]) continue;
+            fits = fits && k <= lb;
+            total += needing[k] * (k <= sb ? sb : lb);
+          }
+          if (fits && total < best) best = total, level.shortBits = sb, level.longBits = lb;
+        }
+      uint64_t at = 0;
+      for (const uint32_t id : l.order) {
+        offsetBits[id] = at;
+        uint64_t refBits = 0;
+        for (const uint32_t c : pool.nodes[id].children)
+          refBits += std::bit_width(valueOf(pool.nodes[id], c)) <= level.shortBits ? level.shortBits : level.longBits;
+        at += 2 + (refBits + 7) / 8;
+      }
+      level.bytesBits = at;
+      w.bits += at;
+    }
     w.levels.push_back(level);
   }
   w.format2 += w.leafBytes;
   w.chosen += w.leafBytes;
   w.three += w.leafBytes;
   w.hot += w.leafBytes;
+  w.bits += w.leafBytes;
   w.entropyBytes += double(w.leafBytes);
   return w;
 }
@@ -160,7 +197,7 @@ double saving(uint64_t b, uint64_t of) { return 100.0 * (1.0 - double(b) / doubl
 
 int run(const char* path, bool showLevels) {
   const auto file = orThrow(CpvsFile::open(path));
-  uint64_t stored = 0, perView2 = 0, perViewChosen = 0, perViewThree = 0, perViewHot = 0, views = 0;
+  uint64_t stored = 0, perView2 = 0, perViewChosen = 0, perViewThree = 0, perViewHot = 0, perViewBits = 0, views = 0;
   double perViewEntropy = 0;
   PoolBuilder whole;
   for (const CpvsFile::LightEntry& light : file->lights())
@@ -175,6 +212,7 @@ int run(const char* path, bool showLevels) {
       perViewEntropy += w.entropyBytes;
       perViewThree += w.three;
       perViewHot += w.hot;
+      perViewBits += w.bits;
       ++views;
     }
   const Weight pooled = weigh(whole.pool());
@@ -188,25 +226,30 @@ int run(const char* path, bool showLevels) {
   for (const PooledLevel& level : laidOutHot.levels) libraryHotBytes += level.bytes.size() + 4 * level.hot.size();
   const auto entropy = [&](double bytes) { return uint64_t(std::ceil(bytes)); };
   std::printf("| %s | %llu | %.2f | %.2f | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | "
-              "%.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) |\n",
+              "%.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | %.2f (%.1f %%) | "
+              "%.2f (%.1f %%) |\n",
               path, (unsigned long long)views, mb(stored), mb(perView2), mb(perViewChosen), saving(perViewChosen, stored),
               mb(perViewThree), saving(perViewThree, stored), mb(perViewHot), saving(perViewHot, stored),
+              mb(perViewBits), saving(perViewBits, stored),
               mb(entropy(perViewEntropy)), saving(entropy(perViewEntropy), stored), mb(pooled.format2),
               saving(pooled.format2, stored), mb(pooled.chosen), saving(pooled.chosen, stored), mb(pooled.three),
-              saving(pooled.three, stored), mb(pooled.hot), saving(pooled.hot, stored),
+              saving(pooled.three, stored), mb(pooled.hot), saving(pooled.hot, stored), mb(pooled.bits),
+              saving(pooled.bits, stored),
               mb(entropy(pooled.entropyBytes)), saving(entropy(pooled.entropyBytes), stored));
   if (perView2 != stored)
     std::fprintf(stderr, "level_width_estimate: %s: the 2.0 layout weighs %llu bytes, the file %llu: the study's layout "
                  "differs from the writer's\n", path, (unsigned long long)perView2, (unsigned long long)stored);
   if (showLevels) {
-    std::printf("\n| pooled level (edge) | nodes | references | 2.0 bytes | widths | bytes | hot table | order-0 bound |\n"
-                "|---|---|---|---|---|---|---|---|\n");
+    std::printf("\n| pooled level (edge) | nodes | references | 2.0 bytes | widths | bytes | hot table | bit widths | "
+                "bytes | order-0 bound |\n|---|---|---|---|---|---|---|---|---|---|\n");
     for (const LevelWeight& l : pooled.levels)
-      std::printf("| %u | %llu | %llu | %llu | %u/%u | %llu | %llu | %llu |\n", l.edge, (unsigned long long)l.nodes,
-                  (unsigned long long)l.references, (unsigned long long)l.bytes2, l.chosen.shortBytes,
-                  l.chosen.longBytes, (unsigned long long)l.bytesChosen, (unsigned long long)l.bytesHot,
+      std::printf("| %u | %llu | %llu | %llu | %u/%u | %llu | %llu | %u/%u | %llu | %llu |\n", l.edge,
+                  (unsigned long long)l.nodes, (unsigned long long)l.references, (unsigned long long)l.bytes2,
+                  l.chosen.shortBytes, l.chosen.longBytes, (unsigned long long)l.bytesChosen,
+                  (unsigned long long)l.bytesHot, l.shortBits, l.longBits, (unsigned long long)l.bytesBits,
                   (unsigned long long)entropy(l.entropyBits / 8));
-    std::printf("| leaves | %llu | | %llu | | %llu | %llu | %llu |\n\n", (unsigned long long)(pooled.leafBytes / 8),
+    std::printf("| leaves | %llu | | %llu | | %llu | %llu | | %llu | %llu |\n\n",
+                (unsigned long long)(pooled.leafBytes / 8), (unsigned long long)pooled.leafBytes,
                 (unsigned long long)pooled.leafBytes, (unsigned long long)pooled.leafBytes,
                 (unsigned long long)pooled.leafBytes, (unsigned long long)pooled.leafBytes);
   }
@@ -232,9 +275,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   std::printf("| file | views | DAGs as stored, MB | per view, 2.0 coding | per view, widths per level | "
-              "per view, three widths | per view, hot table | per view, order-0 bound | pool, 2.0 coding | "
-              "pool, widths per level | pool, three widths | pool, hot table | pool, order-0 bound |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "per view, three widths | per view, hot table | per view, bit widths | per view, order-0 bound | "
+              "pool, 2.0 coding | pool, widths per level | pool, three widths | pool, hot table | pool, bit widths | "
+              "pool, order-0 bound |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   int rc = 0;
   try {
     for (int i = first; i < argc; ++i) rc = std::max(rc, run(argv[i], showLevels));
