@@ -55,6 +55,7 @@ int run(const char* path, int rounds) {
     for (const CpvsFile::LightEntry& light : file->lights())
       for (const CpvsFile::View& v : light.views) pool.add(v.dag);
     const auto t1 = Clock::now();
+    pool.releaseIndexes();
     const LaidOutPool laid = pool.layOut();
     const auto t2 = Clock::now();
     bestAdd = std::min(bestAdd, seconds(t0, t1));

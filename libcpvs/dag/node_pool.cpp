@@ -27,6 +27,7 @@ unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1
 struct LevelCoding {
   ReferenceWidths widths{0, 0};
   uint32_t hotEntries = 0;
+  uint64_t referenceBytes = 0;  // what the level's references take, the table not counted
 };
 
 // The coding that makes a level smallest, given each reference's child as its byte offset and its rank in the
@@ -60,7 +61,7 @@ LevelCoding narrowestCoding(const std::vector<uint32_t>& order, std::span<const 
           fits = fits && (width != 0 || needing[rank][offset] == 0);
           bytes += needing[rank][offset] * width;
         }
-      if (fits && bytes < best) best = bytes, chosen = {pair, uint32_t(entries)};
+      if (fits && bytes < best) best = bytes, chosen = {pair, uint32_t(entries), bytes - 4 * entries};
     }
   }
   if (chosen.widths.shortBytes == 0)
@@ -72,6 +73,7 @@ LevelCoding narrowestCoding(const std::vector<uint32_t>& order, std::span<const 
 }  // namespace
 
 size_t NodePool::add(const DagView& dag) {
+  if (indexesReleased_) throw Error(ErrorCategory::RuntimeFailure, "node pool: a view added after releaseIndexes()");
   if (levels_.empty()) levels_.resize(kMaxDagLevels);
   const uint32_t log2Edge = uint32_t(std::countr_zero(dag.resolution));
   Root root{dag.rootCode, log2Edge, 0};
@@ -98,6 +100,12 @@ size_t NodePool::add(const DagView& dag) {
   }
   roots_.push_back(root);
   return roots_.size() - 1;
+}
+
+void NodePool::releaseIndexes() {
+  for (NodeTable& level : levels_) level.releaseIndex();
+  leaves_.releaseIndex();
+  indexesReleased_ = true;
 }
 
 uint64_t NodePool::nodes() const {
@@ -131,13 +139,16 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
   for (size_t v = 0; v < roots_.size(); ++v) roots[v] = {roots_[v].code, 1u << roots_[v].log2Edge, 0};
   for (uint32_t log2 = 3; top >= 3 && log2 <= top; ++log2) {
     const std::span<const uint32_t> words = levels_[log2].records().span();
-    std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1].records().span(), words.size())
-                                              : std::vector<uint32_t>(words.size(), 0);
-    for (const Root& r : roots_)
-      if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.word] != UINT32_MAX) counts[r.word] += 1;
-    std::vector<uint32_t> nodeAt;  // word offsets of the level's nodes
-    for (size_t i = 0; i < words.size(); i += nodeWordCount(words[i])) nodeAt.push_back(uint32_t(i));
-    const std::vector<uint32_t> order = mostReferencedFirst(nodeAt, counts);
+    std::vector<uint32_t> order;  // the level's nodes (word offsets) as laid out
+    {
+      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1].records().span(), words.size())
+                                                : std::vector<uint32_t>(words.size(), 0);
+      for (const Root& r : roots_)
+        if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.word] != UINT32_MAX) counts[r.word] += 1;
+      std::vector<uint32_t> nodeAt;
+      for (size_t i = 0; i < words.size(); i += nodeWordCount(words[i])) nodeAt.push_back(uint32_t(i));
+      order = mostReferencedFirst(nodeAt, counts);
+    }
 
     PooledLevel level;
     level.edge = 1u << log2;
@@ -146,6 +157,7 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
                                                hotTables && log2 > 3, level.edge);
     level.widths = coding.widths;
     for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
+    level.bytes.reserve(2 * order.size() + coding.referenceBytes);
     std::vector<uint32_t> position(words.size(), 0), rank(words.size(), 0);
     for (uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
     for (const uint32_t at : order) {
@@ -176,7 +188,7 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
       if (roots_[v].code == ChildCode::Ref && roots_[v].log2Edge == log2) roots[v].offset = position[roots_[v].word];
     offsetBelow = std::move(position);
     rankBelow = std::move(rank);
-    orderBelow = order;
+    orderBelow = std::move(order);
     out.levels.push_back(std::move(level));
   }
   out.roots = std::move(roots);

@@ -56,6 +56,9 @@ public:
   // above the leaf parents may also code its short references as ranks (PooledLevel::hot) where that makes it
   // smaller, the table's 4 bytes an entry counted.
   LaidOutPool layOut(bool hotTables = false) const;
+  // Frees the hash indexes (a fifth of the pool's memory, more while they grow) once no view is to come: add()
+  // refuses views after it. layOut() needs only the nodes.
+  void releaseIndexes();
 
   uint64_t nodes() const;
   uint64_t leaves() const { return leaves_.leaves().size(); }
@@ -72,6 +75,7 @@ private:
   std::vector<NodeTable> levels_;
   LeafTable leaves_;
   std::vector<Root> roots_;
+  bool indexesReleased_ = false;
 };
 
 }  // namespace cpvs
