@@ -64,6 +64,10 @@ def main():
     print("\nmachine: %s, %d cores; commit %s; load before %s" % (cpu, os.cpu_count(), commit, load()))
     files = [o(name) for name, _ in bakes]
     print(run([b("level_width_estimate")] + files))
+    print(run([b("level_width_estimate"), "--cube-leaves"] + files))
+    print(run([b("leaf_shape_estimate")] + files))
+    for f in files:
+        print(run([b("node_pool_cost"), f]))
     if not a.skip_walks:
         for f in files:
             print(run([b("level_width_walk"), f]))
