@@ -18,7 +18,7 @@
 // without its neighbours could weigh (leaves as they are).
 //
 // --cube-leaves weighs every coding over the DAG with 4x4x4 leaves instead (node_pool.h's withCubeLeaves; the
-// 2.0 column then weighs that DAG in 2.0's coding, not the file).
+// 2.0 column then weighs that DAG in 2.0's coding, not the file), checked against NodePool's octant leaves.
 //
 //   level_width_estimate [--levels] [--cube-leaves] FILE.cpvs...   a markdown row per file; --levels adds the
 //                                                                   pooled levels
@@ -221,7 +221,7 @@ int run(const char* path, bool showLevels, bool cubeLeaves) {
     }
   const Weight pooled = weigh(cubeLeaves ? withCubeLeaves(whole.pool()) : whole.pool());
   // The library's pool (libcpvs/dag/node_pool.h) must lay out exactly what this study weighs.
-  NodePool library;
+  NodePool library(cubeLeaves ? LeafShape::Octants : LeafShape::Slices);
   for (const CpvsFile::LightEntry& light : file->lights())
     for (const CpvsFile::View& v : light.views) library.add(v.dag);
   const LaidOutPool laidOut = library.layOut(), laidOutHot = library.layOut(true);
@@ -261,12 +261,11 @@ int run(const char* path, bool showLevels, bool cubeLeaves) {
   // level, NodePool depth first): the two may differ by a few bytes, no more.
   const auto agrees = [](uint64_t a, uint64_t b) { return std::llabs((long long)a - (long long)b) * 10000 <= (long long)b; };
   const bool libraryAgrees = agrees(libraryBytes, pooled.chosen) && agrees(libraryHotBytes, pooled.hot);
-  if (!libraryAgrees && !cubeLeaves)
+  if (!libraryAgrees)
     std::fprintf(stderr, "level_width_estimate: %s: NodePool lays out %llu bytes (with hot tables %llu), the study "
                  "%llu (%llu)\n", path, (unsigned long long)libraryBytes, (unsigned long long)libraryHotBytes,
                  (unsigned long long)pooled.chosen, (unsigned long long)pooled.hot);
-  if (cubeLeaves) return 0;  // another DAG than the file's and the library's: nothing to check against
-  return perView2 == stored && libraryAgrees ? 0 : 3;
+  return (perView2 == stored || cubeLeaves) && libraryAgrees ? 0 : 3;  // octant leaves: another DAG than the file's
 }
 
 }  // namespace

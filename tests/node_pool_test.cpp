@@ -20,7 +20,9 @@ namespace cpvs {
 namespace {
 
 // The walk of DagView::shadowed over the laid-out pool, written from its description in node_pool.h.
-bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y, uint32_t z) {
+bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y, uint32_t z,
+                    LeafShape shape = LeafShape::Slices) {
+  const bool octants = shape == LeafShape::Octants;
   const LaidOutPool::Root& root = pool.roots[view];
   const auto levelOf = [&](uint32_t edge) -> const PooledLevel& { return pool.levels[std::countr_zero(edge) - 3]; };
   uint32_t code = uint32_t(root.code);
@@ -28,7 +30,9 @@ bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y
   for (uint32_t edge = root.edge;; edge >>= 1) {
     if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
     const PooledLevel& level = levelOf(edge);
-    const unsigned c = edge == 8 ? (z & 7u) : ((z & (edge / 2)) ? 4u : 0u) | ((y & (edge / 2)) ? 2u : 0u) | ((x & (edge / 2)) ? 1u : 0u);
+    const unsigned c = edge == 8 && !octants
+                           ? (z & 7u)
+                           : ((z & (edge / 2)) ? 4u : 0u) | ((y & (edge / 2)) ? 2u : 0u) | ((x & (edge / 2)) ? 1u : 0u);
     const uint32_t header = uint32_t(level.bytes.at(at)) | uint32_t(level.bytes.at(at + 1)) << 8;
     code = childCodeOf(header, c);
     if (code != uint32_t(ChildCode::Ref)) continue;
@@ -40,7 +44,10 @@ bool pooledShadowed(const LaidOutPool& pool, size_t view, uint32_t x, uint32_t y
     const unsigned width = ((header >> (2 * c)) & 3u) == 3u ? level.widths.longBytes : level.widths.shortBytes;
     uint64_t value = 0;
     for (unsigned b = 0; b < width; ++b) value |= uint64_t(level.bytes.at(ref + b)) << (8 * b);
-    if (edge == 8) return (pool.leaves.at(value) >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+    if (edge == 8) {
+      const unsigned bit = octants ? (z & 3u) * 16u + (y & 3u) * 4u + (x & 3u) : (y & 7u) * 8u + (x & 7u);
+      return (pool.leaves.at(value) >> bit) & 1u;
+    }
     at = !level.hot.empty() && ((header >> (2 * c)) & 3u) == 2u ? level.hot.at(value) : value;
   }
 }
@@ -84,7 +91,8 @@ Views goldenViews() {
   return v;
 }
 
-void expectEveryVoxelReadsBack(const LaidOutPool& pool, const std::vector<DagView>& dags, size_t firstView = 0) {
+void expectEveryVoxelReadsBack(const LaidOutPool& pool, const std::vector<DagView>& dags, size_t firstView = 0,
+                               LeafShape shape = LeafShape::Slices) {
   for (size_t v = 0; v < dags.size(); ++v) {
     const uint32_t n = dags[v].resolution;
     if (n == 0) continue;
@@ -92,7 +100,8 @@ void expectEveryVoxelReadsBack(const LaidOutPool& pool, const std::vector<DagVie
     size_t wrong = 0;
     for (uint32_t z = 0; z < n; z += step)
       for (uint32_t y = 0; y < n; y += step)
-        for (uint32_t x = 0; x < n; x += step) wrong += pooledShadowed(pool, firstView + v, x, y, z) != dags[v].shadowed(x, y, z);
+        for (uint32_t x = 0; x < n; x += step)
+          wrong += pooledShadowed(pool, firstView + v, x, y, z, shape) != dags[v].shadowed(x, y, z);
     EXPECT_EQ(wrong, 0u) << "view " << v << " (N " << n << ")";
   }
 }
@@ -127,6 +136,15 @@ TEST(NodePool, WithHotTablesEveryViewReadsBackEveryVoxel) {
   EXPECT_EQ(popularHot.levels[1].hot.size(), 256u);
   EXPECT_LT(popularHot.levels[1].bytes.size() + 4 * 256, popularPlain.levels[1].bytes.size());
   expectEveryVoxelReadsBack(popularHot, {popular.view()});
+}
+
+TEST(NodePool, WithOctantLeavesEveryViewReadsBackEveryVoxel) {
+  const Views views = goldenViews();
+  NodePool slices, octants(LeafShape::Octants);
+  for (const DagView& dag : views.dags) slices.add(dag), octants.add(dag);
+  // Regrouping a block's bits keeps blocks apart: as many leaf parents (and nodes above) as with slices.
+  EXPECT_EQ(octants.nodes(), slices.nodes());
+  for (const bool hot : {false, true}) expectEveryVoxelReadsBack(octants.layOut(hot), views.dags, 0, LeafShape::Octants);
 }
 
 TEST(NodePool, KeepsEachSubtreeOnceAcrossViews) {

@@ -84,6 +84,7 @@ size_t NodePool::add(const DagView& dag) {
     // Bottom-up by recursion: a node is interned after its children, which gives the build form's offsets.
     const auto intern = [&](const auto& self, uint32_t unit, uint32_t log2) -> uint32_t {
       if (memo[unit] != UINT32_MAX) return memo[unit];
+      if (log2 == 3 && shape_ == LeafShape::Octants) return memo[unit] = internLeafParent(dag, unit);
       const uint32_t header = dag.nodes[unit];
       uint32_t words[9] = {0};
       unsigned count = 1;
@@ -100,6 +101,34 @@ size_t NodePool::add(const DagView& dag) {
   }
   roots_.push_back(root);
   return roots_.size() - 1;
+}
+
+// A leaf parent regrouped into its 4^3 octants: the slices' bits gathered per octant.
+uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
+  const uint32_t header = dag.nodes[unit];
+  uint64_t slices[8];
+  for (unsigned z = 0; z < 8; ++z) {
+    const uint32_t code = childCodeOf(header, z);
+    slices[z] = code == uint32_t(ChildCode::Ref) ? dag.leaves[dag.child(unit, header, z, 8)]
+                                                 : code == uint32_t(ChildCode::Shadowed) ? ~uint64_t(0) : 0;
+  }
+  uint32_t words[9] = {0};
+  unsigned count = 1;
+  for (unsigned c = 0; c < 8; ++c) {
+    const unsigned x0 = (c & 1u) * 4, y0 = ((c >> 1) & 1u) * 4, z0 = (c >> 2) * 4;
+    uint64_t octant = 0;
+    for (unsigned z = 0; z < 4; ++z)
+      for (unsigned y = 0; y < 4; ++y)  // row y0 + y of slice z0 + z, columns x0 .. x0 + 3
+        octant |= ((slices[z0 + z] >> ((y0 + y) * 8 + x0)) & 0xFu) << (z * 16 + y * 4);
+    if (octant == 0) continue;  // lit: code 0
+    if (octant == ~uint64_t(0)) {
+      words[0] |= uint32_t(ChildCode::Shadowed) << (2 * c);
+      continue;
+    }
+    words[0] |= uint32_t(ChildCode::Ref) << (2 * c);
+    words[count++] = leaves_.intern(octant);
+  }
+  return levels_[3].intern(words, count);
 }
 
 void NodePool::releaseIndexes() {

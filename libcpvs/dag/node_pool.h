@@ -1,7 +1,8 @@
 #pragma once
 // One pool of DAG nodes and leaf masks for many views: each distinct subtree (the same node edge, child codes
 // and children) and each distinct leaf mask is kept once, whichever view it came from, and laid out with two
-// reference widths per level (docs/format-3-study.md: the coding a format 3.0 is to use; no file holds it yet).
+// reference widths per level, optionally with hot tables and octant leaves (docs/format-3-study.md: the
+// candidates for a format 3.0; no file holds them yet).
 //
 // Laid-out form: one level per node edge (8, 16, ... the largest root's), ascending, each level's nodes most
 // referenced first (popularity_order.h; a view's root counts as a reference). A node is a 16-bit header, 2 bits
@@ -18,6 +19,12 @@
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs {
+
+// What the leaves below a leaf parent (an 8^3 block) are. Slices: eight 8x8x1 slices, child z & 7, bit
+// (y & 7) * 8 + (x & 7), as in format 2.0. Octants: the block's eight 4^3 octants, child c from bit 2 of z, y
+// and x as at every other level, leaf bit (z & 3) * 16 + (y & 3) * 4 + (x & 3); an all-lit or
+// all-shadowed octant is coded so, not stored (docs/format-3-study.md, "The leaf shape").
+enum class LeafShape : uint8_t { Slices, Octants };
 
 struct ReferenceWidths {
   uint8_t shortBytes = 0, longBytes = 0;
@@ -49,6 +56,8 @@ struct LaidOutPool {
 
 class NodePool {
 public:
+  explicit NodePool(LeafShape shape = LeafShape::Slices) : shape_(shape) {}
+
   // Adds one view's DAG in the stored form of format 2.0 (a validated file's, or encodeDag's) and returns its
   // index among the views. Only nodes reachable from the root are pooled.
   size_t add(const DagView& dag);
@@ -75,6 +84,8 @@ private:
   std::vector<NodeTable> levels_;
   LeafTable leaves_;
   std::vector<Root> roots_;
+  LeafShape shape_;
+  uint32_t internLeafParent(const DagView& dag, uint32_t unit);
   bool indexesReleased_ = false;
 };
 
