@@ -1,6 +1,8 @@
-// What the per-level reference widths cost a lookup: the scalar walk of format 2.0 (DagView::shadowed over the
-// file's own DAGs) against the same walk over the whole file's pool as the library's NodePool lays it out
-// (benchmarks/level_widths.h reads it), without and with hot tables, on the same voxels, alternating. A study for a format 3.0, not a format: the runtime's batch
+// What the 3.0 candidates cost a lookup: the scalar walk of format 2.0 (DagView::shadowed over the file's own
+// DAGs) against the same walk over the whole file's pool as the library's NodePool lays it out
+// (benchmarks/level_widths.h reads it): slice or octant leaves, without or with hot tables; on the same voxels,
+// alternating. Besides single voxels, 8x8 tile masks at a slice, what a PCF footprint reads: one leaf with
+// slices, rows of four octants with octant leaves. A study for a format 3.0, not a format: the runtime's batch
 // walks (AVX-512 gathers) are not ported, so this weighs the decoding's cost, not the tools' throughput.
 //
 // Voxels are drawn at random (fixed seed) over the views, in two sets: uniform over each view's grid, and only
@@ -14,6 +16,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <functional>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -31,17 +35,33 @@ struct Lookup {
   uint32_t view, x, y, z;
 };
 
-// Whether the 2.0 walk of voxel (x, y, z) ends at a leaf (not at a homogeneous node above).
-bool reachesLeaf(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
-  uint32_t code = uint32_t(dag.rootCode), offset = 0;
-  for (uint32_t half = dag.resolution >> 1; half >= 8; half >>= 1) {
-    if (code != uint32_t(ChildCode::Ref)) return false;
+// The 2.0 walk of voxel (x, y, z) down to its leaf parent: code 2 and its unit in `offset`, or the code of the
+// homogeneous node above.
+uint32_t toLeafParent(const DagView& dag, uint32_t x, uint32_t y, uint32_t z, uint32_t& offset) {
+  uint32_t code = uint32_t(dag.rootCode);
+  offset = 0;
+  for (uint32_t half = dag.resolution >> 1; half >= 8 && code == uint32_t(ChildCode::Ref); half >>= 1) {
     const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
     const uint32_t header = dag.nodes[offset];
     code = childCodeOf(header, c);
     if (code == uint32_t(ChildCode::Ref)) offset = dag.child(offset, header, c, half * 2);
   }
-  return code == uint32_t(ChildCode::Ref) && childCodeOf(dag.nodes[offset], z & 7u) == uint32_t(ChildCode::Ref);
+  return code;
+}
+// Whether the 2.0 walk of voxel (x, y, z) ends at a leaf (not at a homogeneous node above).
+bool reachesLeaf(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
+  uint32_t offset;
+  return toLeafParent(dag, x, y, z, offset) == uint32_t(ChildCode::Ref) &&
+         childCodeOf(dag.nodes[offset], z & 7u) == uint32_t(ChildCode::Ref);
+}
+// The 2.0 tile mask: the 8x8 slice holding (x, y) at depth z, as a PCF footprint reads it.
+uint64_t tileMask(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
+  uint32_t offset;
+  const uint32_t code = toLeafParent(dag, x, y, z, offset);
+  if (code != uint32_t(ChildCode::Ref)) return 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+  const uint32_t header = dag.nodes[offset];
+  const uint32_t leafCode = childCodeOf(header, z & 7u);
+  return leafCode == uint32_t(ChildCode::Ref) ? dag.leaves[dag.child(offset, header, z & 7u, 8)] : 0 - uint64_t(leafCode);
 }
 
 std::vector<Lookup> drawLookups(const std::vector<const DagView*>& views, size_t count, bool deepOnly, uint32_t seed) {
@@ -58,11 +78,13 @@ std::vector<Lookup> drawLookups(const std::vector<const DagView*>& views, size_t
   return out;
 }
 
-template <class Walk>
-double nanosecondsPerLookup(const std::vector<Lookup>& lookups, Walk&& shadowed, uint64_t& sum) {
+// A walk answers a lookup with a 64-bit value: a voxel's bit, or a tile's mask. Sums of answers (a hash for the
+// masks) must agree between walks; they also keep the compiler from dropping a loop.
+using Walk = std::function<uint64_t(const Lookup&)>;
+double nanosecondsPerLookup(const std::vector<Lookup>& lookups, const Walk& walk, uint64_t& sum) {
   const auto start = std::chrono::steady_clock::now();
   uint64_t s = 0;
-  for (const Lookup& l : lookups) s += shadowed(l) ? 1 : 0;
+  for (const Lookup& l : lookups) s = s * 31 + walk(l);
   const auto end = std::chrono::steady_clock::now();
   sum = s;
   return std::chrono::duration<double, std::nano>(end - start).count() / double(lookups.size());
@@ -83,50 +105,73 @@ int run(const char* path, size_t count, int rounds) {
   std::vector<const DagView*> views;
   for (const CpvsFile::LightEntry& light : file->lights())
     for (const CpvsFile::View& v : light.views) views.push_back(&v.dag);
-  NodePool pool;
-  for (const DagView* v : views) pool.add(*v);
-  const LaidOutPool laidOut = pool.layOut(), laidOutHot = pool.layOut(true);
-  const ByteDag laid(laidOut), laidHot(laidOutHot);
-  std::vector<ByteDagView> byteViews, hotViews;
-  for (const LaidOutPool::Root& r : laidOut.roots) byteViews.push_back(ByteDagView::of(laid, r));
-  for (const LaidOutPool::Root& r : laidOutHot.roots) hotViews.push_back(ByteDagView::of(laidHot, r));
   uint64_t stored = 0;
   for (const DagView* v : views) stored += v->nodes.size() * 2 + v->leaves.size() * 8;
-  std::printf("%s: %zu views, 2.0 DAGs %.2f MB, pooled byte form %.2f MB, with hot tables %.2f MB; load %s\n", path,
-              views.size(), double(stored) / 1e6, double(laid.nodeBytes() + laid.leaves.size() * 8) / 1e6,
-              double(laidHot.nodeBytes() + laidHot.tableBytes() + laidHot.leaves.size() * 8) / 1e6, loadAverage().c_str());
-  const auto old = [&](const Lookup& l) { return views[l.view]->shadowed(l.x, l.y, l.z); };
-  const auto pooled = [&](const Lookup& l) { return byteViews[l.view].shadowed(l.x, l.y, l.z); };
-  const auto hot = [&](const Lookup& l) { return hotViews[l.view].shadowed(l.x, l.y, l.z); };
-  for (const bool deep : {false, true}) {
-    const std::vector<Lookup> lookups = drawLookups(views, count, deep, deep ? 2 : 1);
-    size_t mismatches = 0;
-    for (const Lookup& l : lookups) mismatches += (old(l) != pooled(l)) + (old(l) != hot(l));
-    if (mismatches) {
-      std::fprintf(stderr, "level_width_walk: %s: %zu of %zu answers differ\n", path, mismatches, lookups.size());
-      return 3;
+  std::printf("%s: %zu views, 2.0 DAGs %.2f MB; load %s\n", path, views.size(), double(stored) / 1e6,
+              loadAverage().c_str());
+
+  // The pooled forms: slice and octant leaves, without and with hot tables.
+  struct Pooled {
+    std::string name;
+    std::unique_ptr<ByteDag> dag;
+    std::vector<ByteDagView> views;
+  };
+  std::vector<Pooled> pooled;
+  for (const LeafShape shape : {LeafShape::Slices, LeafShape::Octants}) {
+    NodePool pool(shape);
+    for (const DagView* v : views) pool.add(*v);
+    pool.releaseIndexes();
+    for (const bool hot : {false, true}) {
+      const LaidOutPool laidOut = pool.layOut(hot);
+      Pooled p{std::string(shape == LeafShape::Slices ? "pooled" : "pooled octants") + (hot ? " + hot" : ""),
+               std::make_unique<ByteDag>(laidOut, shape), {}};
+      for (const LaidOutPool::Root& r : laidOut.roots) p.views.push_back(ByteDagView::of(*p.dag, r));
+      std::printf("  %s: %.2f MB\n", p.name.c_str(),
+                  double(p.dag->nodeBytes() + p.dag->tableBytes() + p.dag->leaves.size() * 8) / 1e6);
+      pooled.push_back(std::move(p));
     }
-    std::vector<double> a, b, h, ratio, ratioHot;
-    uint64_t sumA = 0, sumB = 0, sumH = 0;
-    for (int r = 0; r < rounds; ++r) {
-      a.push_back(nanosecondsPerLookup(lookups, old, sumA));
-      b.push_back(nanosecondsPerLookup(lookups, pooled, sumB));
-      h.push_back(nanosecondsPerLookup(lookups, hot, sumH));
-      ratio.push_back(b.back() / a.back());
-      ratioHot.push_back(h.back() / a.back());
-      if (sumA != sumB || sumA != sumH) {  // also keeps the compiler from dropping any loop
-        std::fprintf(stderr, "level_width_walk: %s: %llu vs %llu vs %llu shadowed\n", path, (unsigned long long)sumA,
-                     (unsigned long long)sumB, (unsigned long long)sumH);
+  }
+  for (const int set : {0, 1, 2}) {  // uniform voxels, deep voxels, tiles at deep voxels
+    const char* setName = set == 0 ? "uniform voxels" : set == 1 ? "deep voxels" : "tiles (8x8 masks at deep voxels)";
+    const std::vector<Lookup> lookups = drawLookups(views, count, set > 0, set > 0 ? 2 : 1);
+    std::vector<std::pair<std::string, Walk>> walks;
+    const bool tiles = set == 2;
+    walks.emplace_back("2.0", [&, tiles](const Lookup& l) -> uint64_t {
+      return tiles ? tileMask(*views[l.view], l.x, l.y, l.z) : views[l.view]->shadowed(l.x, l.y, l.z);
+    });
+    for (const Pooled& p : pooled)
+      walks.emplace_back(p.name, [&p, tiles](const Lookup& l) -> uint64_t {
+        return tiles ? p.views[l.view].tileMask(l.x, l.y, l.z) : p.views[l.view].shadowed(l.x, l.y, l.z);
+      });
+    for (size_t w = 1; w < walks.size(); ++w) {
+      size_t mismatches = 0;
+      for (const Lookup& l : lookups) mismatches += walks[w].second(l) != walks[0].second(l);
+      if (mismatches) {
+        std::fprintf(stderr, "level_width_walk: %s: %s: %zu of %zu answers differ\n", path, walks[w].first.c_str(),
+                     mismatches, lookups.size());
         return 3;
       }
     }
-    for (auto* v : {&a, &b, &h, &ratio, &ratioHot}) std::sort(v->begin(), v->end());
-    std::printf("  %s voxels (%zu, all answers equal, %llu shadowed), ns per lookup best / median: 2.0 walk %.1f / "
-                "%.1f; pooled %.1f / %.1f (ratio per round %.3f..%.3f, median %.3f); pooled with hot tables %.1f / "
-                "%.1f (ratio %.3f..%.3f, median %.3f)\n",
-                deep ? "deep" : "uniform", lookups.size(), (unsigned long long)sumA, a.front(), a[a.size() / 2],
-                b.front(), b[b.size() / 2], ratio.front(), ratio.back(), ratio[ratio.size() / 2], h.front(),
-                h[h.size() / 2], ratioHot.front(), ratioHot.back(), ratioHot[ratioHot.size() / 2]);
+    std::vector<std::vector<double>> ns(walks.size()), ratio(walks.size());
+    for (int r = 0; r < rounds; ++r) {
+      uint64_t sum0 = 0;
+      for (size_t w = 0; w < walks.size(); ++w) {
+        uint64_t sum = 0;
+        ns[w].push_back(nanosecondsPerLookup(lookups, walks[w].second, sum));
+        ratio[w].push_back(ns[w].back() / ns[0].back());
+        if (w == 0) sum0 = sum;
+        else if (sum != sum0) return std::fprintf(stderr, "level_width_walk: %s: sums differ\n", path), 3;
+      }
+    }
+    std::printf("  %s (%zu, every answer equal), ns per lookup best / median (ratio to 2.0, median of rounds):",
+                setName, lookups.size());
+    for (size_t w = 0; w < walks.size(); ++w) {
+      std::sort(ns[w].begin(), ns[w].end());
+      std::sort(ratio[w].begin(), ratio[w].end());
+      std::printf("%s %s %.1f / %.1f (%.3f)", w ? ";" : "", walks[w].first.c_str(), ns[w].front(),
+                  ns[w][ns[w].size() / 2], ratio[w][ratio[w].size() / 2]);
+    }
+    std::printf("\n");
   }
   std::printf("  load after %s\n", loadAverage().c_str());
   return 0;

@@ -130,8 +130,9 @@ struct ByteDag {
   uint8_t shortBytes[kMaxDagLevels] = {}, longBytes[kMaxDagLevels] = {};
   uint32_t levelBegin[kMaxDagLevels] = {};
   std::vector<uint32_t> hot[kMaxDagLevels];  // a level's hot table (NodePool::layOut(true)), or empty
+  LeafShape shape;
 
-  explicit ByteDag(const LaidOutPool& pool) : leaves(pool.leaves) {
+  ByteDag(const LaidOutPool& pool, LeafShape leafShape) : leaves(pool.leaves), shape(leafShape) {
     for (const PooledLevel& level : pool.levels) {
       const unsigned log2 = unsigned(std::countr_zero(level.edge));
       if (log2 >= kMaxDagLevels) continue;  // never: edges are powers of two up to 2^20
@@ -176,29 +177,57 @@ struct ByteDagView {
     return width == 4 ? value : value & ((1u << (8 * width)) - 1u);
   }
 
-  bool shadowed(uint32_t x, uint32_t y, uint32_t z) const {
-    const uint8_t* bytes = dag->bytes.data();
+  uint32_t headerAt(uint32_t at) const { return uint32_t(dag->bytes[at]) | uint32_t(dag->bytes[at + 1]) << 8; }
+  // The child of the node at byte `at` (edge 2^log2), a reference: its first byte, or its leaf index (log2 3).
+  uint32_t childAt(uint32_t at, uint32_t header, unsigned c, unsigned log2) const {
+    const uint32_t ref = readRef(at, header, c, log2);
+    const bool ranked = !dag->hot[log2].empty() && ((header >> (2 * c)) & 3u) == 2u;
+    return dag->childBase[log2] + (ranked ? dag->hot[log2][ref] : ref);
+  }
+  // Down the octree levels to the leaf parent holding voxel (x, y, z): its byte in `at` and code 2, or the code
+  // of the homogeneous node above it.
+  uint32_t toLeafParent(uint32_t x, uint32_t y, uint32_t z, uint32_t& at) const {
     uint32_t code = uint32_t(rootCode);
-    uint32_t at = root;
-    for (uint32_t half = resolution >> 1; half >= 8; half >>= 1) {
-      if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
+    at = root;
+    for (uint32_t half = resolution >> 1; half >= 8 && code == uint32_t(ChildCode::Ref); half >>= 1) {
       const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
-      const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
+      const uint32_t header = headerAt(at);
       code = childCodeOf(header, c);
-      const unsigned log2 = unsigned(std::countr_zero(half)) + 1;
-      if (code == uint32_t(ChildCode::Ref)) {
-        const uint32_t ref = readRef(at, header, c, log2);
-        const bool ranked = !dag->hot[log2].empty() && ((header >> (2 * c)) & 3u) == 2u;
-        at = dag->childBase[log2] + (ranked ? dag->hot[log2][ref] : ref);
-      }
+      if (code == uint32_t(ChildCode::Ref)) at = childAt(at, header, c, unsigned(std::countr_zero(half)) + 1);
     }
+    return code;
+  }
+  // A leaf parent's child c as a 64-bit mask: its leaf, or all ones / all zeros.
+  uint64_t leafOf(uint32_t at, uint32_t header, unsigned c) const {
+    const uint32_t code = childCodeOf(header, c);
+    return code == uint32_t(ChildCode::Ref) ? dag->leaves[childAt(at, header, c, 3)] : 0 - uint64_t(code);
+  }
+
+  bool shadowed(uint32_t x, uint32_t y, uint32_t z) const {
+    uint32_t at;
+    const uint32_t code = toLeafParent(x, y, z, at);
     if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
-    const unsigned c = z & 7u;
-    const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
-    code = childCodeOf(header, c);
-    if (code != uint32_t(ChildCode::Ref)) return code == uint32_t(ChildCode::Shadowed);
-    const uint64_t mask = dag->leaves[readRef(at, header, c, 3)];
-    return (mask >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+    const uint32_t header = headerAt(at);
+    if (dag->shape == LeafShape::Slices) return (leafOf(at, header, z & 7u) >> ((y & 7u) * 8u + (x & 7u))) & 1u;
+    const unsigned c = (z & 4u) | ((y & 4u) >> 1) | ((x & 4u) >> 2);
+    return (leafOf(at, header, c) >> ((z & 3u) * 16u + (y & 3u) * 4u + (x & 3u))) & 1u;
+  }
+
+  // The 8x8 mask (bit (y & 7) * 8 + (x & 7)) of the tile holding (x, y) at slice z, as a PCF footprint reads it:
+  // one slice, or four octants' rows at that depth.
+  uint64_t tileMask(uint32_t x, uint32_t y, uint32_t z) const {
+    uint32_t at;
+    const uint32_t code = toLeafParent(x, y, z, at);
+    if (code != uint32_t(ChildCode::Ref)) return 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
+    const uint32_t header = headerAt(at);
+    if (dag->shape == LeafShape::Slices) return leafOf(at, header, z & 7u);
+    uint64_t mask = 0;
+    for (unsigned q = 0; q < 4; ++q) {  // octants (x half, y half) = (q & 1, q >> 1) at z's half
+      const uint64_t rows = (leafOf(at, header, (z & 4u) | q) >> ((z & 3u) * 16u)) & 0xFFFFu;
+      for (unsigned row = 0; row < 4; ++row)
+        mask |= ((rows >> (4 * row)) & 0xFu) << (((q >> 1) * 4 + row) * 8 + (q & 1u) * 4);
+    }
+    return mask;
   }
 };
 
