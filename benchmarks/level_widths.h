@@ -221,11 +221,29 @@ struct ByteDagView {
     if (code != uint32_t(ChildCode::Ref)) return 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
     const uint32_t header = headerAt(at);
     if (dag->shape == LeafShape::Slices) return leafOf(at, header, z & 7u);
+    // Octants c0 .. c0 + 3 (x half, y half = q & 1, q >> 1) at z's half: their references follow one another,
+    // so the first one's place is counted once and each next one is a width further.
+    const unsigned c0 = z & 4u;
+    const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1), below = (1u << (2 * c0)) - 1u;
+    const uint32_t shortBytes = dag->shortBytes[3], longBytes = dag->longBytes[3];
+    uint32_t ref = at + 2 + shortBytes * popcount32(refs & below) + (longBytes - shortBytes) * popcount32(wide & below);
     uint64_t mask = 0;
-    for (unsigned q = 0; q < 4; ++q) {  // octants (x half, y half) = (q & 1, q >> 1) at z's half
-      const uint64_t rows = (leafOf(at, header, (z & 4u) | q) >> ((z & 3u) * 16u)) & 0xFFFFu;
-      for (unsigned row = 0; row < 4; ++row)
-        mask |= ((rows >> (4 * row)) & 0xFu) << (((q >> 1) * 4 + row) * 8 + (q & 1u) * 4);
+    for (unsigned q = 0; q < 4; ++q) {
+      const unsigned c = c0 + q;
+      const uint32_t code = (header >> (2 * c)) & 3u;
+      uint64_t octant = 0 - uint64_t(code == 1u);
+      if (code >= 2u) {
+        const uint32_t width = code == 3u ? longBytes : shortBytes;
+        uint32_t value;
+        std::memcpy(&value, dag->bytes.data() + ref, 4);
+        value = width == 4 ? value : value & ((1u << (8 * width)) - 1u);
+        octant = dag->leaves[value];
+        ref += width;
+      }
+      // Its 4 rows at the slice (4 bits each) spread to the low nibbles of 4 bytes, then placed in the tile.
+      const uint64_t rows = (octant >> ((z & 3u) * 16u)) & 0xFFFFu;
+      const uint64_t spread = (rows & 0xFu) | ((rows & 0xF0u) << 4) | ((rows & 0xF00u) << 8) | ((rows & 0xF000u) << 12);
+      mask |= spread << ((q >> 1) * 32 + (q & 1u) * 4);
     }
     return mask;
   }
