@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "benchmarks/level_widths.h"
+#include "benchmarks/load_average.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/cpvs_file.h"
 
@@ -90,15 +91,6 @@ double nanosecondsPerLookup(const std::vector<Lookup>& lookups, const Walk& walk
   return std::chrono::duration<double, std::nano>(end - start).count() / double(lookups.size());
 }
 
-std::string loadAverage() {
-  char text[128] = {};
-  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
-    if (!std::fgets(text, sizeof text, f)) text[0] = 0;
-    std::fclose(f);
-  }
-  std::string s(text);
-  return s.substr(0, s.find(' ', s.find(' ', s.find(' ') + 1) + 1));
-}
 
 int run(const char* path, size_t count, int rounds) {
   const auto file = orThrow(CpvsFile::open(path));

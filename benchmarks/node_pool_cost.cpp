@@ -15,6 +15,7 @@
 #include <cstring>
 #include <string>
 
+#include "benchmarks/load_average.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/peak_memory.h"
 #include "libcpvs/dag/node_pool.h"
@@ -23,17 +24,9 @@
 namespace {
 
 using namespace cpvs;
+using cpvs::study::loadAverage;
 using Clock = std::chrono::steady_clock;
 
-std::string loadAverage() {
-  char text[128] = {};
-  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
-    if (!std::fgets(text, sizeof text, f)) text[0] = 0;
-    std::fclose(f);
-  }
-  std::string s(text);
-  return s.substr(0, s.find(' ', s.find(' ', s.find(' ') + 1) + 1));
-}
 
 double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
