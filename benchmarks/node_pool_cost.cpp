@@ -15,6 +15,8 @@
 #include <cstring>
 #include <string>
 
+#include <xxhash.h>
+
 #include "benchmarks/load_average.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/base/peak_memory.h"
@@ -41,7 +43,7 @@ int run(const char* path, int rounds) {
   const std::string loadBefore = loadAverage();
   const uint64_t rssBefore = currentRssBytes();
   double bestAdd = 1e30, bestLayOut = 1e30;
-  uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0;
+  uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0, layoutHash = 0;
   for (int r = 0; r < rounds; ++r) {
     NodePool pool;
     const auto t0 = Clock::now();
@@ -54,15 +56,22 @@ int run(const char* path, int rounds) {
     bestAdd = std::min(bestAdd, seconds(t0, t1));
     bestLayOut = std::min(bestLayOut, seconds(t1, t2));
     pooledBytes = laid.leaves.size() * 8;
-    for (const PooledLevel& level : laid.levels) pooledBytes += level.bytes.size();
+    // A hash of everything laid out, so that two builds of NodePool can be shown to lay out the same bytes.
+    layoutHash = XXH3_64bits(laid.leaves.data(), laid.leaves.size() * 8);
+    for (const PooledLevel& level : laid.levels) {
+      pooledBytes += level.bytes.size();
+      layoutHash = XXH3_64bits_withSeed(level.bytes.data(), level.bytes.size(), layoutHash);
+    }
+    for (const LaidOutPool::Root& root : laid.roots)
+      layoutHash = XXH3_64bits_withSeed(&root.offset, sizeof root.offset, layoutHash);
     nodes = pool.nodes();
     rssAfter = std::max(rssAfter, currentRssBytes());
   }
-  std::printf("%s: %llu views, DAGs %.2f MB as stored, pooled %.2f MB (%llu nodes); adding every view %.2f s, "
-              "laying out %.2f s (best of %d); resident %.0f MB before, %.0f MB with the pool (+%.0f MB), peak %.0f MB; "
-              "load %s -> %s\n",
+  std::printf("%s: %llu views, DAGs %.2f MB as stored, pooled %.2f MB (%llu nodes, layout XXH3 %016llx); adding every "
+              "view %.2f s, laying out %.2f s (best of %d); resident %.0f MB before, %.0f MB with the pool (+%.0f MB), "
+              "peak %.0f MB; load %s -> %s\n",
               path, (unsigned long long)views, double(stored) / 1e6, double(pooledBytes) / 1e6,
-              (unsigned long long)nodes, bestAdd, bestLayOut, rounds, double(rssBefore) / 1e6, double(rssAfter) / 1e6,
+              (unsigned long long)nodes, (unsigned long long)layoutHash, bestAdd, bestLayOut, rounds, double(rssBefore) / 1e6, double(rssAfter) / 1e6,
               double(rssAfter - std::min(rssAfter, rssBefore)) / 1e6, double(peakRssBytes()) / 1e6,
               loadBefore.c_str(), loadAverage().c_str());
   return 0;

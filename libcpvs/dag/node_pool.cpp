@@ -34,11 +34,11 @@ struct LevelCoding {
 // level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
 // counts those and every coding is priced from the counts. Ties go to the first pair of kWidthPairs, without a
 // table before with one.
-LevelCoding narrowestCoding(const std::vector<uint32_t>& order, std::span<const uint32_t> words,
-                            const std::vector<uint32_t>& offsetBelow, const std::vector<uint32_t>& rankBelow,
-                            uint64_t nodesBelow, bool allowTable, uint32_t edge) {
+LevelCoding narrowestCoding(std::span<const uint32_t> words, const std::vector<uint32_t>& offsetBelow,
+                            const std::vector<uint32_t>& rankBelow, uint64_t nodesBelow, bool allowTable,
+                            uint32_t edge) {
   uint64_t needing[5][5] = {};  // [bytes the rank needs][bytes the offset needs]
-  for (const uint32_t at : order)
+  for (size_t at = 0; at < words.size(); at += nodeWordCount(words[at]))
     for (unsigned k = 1; k < nodeWordCount(words[at]); ++k) {
       const uint32_t child = words[at + k];
       needing[bytesNeeded(rankBelow[child])][bytesNeeded(offsetBelow[child])] += 1;
@@ -74,14 +74,13 @@ LevelCoding narrowestCoding(const std::vector<uint32_t>& order, std::span<const 
 
 size_t NodePool::add(const DagView& dag) {
   if (indexesReleased_) throw Error(ErrorCategory::RuntimeFailure, "node pool: a view added after releaseIndexes()");
-  if (levels_.empty()) levels_.resize(kMaxDagLevels);
+  if (levels_.empty()) levels_.resize(kMaxDagLevels), offsetOfId_.resize(kMaxDagLevels), starts_.resize(kMaxDagLevels);
   const uint32_t log2Edge = uint32_t(std::countr_zero(dag.resolution));
   Root root{dag.rootCode, log2Edge, 0};
   if (dag.rootCode == ChildCode::Ref) {
-    // A view's unit offset -> its node's pooled word offset (every unit offset is one node's: levels do not
-    // share units).
+    // A view's unit offset -> its node's pooled id (every unit offset is one node's: levels do not share units).
     std::vector<uint32_t> memo(dag.nodes.size(), UINT32_MAX);
-    // Bottom-up by recursion: a node is interned after its children, which gives the build form's offsets.
+    // Bottom-up by recursion: a node is interned after its children, whose ids it holds.
     const auto intern = [&](const auto& self, uint32_t unit, uint32_t log2) -> uint32_t {
       if (memo[unit] != UINT32_MAX) return memo[unit];
       if (log2 == 3 && shape_ == LeafShape::Octants) return memo[unit] = internLeafParent(dag, unit);
@@ -95,9 +94,9 @@ size_t NodePool::add(const DagView& dag) {
         const uint32_t target = dag.child(unit, header, c, 1u << log2);
         words[count++] = log2 == 3 ? leaves_.intern(dag.leaves[target]) : self(self, target, log2 - 1);
       }
-      return memo[unit] = levels_[log2].intern(words, count);
+      return memo[unit] = internNode(log2, words, count);
     };
-    root.word = intern(intern, 0, log2Edge);
+    root.id = intern(intern, 0, log2Edge);
   }
   roots_.push_back(root);
   return roots_.size() - 1;
@@ -128,18 +127,43 @@ uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
     words[0] |= uint32_t(ChildCode::Ref) << (2 * c);
     words[count++] = leaves_.intern(octant);
   }
-  return levels_[3].intern(words, count);
+  return internNode(3, words, count);
+}
+
+uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned count) {
+  const uint64_t before = levels_[log2].records().size();
+  const uint32_t offset = levels_[log2].intern(words, count);
+  std::vector<uint32_t>& offsets = offsetOfId_[log2];
+  if (offset != before) return starts_[log2].idAt(offset);
+  // New: appended at the end, so offsets grow with ids.
+  const uint32_t id = uint32_t(offsets.size());
+  offsets.push_back(offset);
+  starts_[log2].append(offset, id);
+  return id;
+}
+
+void NodePool::NodeStarts::append(uint32_t offset, uint32_t id) {
+  while (idsBefore.size() <= offset / 512) idsBefore.push_back(id);  // blocks this node is the first id at or past
+  if (bits.size() <= offset / 64) bits.resize(offset / 64 + 1, 0);
+  bits[offset / 64] |= uint64_t(1) << (offset % 64);
+}
+
+uint32_t NodePool::NodeStarts::idAt(uint32_t offset) const {
+  uint32_t id = idsBefore[offset / 512];
+  for (size_t w = (offset / 512) * 8; w < offset / 64; ++w) id += uint32_t(std::popcount(bits[w]));
+  return id + uint32_t(std::popcount(bits[offset / 64] & ((uint64_t(1) << (offset % 64)) - 1)));
 }
 
 void NodePool::releaseIndexes() {
   for (NodeTable& level : levels_) level.releaseIndex();
+  std::vector<NodeStarts>().swap(starts_);
   leaves_.releaseIndex();
   indexesReleased_ = true;
 }
 
 uint64_t NodePool::nodes() const {
   uint64_t n = 0;
-  for (const NodeTable& level : levels_) n += level.size();
+  for (const std::vector<uint32_t>& ids : offsetOfId_) n += ids.size();
   return n;
 }
 
@@ -156,7 +180,7 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
   const std::vector<uint32_t> leafOrder =
       mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3].records().span(), masks.size())
                                             : std::vector<uint32_t>(masks.size(), 0));
-  // Each child of the level below: its byte offset (leaves: index) and its rank, by its word offset (leaf id).
+  // Each child of the level below: its byte offset (leaves: index) and its rank, by its id (leaf index).
   std::vector<uint32_t> offsetBelow(masks.size()), rankBelow(masks.size());
   std::vector<uint32_t> orderBelow = leafOrder;
   for (uint32_t i = 0; i < leafOrder.size(); ++i) {
@@ -168,32 +192,35 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
   for (size_t v = 0; v < roots_.size(); ++v) roots[v] = {roots_[v].code, 1u << roots_[v].log2Edge, 0};
   for (uint32_t log2 = 3; top >= 3 && log2 <= top; ++log2) {
     const std::span<const uint32_t> words = levels_[log2].records().span();
-    std::vector<uint32_t> order;  // the level's nodes (word offsets) as laid out
+    const std::vector<uint32_t>& offsetOf = offsetOfId_[log2];
+    const size_t nodes = offsetOf.size();
+    std::vector<uint32_t> order;  // the level's node ids as laid out
     {
-      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1].records().span(), words.size())
-                                                : std::vector<uint32_t>(words.size(), 0);
+      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1].records().span(), nodes)
+                                                : std::vector<uint32_t>(nodes, 0);
       for (const Root& r : roots_)
-        if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.word] != UINT32_MAX) counts[r.word] += 1;
-      std::vector<uint32_t> nodeAt;
-      for (size_t i = 0; i < words.size(); i += nodeWordCount(words[i])) nodeAt.push_back(uint32_t(i));
-      order = mostReferencedFirst(nodeAt, counts);
+        if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.id] != UINT32_MAX) counts[r.id] += 1;
+      std::vector<uint32_t> ids(nodes);
+      std::iota(ids.begin(), ids.end(), 0u);
+      order = mostReferencedFirst(ids, counts);
     }
 
     PooledLevel level;
     level.edge = 1u << log2;
     level.nodes = order.size();
-    const LevelCoding coding = narrowestCoding(order, words, offsetBelow, rankBelow, orderBelow.size(),
-                                               hotTables && log2 > 3, level.edge);
+    const LevelCoding coding =
+        narrowestCoding(words, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
     level.widths = coding.widths;
     for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
     level.bytes.reserve(2 * order.size() + coding.referenceBytes);
-    std::vector<uint32_t> position(words.size(), 0), rank(words.size(), 0);
+    std::vector<uint32_t> position(nodes, 0), rank(nodes, 0);
     for (uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
-    for (const uint32_t at : order) {
+    for (const uint32_t id : order) {
+      const uint32_t at = offsetOf[id];
       if (level.bytes.size() > UINT32_MAX)
         throw Error(ErrorCategory::RuntimeFailure,
                     "node pool: the level of edge " + std::to_string(level.edge) + " passed 4 GiB");
-      position[at] = uint32_t(level.bytes.size());
+      position[id] = uint32_t(level.bytes.size());
       const size_t headerAt = level.bytes.size();
       level.bytes.resize(headerAt + 2);
       uint32_t header = 0;
@@ -214,7 +241,7 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
       level.bytes[headerAt + 1] = uint8_t(header >> 8);
     }
     for (size_t v = 0; v < roots_.size(); ++v)
-      if (roots_[v].code == ChildCode::Ref && roots_[v].log2Edge == log2) roots[v].offset = position[roots_[v].word];
+      if (roots_[v].code == ChildCode::Ref && roots_[v].log2Edge == log2) roots[v].offset = position[roots_[v].id];
     offsetBelow = std::move(position);
     rankBelow = std::move(rank);
     orderBelow = std::move(order);

@@ -77,15 +77,28 @@ private:
   struct Root {
     ChildCode code;
     uint32_t log2Edge;
-    uint32_t word;  // a reference: the root's word offset in levels_[log2Edge]
+    uint32_t id;  // a reference: the root's id in its level
   };
   // levels_[log2(edge)]: the nodes of that edge in build form (a header of codes 0..2, then one word per
-  // referenced child: its word offset in the level below, or its leaf index below a leaf parent).
+  // referenced child: its id in the level below, or its leaf index below a leaf parent). A node's id is its
+  // place in the order the level first met it; offsetOfId_[log2][id] is where its words start, so the layout
+  // keeps its arrays per node rather than per word.
   std::vector<NodeTable> levels_;
+  std::vector<std::vector<uint32_t>> offsetOfId_;
+  // Which words start a node, per level, with the ids before each block of 512 words: a record met again gives
+  // its id in constant time (its offset's rank), at 1 bit a word.
+  struct NodeStarts {
+    std::vector<uint64_t> bits;
+    std::vector<uint32_t> idsBefore;  // per 512-word block
+    void append(uint32_t offset, uint32_t id);
+    uint32_t idAt(uint32_t offset) const;
+  };
+  std::vector<NodeStarts> starts_;
   LeafTable leaves_;
   std::vector<Root> roots_;
   LeafShape shape_;
   uint32_t internLeafParent(const DagView& dag, uint32_t unit);
+  uint32_t internNode(uint32_t log2, const uint32_t* words, unsigned count);  // the node's id in its level
   bool indexesReleased_ = false;
 };
 
