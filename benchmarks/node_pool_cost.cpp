@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <vector>
 
 #include <xxhash.h>
 
@@ -44,6 +45,7 @@ int run(const char* path, int rounds) {
   const uint64_t rssBefore = currentRssBytes();
   double bestAdd = 1e30, bestLayOut = 1e30;
   uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0, layoutHash = 0;
+  std::vector<uint64_t> sharing;
   for (int r = 0; r < rounds; ++r) {
     NodePool pool;
     const auto t0 = Clock::now();
@@ -65,6 +67,7 @@ int run(const char* path, int rounds) {
     for (const LaidOutPool::Root& root : laid.roots)
       layoutHash = XXH3_64bits_withSeed(&root.offset, sizeof root.offset, layoutHash);
     nodes = pool.nodes();
+    sharing = pool.nodesByViewsReaching();
     rssAfter = std::max(rssAfter, currentRssBytes());
   }
   std::printf("%s: %llu views, DAGs %.2f MB as stored, pooled %.2f MB (%llu nodes, layout XXH3 %016llx); adding every "
@@ -74,6 +77,14 @@ int run(const char* path, int rounds) {
               (unsigned long long)nodes, (unsigned long long)layoutHash, bestAdd, bestLayOut, rounds, double(rssBefore) / 1e6, double(rssAfter) / 1e6,
               double(rssAfter - std::min(rssAfter, rssBefore)) / 1e6, double(peakRssBytes()) / 1e6,
               loadBefore.c_str(), loadAverage().c_str());
+  std::printf("  nodes by the views that reach them:");
+  for (size_t k = 0; k < sharing.size(); ++k) {
+    const uint64_t low = k == 0 ? 1 : (uint64_t(1) << (k - 1)) + 1, high = uint64_t(1) << k;
+    const std::string views = low == high ? std::to_string(low) : std::to_string(low) + "-" + std::to_string(high);
+    std::printf("%s %s: %llu (%.1f %%)", k ? ";" : "", views.c_str(), (unsigned long long)sharing[k],
+                100.0 * double(sharing[k]) / double(nodes ? nodes : 1));
+  }
+  std::printf("\n");
   return 0;
 }
 

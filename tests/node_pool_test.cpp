@@ -157,6 +157,14 @@ TEST(NodePool, KeepsEachSubtreeOnceAcrossViews) {
   for (const DagView& dag : views.dags) twice.add(dag);
   EXPECT_EQ(twice.nodes(), once.nodes());
   EXPECT_EQ(twice.leaves(), once.leaves());
+  // Every node is reached by twice the views: none by one view only, each bucket k of `once` moves up by one.
+  const std::vector<uint64_t> sharedOnce = once.nodesByViewsReaching(), sharedTwice = twice.nodesByViewsReaching();
+  ASSERT_GE(sharedOnce.size(), 2u);  // the golden files' views share some nodes
+  EXPECT_EQ(sharedTwice[0], 0u);
+  EXPECT_EQ(sharedTwice[1], sharedOnce[0]);
+  uint64_t counted = 0;
+  for (const uint64_t n : sharedTwice) counted += n;
+  EXPECT_EQ(counted, twice.nodes());
   const LaidOutPool laid = twice.layOut();
   for (size_t v = 0; v < views.dags.size(); ++v) {
     EXPECT_EQ(laid.roots[v].offset, laid.roots[v + views.dags.size()].offset);

@@ -74,16 +74,28 @@ LevelCoding narrowestCoding(std::span<const uint32_t> words, const std::vector<u
 
 size_t NodePool::add(const DagView& dag) {
   if (indexesReleased_) throw Error(ErrorCategory::RuntimeFailure, "node pool: a view added after releaseIndexes()");
-  if (levels_.empty()) levels_.resize(kMaxDagLevels), offsetOfId_.resize(kMaxDagLevels), starts_.resize(kMaxDagLevels);
+  if (levels_.empty()) {
+    levels_.resize(kMaxDagLevels);
+    offsetOfId_.resize(kMaxDagLevels);
+    starts_.resize(kMaxDagLevels);
+    viewsReaching_.resize(kMaxDagLevels);
+  }
   const uint32_t log2Edge = uint32_t(std::countr_zero(dag.resolution));
   Root root{dag.rootCode, log2Edge, 0};
   if (dag.rootCode == ChildCode::Ref) {
     // A view's unit offset -> its node's pooled id (every unit offset is one node's: levels do not share units).
     std::vector<uint32_t> memo(dag.nodes.size(), UINT32_MAX);
     // Bottom-up by recursion: a node is interned after its children, whose ids it holds.
+    // A view's DAG holds each of its nodes once, so a node met here for the first time in this view is one more
+    // view reaching it.
+    const auto reached = [&](uint32_t log2, uint32_t id) {
+      uint32_t& n = viewsReaching_[log2][id];
+      n += n != UINT32_MAX;
+      return id;
+    };
     const auto intern = [&](const auto& self, uint32_t unit, uint32_t log2) -> uint32_t {
       if (memo[unit] != UINT32_MAX) return memo[unit];
-      if (log2 == 3 && shape_ == LeafShape::Octants) return memo[unit] = internLeafParent(dag, unit);
+      if (log2 == 3 && shape_ == LeafShape::Octants) return memo[unit] = reached(3, internLeafParent(dag, unit));
       const uint32_t header = dag.nodes[unit];
       uint32_t words[9] = {0};
       unsigned count = 1;
@@ -94,7 +106,7 @@ size_t NodePool::add(const DagView& dag) {
         const uint32_t target = dag.child(unit, header, c, 1u << log2);
         words[count++] = log2 == 3 ? leaves_.intern(dag.leaves[target]) : self(self, target, log2 - 1);
       }
-      return memo[unit] = internNode(log2, words, count);
+      return memo[unit] = reached(log2, internNode(log2, words, count));
     };
     root.id = intern(intern, 0, log2Edge);
   }
@@ -138,6 +150,7 @@ uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned cou
   // New: appended at the end, so offsets grow with ids.
   const uint32_t id = uint32_t(offsets.size());
   offsets.push_back(offset);
+  viewsReaching_[log2].push_back(0);
   starts_[log2].append(offset, id);
   return id;
 }
@@ -152,6 +165,17 @@ uint32_t NodePool::NodeStarts::idAt(uint32_t offset) const {
   uint32_t id = idsBefore[offset / 512];
   for (size_t w = (offset / 512) * 8; w < offset / 64; ++w) id += uint32_t(std::popcount(bits[w]));
   return id + uint32_t(std::popcount(bits[offset / 64] & ((uint64_t(1) << (offset % 64)) - 1)));
+}
+
+std::vector<uint64_t> NodePool::nodesByViewsReaching() const {
+  std::vector<uint64_t> histogram;
+  for (const std::vector<uint32_t>& level : viewsReaching_)
+    for (const uint32_t views : level) {
+      const size_t k = views <= 1 ? 0 : size_t(std::bit_width(views - 1));
+      if (histogram.size() <= k) histogram.resize(k + 1, 0);
+      histogram[k] += 1;
+    }
+  return histogram;
 }
 
 void NodePool::releaseIndexes() {

@@ -72,6 +72,9 @@ public:
   uint64_t nodes() const;
   uint64_t leaves() const { return leaves_.leaves().size(); }
   size_t views() const { return roots_.size(); }
+  // How widely the nodes are shared: entry k counts the nodes that 2^(k-1) + 1 to 2^k views reach (entry 0:
+  // one view only, entry 1: two, entry 2: three or four, ...).
+  std::vector<uint64_t> nodesByViewsReaching() const;
 
 private:
   struct Root {
@@ -85,6 +88,7 @@ private:
   // keeps its arrays per node rather than per word.
   std::vector<NodeTable> levels_;
   std::vector<std::vector<uint32_t>> offsetOfId_;
+  std::vector<std::vector<uint32_t>> viewsReaching_;  // per level, by id
   // Which words start a node, per level, with the ids before each block of 512 words: a record met again gives
   // its id in constant time (its offset's rank), at 1 bit a word.
   struct NodeStarts {
