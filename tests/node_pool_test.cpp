@@ -1,11 +1,14 @@
 // The node pool (libcpvs/dag/node_pool.h): views of several files pooled together read back every voxel as
 // their own DAGs do, shared subtrees are stored once, each level takes the narrowest widths its references
-// allow, and the same views give the same bytes.
+// allow, and the same views give the same bytes. Then the runtime's validation of the pooled form
+// (libcpvs/runtime/pool_validation.h): it accepts every layout, names what is wrong, and a damaged pool is
+// refused or walks inside its buffers.
 #include <gtest/gtest.h>
 
 #include <bit>
 #include <cstring>
 #include <memory>
+#include <random>
 #include <span>
 #include <string>
 #include <vector>
@@ -13,6 +16,7 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/dag/node_pool.h"
 #include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/runtime/pool_validation.h"
 #include "support/test_dags.h"
 #include "support/test_support.h"
 
@@ -210,6 +214,114 @@ TEST(NodePool, SameViewsGiveTheSameBytes) {
     EXPECT_EQ(la.levels[l].widths.longBytes, lb.levels[l].widths.longBytes);
   }
   EXPECT_EQ(la.leaves, lb.leaves);
+}
+
+}  // namespace
+}  // namespace cpvs
+
+// --- Validation of the pooled form (libcpvs/runtime/pool_validation.h) ---
+
+namespace cpvs {
+namespace {
+
+struct PoolViews {
+  std::vector<PoolLevelView> levels;
+  std::vector<PoolRootView> roots;
+};
+PoolViews viewsOf(const LaidOutPool& pool) {
+  PoolViews v;
+  for (const PooledLevel& l : pool.levels)
+    v.levels.push_back({l.edge, l.widths.shortBytes, l.widths.longBytes, l.bytes, l.hot});
+  for (const LaidOutPool::Root& r : pool.roots) v.roots.push_back({r.code, r.edge, r.offset});
+  return v;
+}
+Outcome validate(const LaidOutPool& pool) {
+  const PoolViews v = viewsOf(pool);
+  return validatePool(v.levels, pool.leaves.size(), v.roots, "test.cpvs");
+}
+
+TEST(PoolValidation, AcceptsEveryLayoutOfThePool) {
+  const Views views = goldenViews();
+  for (const LeafShape shape : {LeafShape::Slices, LeafShape::Octants}) {
+    NodePool pool(shape);
+    for (const DagView& dag : views.dags) pool.add(dag);
+    for (const bool hot : {false, true}) {
+      const Outcome o = validate(pool.layOut(hot));
+      EXPECT_TRUE(o.ok()) << o.message();
+    }
+  }
+}
+
+TEST(PoolValidation, NamesWhatIsWrong) {
+  const Views views = goldenViews();
+  NodePool pool;
+  for (const DagView& dag : views.dags) pool.add(dag);
+  const LaidOutPool good = pool.layOut();
+  {
+    LaidOutPool bad = good;  // the top level's last byte cut off
+    bad.levels.back().bytes.pop_back();
+    const Outcome o = validate(bad);
+    EXPECT_FALSE(o.ok());
+    EXPECT_NE(o.message().find("test.cpvs: pool level of edge"), std::string::npos) << o.message();
+  }
+  {
+    LaidOutPool bad = good;  // a root into the middle of its node
+    for (LaidOutPool::Root& r : bad.roots)
+      if (r.code == ChildCode::Ref) r.offset += 1;
+    const Outcome o = validate(bad);
+    EXPECT_FALSE(o.ok());
+    EXPECT_NE(o.message().find("root: byte"), std::string::npos) << o.message();
+  }
+  {
+    LaidOutPool bad = good;  // fewer leaves than the leaf parents index
+    bad.leaves.resize(bad.leaves.size() / 2);
+    const Outcome o = validate(bad);
+    EXPECT_FALSE(o.ok());
+    EXPECT_NE(o.message().find("is not below the leaf count"), std::string::npos) << o.message();
+  }
+  {
+    LaidOutPool bad = good;  // a level missing
+    bad.levels.erase(bad.levels.begin() + 1);
+    EXPECT_FALSE(validate(bad).ok());
+  }
+}
+
+// Damaged pools are refused, or, where the damage leaves a valid pool (a reference to another node, a flipped
+// child code that still fits), walked without leaving the buffers: every read is bounds-checked here (.at()), so
+// a read outside them would throw.
+TEST(PoolValidation, DamagedPoolsAreRefusedOrWalkInsideTheirBuffers) {
+  const Views views = goldenViews();
+  std::vector<DagView> small;  // the golden files' views: every voxel walked
+  for (const DagView& dag : views.dags)
+    if (dag.resolution <= 128) small.push_back(dag);
+  for (const LeafShape shape : {LeafShape::Slices, LeafShape::Octants})
+    for (const bool hot : {false, true}) {
+      NodePool pool(shape);
+      for (const DagView& dag : small) pool.add(dag);
+      const LaidOutPool good = pool.layOut(hot);
+      std::mt19937 rng(7);
+      size_t refused = 0, accepted = 0;
+      for (int m = 0; m < 300; ++m) {
+        LaidOutPool bad = good;
+        for (int flips = 1 + int(rng() % 3); flips > 0; --flips) {
+          PooledLevel& level = bad.levels[rng() % bad.levels.size()];
+          if (!level.hot.empty() && rng() % 4 == 0) level.hot[rng() % level.hot.size()] ^= 1u << (rng() % 32);
+          else if (!level.bytes.empty()) level.bytes[rng() % level.bytes.size()] ^= uint8_t(1u << (rng() % 8));
+        }
+        if (!validate(bad).ok()) {
+          ++refused;
+          continue;
+        }
+        ++accepted;
+        for (size_t v = 0; v < small.size(); ++v)
+          for (uint32_t z = 0; z < small[v].resolution; z += 3)
+            for (uint32_t y = 0; y < small[v].resolution; y += 3)
+              for (uint32_t x = 0; x < small[v].resolution; x += 3)
+                ASSERT_NO_THROW(pooledShadowed(bad, v, x, y, z, shape)) << "mutation " << m;
+      }
+      EXPECT_GT(refused, 0u);
+      EXPECT_EQ(refused + accepted, 300u);
+    }
 }
 
 }  // namespace
