@@ -1,7 +1,7 @@
 // What the 3.0 candidates cost a lookup: the scalar walk of format 2.0 (DagView::shadowed over the file's own
-// DAGs) against the same walk over the whole file's pool as the library's NodePool lays it out
-// (benchmarks/level_widths.h reads it): slice or octant leaves, without or with hot tables; on the same voxels,
-// alternating. Besides single voxels, 8x8 tile masks at a slice, what a PCF footprint reads: one leaf with
+// DAGs) against the runtime's byte walk (libcpvs/runtime/byte_dag.h) over the same DAGs in place, and over the
+// whole file's pool as the library's NodePool lays it out: slice or octant leaves, without or with hot tables;
+// on the same voxels, alternating. Besides single voxels, 8x8 tile masks at a slice, what a PCF footprint reads: one leaf with
 // slices, rows of four octants with octant leaves. A study for a format 3.0, not a format: the runtime's batch
 // walks (AVX-512 gathers) are not ported, so this weighs the decoding's cost, not the tools' throughput.
 //
@@ -22,7 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "benchmarks/level_widths.h"
+#include "libcpvs/dag/node_pool.h"
+#include "libcpvs/runtime/byte_dag.h"
 #include "benchmarks/load_average.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/cpvs_file.h"
@@ -30,7 +31,7 @@
 namespace {
 
 using namespace cpvs;
-using namespace cpvs::study;
+using cpvs::study::loadAverage;
 
 struct Lookup {
   uint32_t view, x, y, z;
@@ -102,25 +103,29 @@ int run(const char* path, size_t count, int rounds) {
   std::printf("%s: %zu views, 2.0 DAGs %.2f MB; load %s\n", path, views.size(), double(stored) / 1e6,
               loadAverage().c_str());
 
-  // The pooled forms: slice and octant leaves, without and with hot tables.
-  struct Pooled {
+  // The byte walk over the 2.x views in place, then the pooled forms: slice and octant leaves, without and with
+  // hot tables. Each is a set of runtime views (libcpvs/runtime/byte_dag.h).
+  struct ByteWalk {
     std::string name;
-    std::unique_ptr<ByteDag> dag;
-    std::vector<ByteDagView> views;
+    PooledDags pooled;               // empty for the views in place
+    std::vector<ByteDagView> views;  // one per view of the file
   };
-  std::vector<Pooled> pooled;
+  std::vector<ByteWalk> byteWalks;
+  byteWalks.push_back({"2.0 in place, byte walk", {}, {}});
+  for (const DagView* v : views) byteWalks.back().views.push_back(ByteDagView::inPlace(*v));
   for (const LeafShape shape : {LeafShape::Slices, LeafShape::Octants}) {
     NodePool pool(shape);
     for (const DagView* v : views) pool.add(*v);
     pool.releaseIndexes();
     for (const bool hot : {false, true}) {
-      const LaidOutPool laidOut = pool.layOut(hot);
-      Pooled p{std::string(shape == LeafShape::Slices ? "pooled" : "pooled octants") + (hot ? " + hot" : ""),
-               std::make_unique<ByteDag>(laidOut, shape), {}};
-      for (const LaidOutPool::Root& r : laidOut.roots) p.views.push_back(ByteDagView::of(*p.dag, r));
-      std::printf("  %s: %.2f MB\n", p.name.c_str(),
-                  double(p.dag->nodeBytes() + p.dag->tableBytes() + p.dag->leaves.size() * 8) / 1e6);
-      pooled.push_back(std::move(p));
+      ByteWalk w{std::string(shape == LeafShape::Slices ? "pooled" : "pooled octants") + (hot ? " + hot" : ""),
+                 concatenate(pool.layOut(hot), shape), {}};
+      w.views = w.pooled.views;
+      uint64_t tables = 0;
+      for (const auto& table : w.pooled.hot) tables += 4 * table.size();
+      std::printf("  %s: %.2f MB\n", w.name.c_str(),
+                  double(w.pooled.bytes.size() + tables + w.pooled.leaves.size() * 8) / 1e6);
+      byteWalks.push_back(std::move(w));
     }
   }
   for (const int set : {0, 1, 2}) {  // uniform voxels, deep voxels, tiles at deep voxels
@@ -131,9 +136,9 @@ int run(const char* path, size_t count, int rounds) {
     walks.emplace_back("2.0", [&, tiles](const Lookup& l) -> uint64_t {
       return tiles ? tileMask(*views[l.view], l.x, l.y, l.z) : views[l.view]->shadowed(l.x, l.y, l.z);
     });
-    for (const Pooled& p : pooled)
-      walks.emplace_back(p.name, [&p, tiles](const Lookup& l) -> uint64_t {
-        return tiles ? p.views[l.view].tileMask(l.x, l.y, l.z) : p.views[l.view].shadowed(l.x, l.y, l.z);
+    for (const ByteWalk& b : byteWalks)
+      walks.emplace_back(b.name, [&b, tiles](const Lookup& l) -> uint64_t {
+        return tiles ? b.views[l.view].tileMask(l.x, l.y, l.z) : b.views[l.view].shadowed(l.x, l.y, l.z);
       });
     for (size_t w = 1; w < walks.size(); ++w) {
       size_t mismatches = 0;

@@ -287,8 +287,8 @@ TEST(PoolValidation, NamesWhatIsWrong) {
 }
 
 // Damaged pools are refused, or, where the damage leaves a valid pool (a reference to another node, a flipped
-// child code that still fits), walked without leaving the buffers: every read is bounds-checked here (.at()), so
-// a read outside them would throw.
+// child code that still fits), walked without leaving the buffers: every read of the walk here is
+// bounds-checked (.at()), so a read outside them would throw; the runtime's walk must answer alike.
 TEST(PoolValidation, DamagedPoolsAreRefusedOrWalkInsideTheirBuffers) {
   const Views views = goldenViews();
   std::vector<DagView> small;  // the golden files' views: every voxel walked
@@ -313,11 +313,17 @@ TEST(PoolValidation, DamagedPoolsAreRefusedOrWalkInsideTheirBuffers) {
           continue;
         }
         ++accepted;
+        // The runtime's walk (byte_dag.h) of the same damaged pool answers as the bounds-checked one here (under
+        // the sanitizers, scripts/test-sanitized.sh, a read outside its buffers would be reported).
+        const PooledDags runtime = concatenate(bad, shape);
         for (size_t v = 0; v < small.size(); ++v)
           for (uint32_t z = 0; z < small[v].resolution; z += 3)
             for (uint32_t y = 0; y < small[v].resolution; y += 3)
-              for (uint32_t x = 0; x < small[v].resolution; x += 3)
-                ASSERT_NO_THROW(pooledShadowed(bad, v, x, y, z, shape)) << "mutation " << m;
+              for (uint32_t x = 0; x < small[v].resolution; x += 3) {
+                bool answer = false;
+                ASSERT_NO_THROW(answer = pooledShadowed(bad, v, x, y, z, shape)) << "mutation " << m;
+                ASSERT_EQ(runtime.views[v].shadowed(x, y, z), answer) << "mutation " << m;
+              }
       }
       EXPECT_GT(refused, 0u);
       EXPECT_EQ(refused + accepted, 300u);

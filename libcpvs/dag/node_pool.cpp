@@ -24,7 +24,7 @@ unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1
 
 // How a level codes its references: the pair of widths, and how many of the level below's most referenced
 // nodes a short reference reaches by rank (0: none, short references are offsets too).
-struct LevelCoding {
+struct LevelChoice {
   ReferenceWidths widths{0, 0};
   uint32_t hotEntries = 0;
   uint64_t referenceBytes = 0;  // what the level's references take, the table not counted
@@ -34,7 +34,7 @@ struct LevelCoding {
 // level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
 // counts those and every coding is priced from the counts. Ties go to the first pair of kWidthPairs, without a
 // table before with one.
-LevelCoding narrowestCoding(std::span<const uint32_t> words, const std::vector<uint32_t>& offsetBelow,
+LevelChoice narrowestCoding(std::span<const uint32_t> words, const std::vector<uint32_t>& offsetBelow,
                             const std::vector<uint32_t>& rankBelow, uint64_t nodesBelow, bool allowTable,
                             uint32_t edge) {
   uint64_t needing[5][5] = {};  // [bytes the rank needs][bytes the offset needs]
@@ -44,7 +44,7 @@ LevelCoding narrowestCoding(std::span<const uint32_t> words, const std::vector<u
       needing[bytesNeeded(rankBelow[child])][bytesNeeded(offsetBelow[child])] += 1;
     }
   uint64_t best = std::numeric_limits<uint64_t>::max();
-  LevelCoding chosen;
+  LevelChoice chosen;
   for (const bool table : {false, true}) {
     if (table && !allowTable) continue;
     for (const ReferenceWidths pair : kWidthPairs) {
@@ -232,7 +232,7 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
     PooledLevel level;
     level.edge = 1u << log2;
     level.nodes = order.size();
-    const LevelCoding coding =
+    const LevelChoice coding =
         narrowestCoding(words, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
     level.widths = coding.widths;
     for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
@@ -272,6 +272,36 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
     out.levels.push_back(std::move(level));
   }
   out.roots = std::move(roots);
+  return out;
+}
+
+PooledDags concatenate(const LaidOutPool& pool, LeafShape shape) {
+  PooledDags out;
+  out.leaves = pool.leaves;
+  out.hot.resize(kMaxDagLevels);
+  uint64_t levelBegin[kMaxDagLevels] = {};
+  for (const PooledLevel& level : pool.levels) {
+    const unsigned log2 = unsigned(std::countr_zero(level.edge));
+    levelBegin[log2] = out.bytes.size();
+    out.hot[log2] = level.hot;
+    out.bytes.insert(out.bytes.end(), level.bytes.begin(), level.bytes.end());
+  }
+  ByteDagView base;
+  base.bytes = out.bytes;
+  base.leaves = out.leaves;
+  base.leafShape = shape;
+  for (const PooledLevel& level : pool.levels) {
+    const unsigned log2 = unsigned(std::countr_zero(level.edge));
+    base.coding[log2] = {log2 > 3 ? levelBegin[log2 - 1] : 0, level.widths.shortBytes, level.widths.longBytes, 0,
+                         out.hot[log2]};
+  }
+  for (const LaidOutPool::Root& r : pool.roots) {
+    ByteDagView v = base;
+    v.resolution = r.edge;
+    v.rootCode = r.code;
+    v.root = r.code == ChildCode::Ref ? levelBegin[std::countr_zero(r.edge)] + r.offset : 0;
+    out.views.push_back(v);
+  }
   return out;
 }
 

@@ -16,15 +16,10 @@
 
 #include "libcpvs/dag/leaf_table.h"
 #include "libcpvs/dag/node_table.h"
+#include "libcpvs/runtime/byte_dag.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs {
-
-// What the leaves below a leaf parent (an 8^3 block) are. Slices: eight 8x8x1 slices, child z & 7, bit
-// (y & 7) * 8 + (x & 7), as in format 2.0. Octants: the block's eight 4^3 octants, child c from bit 2 of z, y
-// and x as at every other level, leaf bit (z & 3) * 16 + (y & 3) * 4 + (x & 3); an all-lit or
-// all-shadowed octant is coded so, not stored (docs/format-3-study.md, "The leaf shape").
-enum class LeafShape : uint8_t { Slices, Octants };
 
 struct ReferenceWidths {
   uint8_t shortBytes = 0, longBytes = 0;
@@ -53,6 +48,20 @@ struct LaidOutPool {
   };
   std::vector<Root> roots;  // one per view, in the order they were added
 };
+
+// The laid-out pool in one array, as a file would hold it (levels one after the other, ascending edge), with
+// the runtime's view of each root (byte_dag.h). The views point into this object's arrays: moving it keeps
+// them valid, copying does not.
+struct PooledDags {
+  std::vector<uint8_t> bytes;
+  std::vector<uint64_t> leaves;
+  std::vector<std::vector<uint32_t>> hot;  // by log2(edge)
+  std::vector<ByteDagView> views;          // one per root
+  PooledDags() = default;
+  PooledDags(PooledDags&&) = default;
+  PooledDags(const PooledDags&) = delete;
+};
+PooledDags concatenate(const LaidOutPool& pool, LeafShape shape);
 
 class NodePool {
 public:
