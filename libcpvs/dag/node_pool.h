@@ -9,7 +9,8 @@
 // per child (0 lit, 1 shadowed, 2 short reference, 3 long reference; children in the order of shadow_dag.h),
 // then its references in child order, little-endian, each in its level's short or long width (1 to 4 bytes).
 // A reference is the child's byte offset in the level below; below a leaf parent (edge 8) it is the leaf's
-// index. Each level takes the pair of widths that makes it smallest (the first such pair in kWidthPairs).
+// index (leaf shapes: byte_dag.h's LeafShape). Each level takes the pair of widths that makes it smallest (the
+// first such pair in kWidthPairs).
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -50,8 +51,8 @@ struct LaidOutPool {
 };
 
 // The laid-out pool in one array, as a file would hold it (levels one after the other, ascending edge), with
-// the runtime's view of each root (byte_dag.h). The views point into this object's arrays: moving it keeps
-// them valid, copying does not.
+// the runtime's view of each root (byte_dag.h). The views point into this object's arrays, which a move keeps
+// in place (it cannot be copied).
 struct PooledDags {
   std::vector<uint8_t> bytes;
   std::vector<uint64_t> leaves;
