@@ -1,6 +1,7 @@
 #include "libcpvs/runtime/byte_dag.h"
 
 #include <bit>
+#include <cstring>
 
 namespace cpvs {
 
@@ -24,6 +25,7 @@ ByteDagView ByteDagView::inPlace(const DagView& dag) {
   v.root = 0;
   v.bytes = {reinterpret_cast<const uint8_t*>(dag.nodes.data()), dag.nodes.size_bytes()};
   v.leaves = dag.leaves;
+  v.unitForm = true;
   for (uint32_t log2 = 0; log2 < kMaxDagLevels; ++log2) {
     // Above the leaf parents a reference counts units from childBase (a unit offset); below them it is a leaf.
     const bool leafParent = log2 == 3;
@@ -34,6 +36,14 @@ ByteDagView ByteDagView::inPlace(const DagView& dag) {
 
 uint64_t ByteDagView::childAt(uint64_t at, uint32_t header, unsigned c, unsigned log2Edge) const {
   const LevelCoding& level = coding[log2Edge];
+  if (unitForm) {  // the widths and the shift known: one popcount and unit reads, as readRef does
+    const uint64_t units = at / 2 + 1 + popcount32(refUnitBits(header) & ((1u << (2 * c)) - 1u));
+    uint16_t low, high = 0;
+    std::memcpy(&low, bytes.data() + 2 * units, 2);
+    if (isWideRef(header, c)) std::memcpy(&high, bytes.data() + 2 * units + 2, 2);
+    const uint64_t value = uint32_t(low) | uint32_t(high) << 16;
+    return level.childBase + (value << level.shift);
+  }
   const uint32_t below = (1u << (2 * c)) - 1u;
   const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
   const uint64_t skip = uint64_t(level.shortBytes) * std::popcount(refs & below) +

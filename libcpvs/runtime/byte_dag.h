@@ -3,8 +3,9 @@
 // as bytes; references of 2 or 4 bytes that count units) and the pooled form a format 3.0 is to store (two
 // reference widths per level in bytes, optional hot tables, slice or octant leaves; docs/format-3-study.md,
 // libcpvs/dag/node_pool.h). What DagView's walks are to become once 3.0 exists; for now the scalar walk, its
-// tile masks, and the proof that both forms read alike (tests/byte_dag_test.cpp). As written, general, it costs
-// 4-15 % against DagView's walk on one view (docs/format-3-study.md, "Lookups"): to be specialized first.
+// tile masks, and the proof that both forms read alike (tests/byte_dag_test.cpp). A 2.x view takes a path
+// specialized for its form (unitForm) and reads at DagView's speed; the general path of the pooled form costs
+// 5-25 % on one view (docs/format-3-study.md, "Lookups"), to be specialized per coding before DagView becomes it.
 //
 // A node is a 16-bit little-endian header, 2 bits per child (0 lit, 1 shadowed, 2 short, 3 long reference),
 // then its references in child order, each in its level's short or long width. The child a reference names
@@ -38,6 +39,7 @@ struct ByteDagView {
   std::span<const uint8_t> bytes;
   std::span<const uint64_t> leaves;
   LeafShape leafShape = LeafShape::Slices;
+  bool unitForm = false;  // a 2.x view in place: widths 2 and 4 and shift 1 everywhere, read as DagView reads them
   LevelCoding coding[kMaxDagLevels];  // by log2 of the edge of the node holding the references
 
   // A 2.x view's DAG read in place: the same bytes, widths 2 and 4, references in units.
