@@ -56,7 +56,9 @@ bool reachesLeaf(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
   return toLeafParent(dag, x, y, z, offset) == uint32_t(ChildCode::Ref) &&
          childCodeOf(dag.nodes[offset], z & 7u) == uint32_t(ChildCode::Ref);
 }
-// The 2.0 tile mask: the 8x8 slice holding (x, y) at depth z, as a PCF footprint reads it.
+// The 2.0 tile mask: the 8x8 slice holding (x, y) at depth z, as a PCF footprint reads it. Written here, as
+// DagView::shadowed walks, rather than taken from the GPU walk's C++ twin (gpu::DagWalk, bounds-checked and not
+// written for speed): it is the baseline the timings divide by.
 uint64_t tileMask(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
   uint32_t offset;
   const uint32_t code = toLeafParent(dag, x, y, z, offset);

@@ -11,25 +11,17 @@
 #include "libcpvs/dag/node_pool.h"
 #include "libcpvs/runtime/byte_dag.h"
 #include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/runtime/dag_walk.glsl.h"
 #include "support/test_dags.h"
 #include "support/test_support.h"
 
 namespace cpvs {
 namespace {
 
-// DagView's 8x8 tile mask at slice z: the leaf, or all ones / zeros where a homogeneous node covers the tile.
+// DagView's 8x8 tile mask at slice z, from the runtime's own tile walk (the GPU walk's C++ twin).
 uint64_t tileMaskOf(const DagView& dag, uint32_t x, uint32_t y, uint32_t z) {
-  uint32_t code = uint32_t(dag.rootCode), offset = 0;
-  for (uint32_t half = dag.resolution >> 1; half >= 8 && code == uint32_t(ChildCode::Ref); half >>= 1) {
-    const unsigned c = ((z & half) ? 4u : 0u) | ((y & half) ? 2u : 0u) | ((x & half) ? 1u : 0u);
-    const uint32_t header = dag.nodes[offset];
-    code = childCodeOf(header, c);
-    if (code == uint32_t(ChildCode::Ref)) offset = dag.child(offset, header, c, half * 2);
-  }
-  if (code != uint32_t(ChildCode::Ref)) return 0 - uint64_t(code == uint32_t(ChildCode::Shadowed));
-  const uint32_t header = dag.nodes[offset];
-  code = childCodeOf(header, z & 7u);
-  return code == uint32_t(ChildCode::Ref) ? dag.leaves[dag.child(offset, header, z & 7u, 8)] : 0 - uint64_t(code);
+  const gpu::uvec2 m = gpu::DagWalk{dag}.cpvsTileMask(x, y, z);
+  return uint64_t(m.x) | uint64_t(m.y) << 32;
 }
 
 struct Golden {

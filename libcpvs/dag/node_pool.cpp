@@ -13,13 +13,6 @@ namespace cpvs {
 
 namespace {
 
-// The bytes a reference of this value takes in a pair of widths, or 0 when it fits neither.
-unsigned referenceBytes(uint64_t value, ReferenceWidths w) {
-  if (value < (uint64_t(1) << (8 * w.shortBytes))) return w.shortBytes;
-  if (value < (uint64_t(1) << (8 * w.longBytes))) return w.longBytes;
-  return 0;
-}
-
 unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1u << 16) ? 2 : value < (1u << 24) ? 3 : 4; }
 
 // How a level codes its references: the pair of widths, and how many of the level below's most referenced
@@ -29,6 +22,14 @@ struct LevelChoice {
   uint32_t hotEntries = 0;
   uint64_t referenceBytes = 0;  // what the level's references take, the table not counted
 };
+
+// The one rule for a reference, given the bytes its child's rank and offset need: short when what it would
+// hold (the rank with a table, else the offset) fits the short width, else long when the offset fits that.
+// Returns its width, 0 when it fits neither; `isShort` says which.
+unsigned referenceWidth(unsigned rankNeeds, unsigned offsetNeeds, ReferenceWidths pair, bool table, bool& isShort) {
+  isShort = (table ? rankNeeds : offsetNeeds) <= pair.shortBytes;
+  return isShort ? pair.shortBytes : offsetNeeds <= pair.longBytes ? pair.longBytes : 0;
+}
 
 // The coding that makes a level smallest, given each reference's child as its byte offset and its rank in the
 // level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
@@ -54,10 +55,8 @@ LevelChoice narrowestCoding(std::span<const uint32_t> words, const std::vector<u
       bool fits = true;
       for (unsigned rank = 1; rank <= 4; ++rank)
         for (unsigned offset = 1; offset <= 4; ++offset) {
-          unsigned width = 0;
-          if (table && rank <= pair.shortBytes) width = pair.shortBytes;
-          else if (!table && offset <= pair.shortBytes) width = pair.shortBytes;
-          else if (offset <= pair.longBytes) width = pair.longBytes;
+          bool isShort;
+          const unsigned width = referenceWidth(rank, offset, pair, table, isShort);
           fits = fits && (width != 0 || needing[rank][offset] == 0);
           bytes += needing[rank][offset] * width;
         }
@@ -252,11 +251,12 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
         uint32_t code = wordCodeOf(words[at], c);
         if (code == uint32_t(ChildCode::Ref)) {
           const uint32_t child = words[at + k++];
-          const bool hot = rankBelow[child] < coding.hotEntries;
-          const uint32_t value = hot ? rankBelow[child] : offsetBelow[child];
-          const unsigned width = hot ? level.widths.shortBytes
-                                     : coding.hotEntries ? level.widths.longBytes : referenceBytes(value, level.widths);
-          code = hot || (!coding.hotEntries && width == level.widths.shortBytes) ? 2u : 3u;
+          const bool table = coding.hotEntries > 0;
+          bool isShort;
+          const unsigned width = referenceWidth(bytesNeeded(rankBelow[child]), bytesNeeded(offsetBelow[child]),
+                                                level.widths, table, isShort);
+          const uint32_t value = isShort && table ? rankBelow[child] : offsetBelow[child];
+          code = isShort ? 2u : 3u;
           for (unsigned b = 0; b < width; ++b) level.bytes.push_back(uint8_t(value >> (8 * b)));
         }
         header |= code << (2 * c);

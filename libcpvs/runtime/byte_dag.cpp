@@ -5,19 +5,6 @@
 
 namespace cpvs {
 
-namespace {
-
-// A reference of `width` bytes (1 to 4), little-endian, read exactly.
-uint32_t readReference(const uint8_t* p, uint32_t width) {
-  uint32_t v = p[0];
-  if (width > 1) v |= uint32_t(p[1]) << 8;
-  if (width > 2) v |= uint32_t(p[2]) << 16;
-  if (width > 3) v |= uint32_t(p[3]) << 24;
-  return v;
-}
-
-}  // namespace
-
 ByteDagView ByteDagView::inPlace(const DagView& dag) {
   ByteDagView v;
   v.resolution = dag.resolution;
@@ -49,7 +36,7 @@ uint64_t ByteDagView::childAt(uint64_t at, uint32_t header, unsigned c, unsigned
   const uint64_t skip = uint64_t(level.shortBytes) * std::popcount(refs & below) +
                         uint64_t(level.longBytes - level.shortBytes) * std::popcount(wide & below);
   const bool isLong = (wide >> (2 * c + 1)) & 1u;
-  const uint32_t value = readReference(bytes.data() + at + 2 + skip, isLong ? level.longBytes : level.shortBytes);
+  const uint32_t value = readLittleEndian(bytes.data() + at + 2 + skip, isLong ? level.longBytes : level.shortBytes);
   if (!isLong && !level.hot.empty()) return level.childBase + level.hot[value];
   return level.childBase + (uint64_t(value) << level.shift);
 }

@@ -24,6 +24,13 @@ namespace cpvs {
 // and x as at every other level, leaf bit (z & 3) * 16 + (y & 3) * 4 + (x & 3).
 enum class LeafShape : uint8_t { Slices, Octants };
 
+// A reference of `width` bytes (1 to 4), little-endian, read exactly: nothing past it is touched.
+inline uint32_t readLittleEndian(const uint8_t* p, unsigned width) {
+  uint32_t v = 0;
+  for (unsigned b = 0; b < width; ++b) v |= uint32_t(p[b]) << (8 * b);
+  return v;
+}
+
 // How the references held by the nodes of one edge read.
 struct LevelCoding {
   uint64_t childBase = 0;           // where the children's level starts in `bytes` (0 below leaf parents)

@@ -2,6 +2,8 @@
 
 #include <vector>
 
+#include "libcpvs/runtime/byte_dag.h"
+
 namespace cpvs {
 
 namespace {
@@ -13,12 +15,6 @@ struct NodeStarts {
   void mark(uint64_t at) { bits[at / 64] |= uint64_t(1) << (at % 64); }
   bool has(uint64_t at) const { return at / 64 < bits.size() && ((bits[at / 64] >> (at % 64)) & 1u); }
 };
-
-uint64_t readLittleEndian(const uint8_t* p, unsigned width) {
-  uint64_t v = 0;
-  for (unsigned b = 0; b < width; ++b) v |= uint64_t(p[b]) << (8 * b);
-  return v;
-}
 
 Outcome invalid(const std::string& where, const std::string& what) {
   return Outcome(ErrorCategory::InvalidInput, where + ": " + what);

@@ -12,26 +12,22 @@
 
 namespace cpvs {
 
-// References per node of one level, indexed by the node's word offset (leaf index for leaves), counted over
-// the references of the level above given in build form (words).
-inline void countReferences(std::span<const uint32_t> parentWords, std::vector<uint32_t>& counts) {
+// References per node of one level, counted over the references of the level above given in build form
+// (words), indexed by what those references hold: a word offset, a node id (NodePool) or a leaf index.
+inline std::vector<uint32_t> referenceCounts(std::span<const uint32_t> parentWords, size_t targetCount) {
+  std::vector<uint32_t> counts(targetCount, 0);
   for (size_t i = 0; i < parentWords.size();) {
-    const uint32_t header = parentWords[i];
-    const unsigned count = nodeWordCount(header);
+    const unsigned count = nodeWordCount(parentWords[i]);
     for (unsigned k = 1; k < count; ++k) {
       uint32_t& n = counts[parentWords[i + k]];
       n += n != UINT32_MAX;
     }
     i += count;
   }
-}
-inline std::vector<uint32_t> referenceCounts(std::span<const uint32_t> parentWords, size_t targetCount) {
-  std::vector<uint32_t> counts(targetCount, 0);
-  countReferences(parentWords, counts);
   return counts;
 }
 
-// `items` (word offsets or leaf indices) ordered by reference count, most first, ties in the given order:
+// `items` (word offsets, node ids or leaf indices) ordered by reference count, most first, ties in the given order:
 // a stable counting sort on the count capped at kCap (only the head of a level needs an exact order — what
 // fits the short references — and every node referenced kCap times or more belongs there).
 inline std::vector<uint32_t> mostReferencedFirst(const std::vector<uint32_t>& items, const std::vector<uint32_t>& counts) {

@@ -6,7 +6,6 @@
 
 #include "libcpvs/runtime/popularity_order.h"
 
-
 namespace cpvs {
 
 uint32_t DagView::levels() const { return resolution >= 8 ? uint32_t(std::countr_zero(resolution)) - 2 : 0; }
