@@ -1099,6 +1099,44 @@ TEST(ImportAlpha, AnImageThatIsNotAnImageWarnsAndCastsByTheFactor) {
   EXPECT_NE(bake.output.find("alpha is taken as 1"), std::string::npos) << bake.output;
 }
 
+TEST(ImportAlpha, AnEmptyOrMissingImageFileGivesOneWarningThatSaysWhatIsWrong) {
+  const std::string dir = test::tempDir();
+  const std::string path = alphaQuad(dir, "", {{"index", 0}});  // leaf.png exists and is empty
+  ImportOptions viewer;  // cpvs-view also decodes the base-colour texture: the same image, one warning
+  viewer.loadBaseColorTextures = true;
+  for (const ImportOptions& options : {ImportOptions{}, viewer}) {
+    const Scene scene = importGltf(path, options);
+    ASSERT_EQ(scene.warnings.size(), 1u) << (scene.warnings.empty() ? "" : scene.warnings[0] + " | " + scene.warnings.back());
+    EXPECT_EQ(scene.warnings[0].rfind(path + ": image 0 'leaf.png' (material 'LeafMat'): the file is empty; ", 0), 0u)
+        << scene.warnings[0];
+    EXPECT_NE(scene.warnings[0].find("alpha is taken as 1"), std::string::npos) << scene.warnings[0];
+    EXPECT_EQ(scene.warnings[0].find("cpvs-view shows") != std::string::npos, options.loadBaseColorTextures)
+        << scene.warnings[0];
+  }
+  // Through the tools: one warning, the scene's path once in it, nothing from the loader.
+  const std::string cpvs = dir + "/leaf.cpvs", points = dir + "/points.csv";
+  const test::ToolResult bake = test::runTool(test::toolPath("cpvs-bake") + " " + path + " -o " + cpvs +
+                                              " -r 64 --sun 0,0,-1");
+  ASSERT_EQ(bake.exitCode, 0) << bake.output;
+  ASSERT_EQ(test::runTool(test::toolPath("cpvs-sample") + " " + path + " -n 100 -o " + points).exitCode, 0);
+  const test::ToolResult query = test::runTool(test::toolPath("cpvs-query") + " " + cpvs + " --points " + points +
+                                               " -o " + dir + "/v.csv --reference " + path);
+  ASSERT_EQ(query.exitCode, 0) << query.output;
+  for (const test::ToolResult& run : {bake, query}) {
+    EXPECT_EQ(run.output.find("File is empty"), std::string::npos) << run.output;
+    const size_t warning = run.output.find("warning: " + path + ": image 0 'leaf.png' (material 'LeafMat'): the file is empty");
+    ASSERT_NE(warning, std::string::npos) << run.output;
+    EXPECT_EQ(run.output.find("leaf.png", warning + 40 + path.size()), std::string::npos) << run.output;  // once
+    const std::string line = run.output.substr(warning, run.output.find('\n', warning) - warning);
+    EXPECT_EQ(line.find(path, line.find(path) + 1), std::string::npos) << line;
+  }
+  // A missing file is named as such.
+  std::filesystem::remove(dir + "/leaf.png");
+  const Scene missing = importGltf(path);
+  ASSERT_EQ(missing.warnings.size(), 1u);
+  EXPECT_NE(missing.warnings[0].find("leaf.png does not exist"), std::string::npos) << missing.warnings[0];
+}
+
 TEST(ImportAlpha, AHugePngHeaderWarnsWithoutAllocatingTheImage) {
   const std::string dir = test::tempDir();
   const Scene scene = importGltf(alphaQuad(dir, pngHeaderOnly(60000, 60000), {{"index", 0}}));

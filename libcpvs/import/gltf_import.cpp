@@ -177,7 +177,11 @@ void GltfImporter::load() {
   for (const std::string& line : lines(warnings)) {
     // Images are skipped on purpose (see fileExistsBesideScene); say nothing about them.
     if (line.find("image[") != std::string::npos) continue;
-    if (line.rfind("File not found", 0) == 0 && hasImageExtension(line)) continue;
+    // Nor about image files missing or empty: the material that uses one says what is wrong with it, once.
+    if ((line.rfind("File not found", 0) == 0 || line.rfind("File is empty", 0) == 0 ||
+         line.rfind("File read error", 0) == 0) &&
+        hasImageExtension(line.substr(0, line.find(" : ", line.find(" : ") + 3))))
+      continue;
     warn(gltf::shortenDataUris(line));
   }
   // A buffer refused by the file rules: say why, rather than tinygltf's "file not found".
@@ -195,6 +199,21 @@ void GltfImporter::load() {
   checkJsonTypes(path_, root);
   gltf::restoreDracoIndices(dracoIndices_, model_);
   gltf::decodeMeshopt(path_, meshopt_, model_);
+}
+
+// Why glTF image `source` brought no bytes to decode: the loader skipped it, or its file is missing or empty.
+std::string GltfImporter::whyImageHasNoBytes(int source) const {
+  if (source < 0 || size_t(source) >= model_.images.size()) return "it does not exist";
+  const tinygltf::Image& image = model_.images[size_t(source)];
+  if (image.uri.empty()) return image.bufferView >= 0 ? "its bufferView holds no bytes" : "it has no uri and no bufferView";
+  if (image.uri.rfind("data:", 0) == 0) return "its data: URI holds no bytes";
+  std::error_code ec;
+  const std::filesystem::path file =
+      std::filesystem::absolute(path_, ec).parent_path() / std::filesystem::path(percentDecoded(image.uri));
+  if (!std::filesystem::exists(file, ec)) return "the file " + file.lexically_normal().string() + " does not exist";
+  if (!std::filesystem::is_regular_file(file, ec)) return "not a regular file";
+  if (std::filesystem::file_size(file, ec) == 0) return "the file is empty";
+  return "the file cannot be read (no permission, or it lies outside the scene's folder: see --allow-external-uris)";
 }
 
 std::string GltfImporter::describeNode(int index) const {

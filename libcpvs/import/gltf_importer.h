@@ -43,6 +43,10 @@ private:
   void warnOnce(const std::string& message) {
     if (warnedOnce_.insert(message).second) warn(message);
   }
+  // One warning per image that cannot be used, however many materials and primitives use it: what is wrong
+  // with it, then each of its consequences once.
+  // `user` names the material that met it first ("material 'LeafMat'").
+  void warnAboutImage(int source, const std::string& user, const std::string& why, const std::string& consequence);
 
   // The driver (gltf_import.cpp): loading the file, the scene walk, what each node places.
   void load();
@@ -91,6 +95,7 @@ private:
   glm::dmat3 textureTransform(const tinygltf::Value& value, const std::string& what, int& texCoord) const;
   std::shared_ptr<const AlphaImage> alphaOfImage(int source, std::string& why);
   std::string describeImage(int source) const;
+  std::string whyImageHasNoBytes(int source) const;  // gltf_import.cpp
   std::vector<float> texCoords(const tinygltf::Primitive& primitive, int set, const Mesh& mesh,
                                const std::string& where, std::string& problem) const;
   int32_t textureOfImage(int source, std::string& why);
@@ -112,6 +117,7 @@ private:
   std::set<int> dracoAccessors_;  // accessors already filled from a Draco stream
   std::vector<int> dracoIndices_;  // Draco indices accessors given a placeholder bufferView for tinygltf
   std::set<std::string> warnedOnce_;
+  std::map<int, size_t> imageWarnings_;  // image index -> its warning in scene_.warnings
   struct {
     size_t triangles = 0, primitives = 0;
     std::string first;

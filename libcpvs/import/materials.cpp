@@ -87,7 +87,9 @@ void GltfImporter::attachBaseColorTexture(const tinygltf::Primitive& primitive, 
   std::string why;
   const int32_t texture = textureOfImage(source, why);
   if (texture < 0) {
-    return warnOnce(what + " (" + describeImage(source) + ") not shown: " + why);
+    const std::string& name = model_.materials[size_t(primitive.material)].name;
+    return warnAboutImage(source, "material " + (name.empty() ? std::to_string(primitive.material) : "'" + name + "'"),
+                          why, "cpvs-view shows the materials that use it without it");
   }
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const glm::vec2 t(values[2 * i], values[2 * i + 1]);
@@ -163,8 +165,9 @@ void GltfImporter::attachCasterAlpha(const tinygltf::Primitive& primitive, const
   std::string why;
   const std::shared_ptr<const AlphaImage> alpha = alphaOfImage(texture.source, why);
   if (!alpha) {
-    warnOnce(what + ": " + describeImage(texture.source) + ": " + why +
-             "; its alpha is taken as 1, so the material casts by its factor alone (docs/alpha.md)");
+    warnAboutImage(texture.source, "material '" + mesh.material + "'", why,
+                   "its alpha is taken as 1, so the alpha-tested materials that use it cast by their factor alone "
+                   "(docs/alpha.md)");
     return castsWhole(factor >= rule.cutoff);
   }
   TextureWrap wrapS = TextureWrap::Repeat, wrapT = TextureWrap::Repeat;
@@ -256,13 +259,21 @@ std::shared_ptr<const AlphaImage> GltfImporter::alphaOfImage(int source, std::st
   if (const auto decoded = textureOfImage_.find(source); decoded != textureOfImage_.end() && decoded->second >= 0) {
     result = alphaOf(scene_.textures[size_t(decoded->second)]);
   } else if (const auto bytes = imageKeeping_.images.find(source); bytes == imageKeeping_.images.end()) {
-    why = "not found, or not a PNG or JPEG";
+    why = whyImageHasNoBytes(source);
   } else if (Texture texture; gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
     result = alphaOf(texture);
   }
   if (!result) imageFailures_[source] = why;
   alphaOfImage_[source] = result;
   return result;
+}
+
+void GltfImporter::warnAboutImage(int source, const std::string& user, const std::string& why,
+                                  const std::string& consequence) {
+  const auto [known, first] = imageWarnings_.try_emplace(source, scene_.warnings.size());
+  if (first) return warn(describeImage(source) + " (" + user + "): " + why + "; " + consequence);
+  std::string& warning = scene_.warnings[known->second];
+  if (warning.find(consequence) == std::string::npos) warning += "; " + consequence;
 }
 
 // "image 3 'leaf.png'" (data: URIs shortened), for messages.
@@ -312,7 +323,7 @@ int32_t GltfImporter::textureOfImage(int source, std::string& why) {
   Texture texture;
   const auto bytes = imageKeeping_.images.find(source);
   if (bytes == imageKeeping_.images.end()) {
-    why = "not found, or not a PNG or JPEG";
+    why = whyImageHasNoBytes(source);
   } else if (gltf::decodeTexture(bytes->second.data(), bytes->second.size(), texture, why)) {
     const std::string& name = model_.images[size_t(source)].name;
     texture.name = name.empty() ? "image" + std::to_string(source) : name;

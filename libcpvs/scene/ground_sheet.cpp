@@ -238,19 +238,39 @@ double signedVolume(const WorldGeometry& world, const std::vector<uint32_t>& ind
   return six / 6.0;
 }
 
+// Why no instance is a ground sheet: a ground sheet is an open height field spanning the scene; say which open
+// instance came closest (the largest) and the first rule it breaks.
+std::string noGroundSheetReason(const Scene& scene, size_t openInstances, const InstanceTriangles* largestOpen,
+                                const std::string& reason) {
+  const std::string rule = "a ground sheet is an open mesh, a height field along one axis, spanning the whole scene";
+  if (!largestOpen) return "every casting mesh is closed; " + rule;
+  const Instance& instance = scene.instances[largestOpen->instance];
+  return rule + "; of the " + std::to_string(openInstances) + " open instance" + (openInstances == 1 ? "" : "s") +
+         ", the largest, mesh '" + scene.meshes[instance.mesh].name + "' (node '" + instance.node + "'), is not one: " +
+         reason;
+}
+
 }  // namespace
 
 void closeGroundSheets(const Scene& scene, const std::vector<InstanceTriangles>& ranges, WorldGeometry& world) {
-  if (world.bounds.empty()) return;
+  if (world.bounds.empty()) {
+    world.noGroundSheet = "the scene has no casting triangles";
+    return;
+  }
   const double diagonal = glm::length(world.bounds.extent());
   std::vector<const InstanceTriangles*> used;
   std::vector<uint32_t> closing;
+  size_t openInstances = 0;
+  const InstanceTriangles* largestOpen = nullptr;
+  std::string largestOpenReason;
   for (const InstanceTriangles& r : ranges) {
     if (r.begin >= r.end || r.begin < world.closedTriangleCount) continue;  // closed instances come first
     SheetFrame frame;
     bool spansScene = false;
     std::vector<std::pair<uint32_t, uint32_t>> boundary;
     std::string reason = examine(scene, ranges, r, world, frame, spansScene, boundary);
+    ++openInstances;
+    if (!largestOpen || r.end - r.begin > largestOpen->end - largestOpen->begin) largestOpen = &r, largestOpenReason = reason;
     if (!spansScene) continue;
     GroundSheet sheet;
     const Instance& instance = scene.instances[r.instance];
@@ -278,6 +298,8 @@ void closeGroundSheets(const Scene& scene, const std::vector<InstanceTriangles>&
     sheet.reason = reason;
     world.groundSheets.push_back(sheet);
   }
+  if (world.groundSheets.empty())
+    world.noGroundSheet = noGroundSheetReason(scene, openInstances, largestOpen, largestOpenReason);
   if (used.empty()) return;
 
   // New order: closed instances, used sheets, their closing triangles, the other open instances.

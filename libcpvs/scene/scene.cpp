@@ -149,6 +149,7 @@ WorldGeometry flatten(const Scene& scene, GroundSheets ground) {
   }
   world.closedTriangleCount = closedTriangles;
   if (ground == GroundSheets::Auto) closeGroundSheets(scene, ranges, world);
+  else world.noGroundSheet = "--ground off";
   world.masked.begin = world.triangleCount() - maskedTriangles;
   return world;
 }

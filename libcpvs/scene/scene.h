@@ -135,6 +135,9 @@ struct WorldGeometry {
   size_t groundBegin = 0, closingBegin = 0, closingEnd = 0;
   Bounds bounds;  // of the scene's own triangles
   std::vector<GroundSheet> groundSheets;
+  // Why groundSheets is empty, for the user who expected a terrain to be taken as ground (cpvs-info): every
+  // caster is closed, or the largest open mesh and the first rule it breaks, or ground sheets were off.
+  std::string noGroundSheet;
   // Alpha-tested triangles: the last ones, never closed.
   MaskedTriangles masked;
   bool isMasked(size_t triangle) const { return masked.contains(triangle); }

@@ -13,11 +13,14 @@
 #include "libcpvs/base/memory_limit.h"
 #include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/version.h"
+#include "tools/common/usage_errors.h"
 
 namespace cpvs::tools {
 
-std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most) {
+std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most,
+                                 const std::string& format) {
   most = std::max(most, expected);
+  const std::string expectedFormat = format.empty() ? std::string() : " (expected " + format + ")";
   std::vector<double> values;
   std::stringstream stream(text);
   std::string item;
@@ -26,13 +29,15 @@ std::vector<double> parseNumbers(const std::string& option, const std::string& t
     errno = 0;
     const double value = std::strtod(item.c_str(), &end);
     if (item.empty() || end != item.c_str() + item.size() || errno != 0 || !std::isfinite(value))
-      throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': '" + item + "' is not a finite number");
+      throw Error(ErrorCategory::InvalidArgument,
+                  option + " '" + text + "': '" + item + "' is not a finite number" + expectedFormat);
     values.push_back(value);
   }
   if (values.size() < expected || values.size() > most)
     throw Error(ErrorCategory::InvalidArgument, option + " '" + text + "': expected " + std::to_string(expected) +
                                                     (most > expected ? " or " + std::to_string(most) : std::string()) +
-                                                    " comma-separated numbers, got " + std::to_string(values.size()));
+                                                    " comma-separated numbers, got " + std::to_string(values.size()) +
+                                                    (format.empty() ? std::string() : ": " + format));
   return values;
 }
 
@@ -76,6 +81,12 @@ void LightOptions::addTo(CLI::App& app) {
 
 namespace {
 
+std::string shortNumber(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
 Light namedLight(LightType type, const char* stem, size_t index) {
   Light light;
   light.name = stem + std::to_string(index);
@@ -93,6 +104,20 @@ float lightIntensity(const char* flag, const std::string& text, const std::vecto
   return float(intensity);
 }
 
+// OUTER_ANGLE_RAD as --spot takes it: a half-angle in radians, in (0, pi/2]. A value in degrees is the likely
+// slip (45 for pi/4), so a value no angle in radians can be (above pi) up to 90 is named as one; one in
+// (pi/2, pi] may be a full cone angle in radians, and is told the range.
+double spotConeAngle(const std::string& text, double angle) {
+  if (angle > 0 && angle <= M_PI / 2) return angle;
+  char radians[32];
+  std::snprintf(radians, sizeof radians, "%.3f", angle * M_PI / 180.0);
+  if (angle > M_PI && angle <= 90)
+    throw Error(ErrorCategory::InvalidArgument, "--spot '" + text + "': OUTER_ANGLE_RAD " + shortNumber(angle) +
+                                                    " looks like degrees: the angle is in radians (" + radians + ")");
+  throw Error(ErrorCategory::InvalidArgument, "--spot '" + text + "': OUTER_ANGLE_RAD " + shortNumber(angle) +
+                                                  " must be a half-angle in radians in (0, pi/2] (90 degrees = 1.571)");
+}
+
 // RANGE as the options take it: 0 means unlimited.
 double lightRange(const char* flag, const std::string& text, double value) {
   if (value < 0) throw Error(ErrorCategory::InvalidArgument, std::string(flag) + " '" + text + "': RANGE must not be negative");
@@ -107,28 +132,26 @@ void LightOptions::applyTo(Scene& scene) const {
   scene.lights.clear();
   // Each option's lights in turn: its required values (and the optional intensity after them) parsed, the light
   // named after the option and its index, its parameters set by `fill`.
-  const auto addLights = [&](const std::vector<std::string>& specs, const char* flag, size_t required,
-                             LightType type, const char* stem, auto&& fill) {
+  const auto addLights = [&](const std::vector<std::string>& specs, const char* flag, const char* format,
+                             size_t required, LightType type, const char* stem, auto&& fill) {
     for (size_t i = 0; i < specs.size(); ++i) {
-      const auto v = parseNumbers(flag, specs[i], required, required + 1);
+      const auto v = parseNumbers(flag, specs[i], required, required + 1, format);
       Light light = namedLight(type, stem, i);
       fill(light, specs[i], v);
       light.intensity = lightIntensity(flag, specs[i], v, required);
       scene.lights.push_back(light);
     }
   };
-  addLights(suns, "--sun", 3, LightType::Directional, "sun", [](Light& light, const std::string& spec, const auto& v) {
+  addLights(suns, "--sun", kSunFormat, 3, LightType::Directional, "sun", [](Light& light, const std::string& spec, const auto& v) {
     light.direction = unitDirection("--sun", spec, v[0], v[1], v[2]);
   });
-  addLights(spots, "--spot", 8, LightType::Spot, "spot", [](Light& light, const std::string& spec, const auto& v) {
+  addLights(spots, "--spot", kSpotFormat, 8, LightType::Spot, "spot", [](Light& light, const std::string& spec, const auto& v) {
     light.position = {v[0], v[1], v[2]};
     light.direction = unitDirection("--spot", spec, v[3], v[4], v[5]);
-    if (!(v[6] > 0 && v[6] <= M_PI / 2))
-      throw Error(ErrorCategory::InvalidArgument, "--spot '" + spec + "': OUTER_ANGLE_RAD must be in (0, pi/2]");
-    light.outerConeAngle = v[6];
+    light.outerConeAngle = spotConeAngle(spec, v[6]);
     light.range = lightRange("--spot", spec, v[7]);
   });
-  addLights(points, "--point", 4, LightType::Point, "point", [](Light& light, const std::string& spec, const auto& v) {
+  addLights(points, "--point", kPointFormat, 4, LightType::Point, "point", [](Light& light, const std::string& spec, const auto& v) {
     light.position = {v[0], v[1], v[2]};
     light.range = lightRange("--point", spec, v[3]);
   });
@@ -178,12 +201,13 @@ std::optional<int> parseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : int(ExitCode::Usage);  // app.exit prints the help, version or error
+    return reportParseError(app, e) == 0 ? 0 : int(ExitCode::Usage);
   }
   return std::nullopt;
 }
 
 void addStandardFlags(CLI::App& app, const char* toolName, const std::string& footerMore) {
+  app.name(toolName);  // the name every message of the command line starts with
   app.footer(exitCodeHelp() + footerMore);
   addVersionFlag(app, toolName);
 }

@@ -10,6 +10,7 @@
 #include "libcpvs/import/gltf_import.h"
 #include "libcpvs/base/error.h"
 #include "tools/common/exit_codes.h"
+#include "tools/common/usage_errors.h"
 #include "libcpvs/scene/scene.h"
 
 namespace cpvs::tools {
@@ -31,8 +32,17 @@ struct LightOptions {
 };
 
 // Parses `expected` comma-separated finite numbers ("1,2.5,-3"), or between `expected` and `most` of them.
-// Throws Error(InvalidArgument) naming the option.
-std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most = 0);
+// Throws Error(InvalidArgument) naming the option and, when given, the `format` the values follow
+// ("X,Y,Z,RANGE[,CANDELA]: RANGE 0 = unlimited").
+std::vector<double> parseNumbers(const std::string& option, const std::string& text, size_t expected, size_t most = 0,
+                                 const std::string& format = "");
+
+// The formats of the command-line lights, as their messages show them.
+inline constexpr const char* kSunFormat = "X,Y,Z[,LUX]: the direction the light travels";
+inline constexpr const char* kSpotFormat =
+    "PX,PY,PZ,DX,DY,DZ,OUTER_ANGLE_RAD,RANGE[,CANDELA]: position, direction, outer cone half-angle in radians, "
+    "RANGE 0 = unlimited";
+inline constexpr const char* kPointFormat = "X,Y,Z,RANGE[,CANDELA]: RANGE 0 = unlimited";
 
 // Parses "4k", "16k", "512", "65536": a power of two from 8 to 256k. Throws Error(Usage).
 uint32_t parseResolution(const std::string& text);

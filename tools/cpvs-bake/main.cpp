@@ -18,6 +18,7 @@
 #include "tools/common/atomic_file.h"
 #include "tools/common/bake_options.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 #include "tools/common/ground_json.h"
 #include "tools/common/progress.h"
 
@@ -147,7 +148,7 @@ int run(int argc, char** argv) {
   CLI::App app{"cpvs-bake: bake Compact Precomputed Voxelized Shadows for every light of a glTF scene.\n"
                "Lights come from the scene (KHR_lights_punctual) unless given with --sun/--spot/--point."};
   tools::addStandardFlags(app, "cpvs-bake");
-  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
+  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required()->type_name("SCENE");
   app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
   o.shape.addTo(app);
   o.lights.addTo(app);
@@ -192,6 +193,7 @@ int run(int argc, char** argv) {
     if (ec) throw Error(ErrorCategory::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
   }
   const Stopwatch total;
+  tools::expectScene(o.scene, tools::positionalUsage(app) + " -o OUT.cpvs");
   Scene scene = importGltf(o.scene, o.import);
   const double loadMs = total.ms();
   o.lights.applyTo(scene);

@@ -1,10 +1,7 @@
 // cpvs-info: prints what a scene holds (meshes and their closedness, instances, lights, bounds) or what a
 // .cpvs file holds (header, bake settings, lights, views, DAG levels, bytes, checksums), as text or JSON. The
 // kind of input is decided by its first bytes, not by its name. See --help.
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 
 #include <CLI/CLI.hpp>
@@ -14,6 +11,7 @@
 #include "libcpvs/import/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 #include "tools/common/bake_options.h"
 #include "tools/common/ground_json.h"
 #include "tools/cpvs-info/info_common.h"
@@ -63,7 +61,10 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
   for (const cpvs::Instance& instance : scene.instances)
     std::cout << "  " << instance.node << " -> " << scene.meshes[instance.mesh].name
               << (instance.castsShadows ? "" : " (the node casts no shadow)") << "\n";
-  std::cout << "lights (" << scene.lights.size() << "):\n";
+  std::cout << "lights (" << scene.lights.size() << ")"
+            << (scene.lights.empty() ? ": none in the scene (KHR_lights_punctual); give --sun, --spot or --point to cpvs-bake"
+                                     : ":")
+            << "\n";
   for (const Light& light : scene.lights) std::cout << "  " << cpvs::info::lightText(light) << "\n";
   std::cout << "bounds: min " << vec(world.bounds.min) << " max " << vec(world.bounds.max) << " extent "
             << vec(world.bounds.extent()) << "\n";
@@ -71,6 +72,7 @@ void printText(const Scene& scene, const WorldGeometry& world, const Totals& tot
             << scene.instances.size() << " instances, " << totals.worldTriangles << " triangles cast shadows ("
             << totals.closedWorldTriangles << " closed, " << totals.worldTriangles - totals.closedWorldTriangles
             << " open, " << world.masked.count() << " alpha-tested), " << scene.lights.size() << " lights\n";
+  if (world.groundSheets.empty()) std::cout << "ground sheets: none found (" << world.noGroundSheet << ")\n";
   for (const cpvs::GroundSheet& g : world.groundSheets)
     std::cout << "ground: " << g.mesh << " (node " << g.node << ") "
               << (g.used ? "is the top of solid ground: the voxels under it are free when baked"
@@ -140,7 +142,7 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
   Scene scene = cpvs::importGltf(path, import);
   lightOptions.applyTo(scene);
   for (const std::string& warning : scene.warnings) std::cerr << kTool << ": warning: " << warning << "\n";
-  const WorldGeometry world = cpvs::flatten(scene);
+  const WorldGeometry world = cpvs::flatten(scene, settings.ground);
   Totals totals;
   for (const Mesh& mesh : scene.meshes) totals.closedMeshes += mesh.closed ? 1 : 0;
   // The scene's own triangles: a ground sheet's counts as open (as its mesh is), its closing ones not at all.
@@ -154,29 +156,6 @@ int printScene(const std::string& path, const cpvs::tools::LightOptions& lightOp
     std::cout << "input hash (of a cpvs-bake with these lights and bake options): " << cpvs::hex64(inputHash) << "\n";
   }
   return 0;
-}
-
-enum class InputKind { Scene, Cpvs, Unknown };
-
-// Decides from the first bytes: the .cpvs magic (or its name where a text-mode transfer damaged the bytes
-// around it) is a .cpvs file; "glTF" is a .glb; a JSON object (after an optional BOM and white space) is a
-// .gltf. Everything else (an empty file included) goes to the .cpvs reader, whose message says what it is not.
-InputKind sniff(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
-    throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, path + ": not a regular file (a directory, FIFO or device)");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, path + ": cannot open: " + std::strerror(errno));
-  char head[64] = {};
-  in.read(head, sizeof head);
-  const size_t n = size_t(in.gcount());
-  const std::string bytes(head, n);
-  if (bytes.substr(0, 8).find("CPVS") != std::string::npos) return InputKind::Cpvs;
-  if (bytes.compare(0, 4, "glTF") == 0) return InputKind::Scene;
-  size_t i = bytes.compare(0, 3, "\xEF\xBB\xBF") == 0 ? 3 : 0;
-  while (i < n && (bytes[i] == ' ' || bytes[i] == '\t' || bytes[i] == '\r' || bytes[i] == '\n')) ++i;
-  if (i < n && bytes[i] == '{') return InputKind::Scene;
-  return InputKind::Unknown;
 }
 
 }  // namespace
@@ -197,7 +176,7 @@ int main(int argc, char** argv) {
   cpvs::tools::addStandardFlags(app, kTool);
   std::string input;
   bool json = false;
-  app.add_option("INPUT", input, "Scene file (.gltf or .glb) or baked file (.cpvs)")->required();
+  app.add_option("INPUT", input, "Scene file (.gltf or .glb) or baked file (.cpvs)")->required()->type_name("SCENE|FILE.cpvs");
   app.add_flag("--json", json, "Print JSON instead of text");
   cpvs::tools::LightOptions lightOptions;
   lightOptions.addTo(app);
@@ -208,8 +187,13 @@ int main(int argc, char** argv) {
   shape.addTo(app);
   if (const auto done = cpvs::tools::parseCommandLine(app, argc, argv)) return *done;
   return cpvs::tools::runMain(kTool, [&] {
-    const InputKind kind = sniff(input);
-    if (kind == InputKind::Scene) return printScene(input, lightOptions, importOptions, shape, json);
+    // Everything that is no scene (an empty file included) goes to the .cpvs reader, whose message says
+    // what it is not.
+    std::error_code ec;
+    if (!std::filesystem::exists(input, ec))
+      throw cpvs::Error(cpvs::ErrorCategory::InvalidInput, input + ": cannot open: no such file");
+    const cpvs::tools::InputKind kind = cpvs::tools::sniffInput(input);
+    if (kind == cpvs::tools::InputKind::Scene) return printScene(input, lightOptions, importOptions, shape, json);
     if (lightOptions.any() || !lightOptions.excludedMeshes.empty())
       throw cpvs::Error(cpvs::ErrorCategory::InvalidArgument, input + ": --sun, --spot, --point and --exclude-mesh apply to "
                                                "scenes; a .cpvs file holds the lights it was baked with");

@@ -10,6 +10,7 @@
 #include "libcpvs/base/error.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 
 namespace {
 
@@ -23,7 +24,7 @@ int run(int argc, char** argv) {
                "would write, byte for byte. Parts may be given in any order; together they must hold every light\n"
                "once, and all must come from the same scene, settings and cpvs-bake version."};
   tools::addStandardFlags(app, "cpvs-merge");
-  app.add_option("parts", inputs, "Part files (.cpvs) written by cpvs-bake --lights / --shard")->required();
+  app.add_option("parts", inputs, "Part files (.cpvs) written by cpvs-bake --lights / --shard")->required()->type_name("PART.cpvs");
   app.add_option("-o,--output", output, "The merged .cpvs (written atomically)")->required();
   app.add_flag("-q,--quiet", quiet, "No summary line");
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
@@ -32,6 +33,7 @@ int run(int argc, char** argv) {
   std::vector<std::unique_ptr<CpvsFile>> files;
   std::vector<NamedPart> parts;
   for (const std::string& path : inputs) {
+    tools::expectCpvs(path, tools::positionalUsage(app) + " -o OUT.cpvs");
     files.push_back(orThrow(CpvsFile::open(path)));
     parts.push_back({path, files.back().get()});
   }

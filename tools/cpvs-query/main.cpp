@@ -36,8 +36,9 @@
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 #include "tools/common/progress.h"
-#include "libcpvs/eval/error_stats.h"
+#include "libcpvs/eval/points_on_surfaces.h"
 
 namespace {
 
@@ -45,6 +46,7 @@ using namespace cpvs;
 
 constexpr size_t kChunk = 1 << 16;  // points per streamed chunk (also the timing set)
 constexpr double kRoundSeconds = 0.04;    // per method and round
+constexpr const char* kUsage = "cpvs-query FILE.cpvs --points POINTS -o OUT [--reference SCENE]";
 
 struct Options {
   std::string cpvs;
@@ -273,16 +275,42 @@ void checkOptions(const Options& options) {
     throw Error(ErrorCategory::InvalidArgument, "--bias-margin must be between 0 and 64 voxels");
 }
 
-// The --reference scene's ray tracer (null without one), its warnings printed unless --quiet.
-std::unique_ptr<ShadowReference> loadReference(const Options& options, NormalOrientation orientation) {
+// The --reference scene: its ray tracer, and the test of whether the points lie on it (freed once done).
+struct ReferenceScene {
+  std::unique_ptr<ShadowReference> rays;
+  std::unique_ptr<SurfaceProximity> surfaces;
+};
+
+// The --reference scene (null without one), its warnings printed unless --quiet.
+std::unique_ptr<ReferenceScene> loadReference(const Options& options, NormalOrientation orientation) {
   if (options.reference.empty()) return nullptr;
+  tools::expectScene(options.reference, kUsage);
   Scene scene = importGltf(options.reference, options.import);
+  auto reference = std::make_unique<ReferenceScene>();
+  reference->surfaces = std::make_unique<SurfaceProximity>(scene);  // excluded meshes are surfaces too
   if (!options.excludedMeshes.empty())
     tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, options.excludedMeshes); });
-  auto reference = std::make_unique<ShadowReference>(flatten(scene), orientation, options.referenceEpsilon);
+  reference->rays = std::make_unique<ShadowReference>(flatten(scene), orientation, options.referenceEpsilon);
   if (!options.quiet)
-    for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << options.reference << ": " << w << "\n";
+    for (const std::string& w : scene.warnings) std::cerr << "cpvs-query: warning: " << w << "\n";
   return reference;
+}
+
+// Points made on another scene than the reference are scored against surfaces they are not on: the figures
+// then mean nothing (often 0 %), so most of them off the scene is worth a warning.
+SurfaceCheck checkPointsOnReference(const Options& options, ReferenceScene& reference,
+                                    const std::vector<SelectedLight>& lights, const std::vector<QueryPoint>& points) {
+  std::vector<const LightShadow*> shadows;
+  for (const SelectedLight& l : lights) shadows.push_back(&l.shadow());
+  const SurfaceCheck check = checkPointsOnSurfaces(*reference.surfaces, shadows, points);
+  reference.surfaces.reset();
+  if (check.mostOff())
+    std::fprintf(stderr,
+                 "cpvs-query: warning: %s: %zu of the %zu points checked lie farther than %g voxels from every surface "
+                 "of the reference scene %s: were they made on another scene? Their error figures compare answers "
+                 "off its surfaces and mean little\n",
+                 options.points.c_str(), check.offSurface, check.checked, kOffSurfaceVoxels, options.reference.c_str());
+  return check;
 }
 
 void appendCsvHeader(std::string& out, const std::vector<SelectedLight>& lights) {
@@ -307,6 +335,7 @@ void appendCsvRows(AtomicOutput& csv, const std::vector<float>& values, size_t c
 struct Evaluation {
   Totals totals;
   std::vector<QueryPoint> timingSet;
+  std::vector<QueryPoint> surfaceSample;  // checked against the reference's surfaces
   bool hasNormals = false;
   double evalMs = 0;
 };
@@ -318,6 +347,9 @@ void queryGBuffer(const Options& options, const std::vector<SelectedLight>& ligh
   const size_t nl = lights.size();
   uint32_t width = 0, height = 0;
   std::vector<QueryPoint> points = readGBuffer(options.points, options.normals, width, height, eval.hasNormals);
+  // Spread over the whole image, not its top rows (often sky).
+  for (size_t i = 0, stride = std::max<size_t>(1, points.size() / 4096); i < points.size(); i += stride)
+    eval.surfaceSample.push_back(points[i]);
   std::vector<float> values, chunkValues;
   values.resize(points.size() * nl);
   std::vector<QueryPoint> chunk;
@@ -358,7 +390,7 @@ void queryPointFile(const Options& options, const std::vector<SelectedLight>& li
     const Stopwatch chunkClock;
     evaluateChunk(chunk, lights, lookup, reference, options.scoreInside, options.threads, values, eval.totals);
     eval.evalMs += chunkClock.ms();
-    if (eval.timingSet.empty()) eval.timingSet = chunk;
+    if (eval.timingSet.empty()) eval.timingSet = eval.surfaceSample = chunk;
     appendCsvRows(csv, values, chunk.size(), lights.size());
     progress.update(reader->progress());
   }
@@ -374,18 +406,26 @@ void warnAboutInvalidPoints(const Options& options, const Totals& totals) {
             << first << (totals.invalid > totals.firstInvalid.size() ? ", ..." : "") << ")\n";
 }
 
+// The headline first: the error rate over the pairs where an error is possible (the point faces the light and
+// lies within its reach; everywhere else both answer 0 by rule). Then the breakdown docs/query.md defines.
 void printReferenceSummary(const ErrorStats& pooled, const Totals& totals) {
+  const auto count = [](uint64_t n) { return static_cast<unsigned long long>(n); };
+  if (pooled.facing == 0)
+    std::fprintf(stderr, "cpvs-query: no (point, light) pair where a shadow can be wrong: no point faces a light "
+                         "within its reach\n");
+  else
+    std::fprintf(stderr,
+               "cpvs-query: %.4f%% misclassified against Embree rays: %llu of the %llu (point, light) pairs where a "
+               "shadow can be wrong (the point faces the light, within its reach)\n",
+               100.0 * pooled.rate(pooled.misclassifiedFacing, pooled.facing), count(pooled.misclassifiedFacing),
+               count(pooled.facing));
   std::fprintf(stderr,
-               "cpvs-query: reference (every point with every light): %.4f%% misclassified (%.4f%% of the %llu pairs"
-               " facing the light within its reach), %.4f%% of the %llu uniform"
-               " point-light pairs, mean |difference| %.5f"
-               " (%llu points inside closed solids not scored)\n",
-               100.0 * pooled.rate(pooled.misclassified, pooled.samples),
-               100.0 * pooled.rate(pooled.misclassifiedFacing, pooled.facing),
-               static_cast<unsigned long long>(pooled.facing),
-               100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform),
-               static_cast<unsigned long long>(pooled.uniform), pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0,
-               static_cast<unsigned long long>(totals.insideClosed));
+               "cpvs-query:   breakdown: %.4f%% of all %llu scored pairs; %.4f%% of the %llu uniform pairs (the rays "
+               "agree within 2 voxels: should be ~0); mean |difference| %.5f; %llu points inside closed solids not "
+               "scored (docs/query.md)\n",
+               100.0 * pooled.rate(pooled.misclassified, pooled.samples), count(pooled.samples),
+               100.0 * pooled.rate(pooled.misclassifiedUniform, pooled.uniform), count(pooled.uniform),
+               pooled.samples ? pooled.absDiffSum / double(pooled.samples) : 0.0, count(totals.insideClosed));
 }
 
 // What the report gives of the throughput: best and median lookups, rays and one figure per light.
@@ -490,6 +530,8 @@ int run(const Options& options) {
                              options.towardLight ? NormalOrientation::TowardLight : NormalOrientation::AsGiven,
                              options.biasMargin};
 
+  tools::expectCpvs(options.cpvs, kUsage);
+  tools::expectPoints("--points", options.points, kUsage);
   const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(options.cpvs));
   const std::vector<SelectedLight> lights = selectLights(*file, options.lights, options.topGrid);
   const size_t nl = lights.size();
@@ -508,7 +550,8 @@ int run(const Options& options) {
     throw Error(ErrorCategory::InvalidArgument, "-o " + options.output + ": EXR output needs an EXR G-buffer input (use a .csv output)");
 
   const Stopwatch load;
-  const std::unique_ptr<ShadowReference> reference = loadReference(options, lookup.orientation);
+  const std::unique_ptr<ReferenceScene> referenceScene = loadReference(options, lookup.orientation);
+  const ShadowReference* reference = referenceScene ? referenceScene->rays.get() : nullptr;
   const double referenceLoadMs = reference ? load.ms() : 0.0;
 
   Evaluation eval;
@@ -517,11 +560,13 @@ int run(const Options& options) {
   totals.errors.assign(nl, {});
   tools::ProgressBar progress("query", options.quiet);
   if (format == PointFormat::Exr)
-    queryGBuffer(options, lights, lookup, reference.get(), csvFile, progress, eval);
+    queryGBuffer(options, lights, lookup, reference, csvFile, progress, eval);
   else
-    queryPointFile(options, lights, lookup, reference.get(), *csvFile, progress, eval);
+    queryPointFile(options, lights, lookup, reference, *csvFile, progress, eval);
   progress.finish();
   warnAboutInvalidPoints(options, totals);
+  const SurfaceCheck surfaceCheck =
+      referenceScene ? checkPointsOnReference(options, *referenceScene, lights, eval.surfaceSample) : SurfaceCheck{};
 
   ErrorStats pooled;
   for (const ErrorStats& e : totals.errors) pooled.add(e);
@@ -532,7 +577,7 @@ int run(const Options& options) {
   }
 
   const std::vector<QueryPoint> timing = validPoints(eval.timingSet);
-  const ThroughputFigures throughput = measureThroughput(options, lights, lookup, reference.get(), timing);
+  const ThroughputFigures throughput = measureThroughput(options, lights, lookup, reference, timing);
   const double lookupsPerS = throughput.lookups, unfilteredPerS = throughput.unfiltered;
   size_t topGridBytes = 0;
   for (const SelectedLight& l : lights) topGridBytes += l.shadow().topGridBytes();
@@ -569,8 +614,11 @@ int run(const Options& options) {
       {"peak_rss_bytes", peakRssBytes()},
       {"timings_ms", {{"evaluate", eval.evalMs}, {"reference_load", referenceLoadMs}, {"total", total.ms()}}},
       {"lights", lightsJson(*file, lights, totals, throughput, reference != nullptr)}};
-  if (reference)
+  if (reference) {
     report["reference"] = referenceJson(options, *reference, pooled, totals, throughput);
+    report["reference"]["points_checked_on_surfaces"] = surfaceCheck.checked;
+    report["reference"]["points_off_surfaces"] = surfaceCheck.offSurface;
+  }
   reportFile->write(report.dump(2) + "\n");
   tools::commitTogether({csvFile ? &csvFile->file() : nullptr, &*reportFile});
   return 0;
@@ -588,7 +636,7 @@ int main(int argc, char** argv) {
                  "Query points: CSV (header x,y,z[,nx,ny,nz]), PLY (ascii / binary_little_endian) or an EXR "
                  "G-buffer (P.X,P.Y,P.Z[,N.X,N.Y,N.Z] or R,G,B)")
       ->required()
-      ->type_name("IN");
+      ->type_name("POINTS");
   app.add_option("--normals", options.normals, "Normals for an EXR position image (N.X,N.Y,N.Z or R,G,B)")
       ->type_name("NORMALS.exr");
   app.add_option("-o,--output", options.output,

@@ -6,6 +6,7 @@
 #include "libcpvs/scene/surface_samples.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 
 namespace {
 
@@ -21,13 +22,14 @@ int run(int argc, char** argv) {
                "triangle's outward normal) as CSV x,y,z,nx,ny,nz, the input of cpvs-query --points.\n"
                "The same scene, count and seed give the same file on every machine."};
   tools::addStandardFlags(app, "cpvs-sample");
-  app.add_option("scene", scenePath, "Input scene (.gltf or .glb)")->required();
+  app.add_option("scene", scenePath, "Input scene (.gltf or .glb)")->required()->type_name("SCENE");
   app.add_option("-o,--output", output, "Output .csv (written atomically)")->required();
   app.add_option("-n,--count", count, "Number of points")->capture_default_str()->check(CLI::Range(1, 100000000));
   app.add_option("--seed", seed, "Random seed")->capture_default_str();
   app.add_option("--exclude-mesh", options.excludedMeshes, "Drop a mesh by name (repeatable), e.g. a skybox");
   tools::addImportOptions(app, import);
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
+  tools::expectScene(scenePath, tools::positionalUsage(app) + " -o POINTS.csv");
   Scene scene = importGltf(scenePath, import);
   options.applyTo(scene);
   const WorldGeometry world = flatten(scene);

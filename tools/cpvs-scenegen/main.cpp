@@ -20,6 +20,7 @@
 
 #include "generators.h"
 #include "glb_writer.h"
+#include "tools/common/usage_errors.h"
 
 namespace {
 
@@ -182,6 +183,7 @@ int main(int argc, char** argv) {
   Request r;
   app.add_option("kind", r.kind, "Scene to write: city, open-city, landscape, city-spots, alpha-test or foliage")
       ->required()
+      ->type_name("KIND")
       ->check(CLI::IsMember({"city", "open-city", "landscape", "city-spots", "alpha-test", "foliage"}));
   app.add_option("-o,--output", r.output, "Output .glb file (written atomically)")->required();
   CLI::Option* trianglesOption =
@@ -224,7 +226,7 @@ int main(int argc, char** argv) {
     if (trianglesOption->count() == 0 && r.kind == "foliage") r.triangles = 200000;
     if (lightsOption->count() == 0 && r.kind == "foliage") r.lights = 16;
   } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? kExitOk : kExitUsage;
+    return cpvs::tools::reportParseError(app, e) == 0 ? kExitOk : kExitUsage;
   }
   try {
     return run(r);

@@ -18,6 +18,7 @@
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 #include "tools/cpvs-sweep/svg_plot.h"
 
 namespace {
@@ -246,7 +247,7 @@ int run(int argc, char** argv) {
                "sampled surface points with the CPVS lookups and with a 16-bit shadow map of equal bytes, and\n"
                "compares both with Embree shadow rays. Writes NAME.md (table), NAME.svg (plots) and NAME.json."};
   tools::addStandardFlags(app, "cpvs-sweep");
-  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required();
+  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required()->type_name("SCENE");
   o.lights.addTo(app);
   tools::addImportOptions(app, o.import);
   app.add_option("--resolutions", o.resolutions, "Comma-separated resolutions to bake (powers of two)")
@@ -297,6 +298,7 @@ int run(int argc, char** argv) {
   settings.bake.threads = o.threads;
   settings.timingSeconds = o.timing;
 
+  tools::expectScene(o.scene, tools::positionalUsage(app));
   Scene scene = importGltf(o.scene, o.import);
   o.lights.applyTo(scene);
   if (scene.lights.empty())

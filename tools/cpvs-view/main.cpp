@@ -27,6 +27,7 @@
 #include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
+#include "tools/common/input_kind.h"
 #include "tools/cpvs-view/preview_window.h"
 #include "tools/cpvs-view/view_report.h"
 
@@ -241,8 +242,8 @@ void printFrameLine(const std::string& image, const Frame& frame, const FrameSet
 
 void addOptions(CLI::App& app, Options& o) {
   tools::addStandardFlags(app, "cpvs-view");
-  app.add_option("scene", o.scene, "The glTF scene the file was baked from (.gltf / .glb)")->required();
-  app.add_option("cpvs", o.file, "The baked shadows (.cpvs)")->required();
+  app.add_option("scene", o.scene, "The glTF scene the file was baked from (.gltf / .glb)")->required()->type_name("SCENE");
+  app.add_option("cpvs", o.file, "The baked shadows (.cpvs)")->required()->type_name("FILE.cpvs");
   app.add_option("-o,--output", o.output, "Image to write: .png (tone-mapped sRGB, with the overlay) or .exr (linear)");
   app.add_option("--camera", o.cameraName, "A camera of the glTF file, by name");
   app.add_option("--eye", o.eye, "Camera position X,Y,Z (with --target; default: a view framing the scene)")->type_name("X,Y,Z");
@@ -311,6 +312,9 @@ int run(int argc, char** argv) {
   if (!o.report.empty()) reportFile = std::make_unique<tools::AtomicFile>(o.report);
   if (!o.output.empty()) tools::AtomicFile probe(o.output);  // fails now, before any work, when it cannot be written
 
+  // Both inputs are checked before either is read: swapped, they would fail deep inside the wrong reader.
+  tools::expectScene(o.scene, tools::positionalUsage(app));
+  tools::expectCpvs(o.file, tools::positionalUsage(app));
   o.import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
   Scene scene = importGltf(o.scene, o.import);
   if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
