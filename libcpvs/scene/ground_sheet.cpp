@@ -130,7 +130,8 @@ std::string examine(const Scene& scene, const std::vector<InstanceTriangles>& ra
   spansScene = false;
   const Mesh& mesh = scene.meshes[scene.instances[r.instance].mesh];
   if (mesh.coverageMask >= 0) return "alpha-tested (cut by its material's alpha)";
-  if (mesh.closed || mesh.boundaryEdges == 0) return "closed";
+  if (mesh.closed) return "closed";
+  if (mesh.boundaryEdges == 0) return "it has no boundary edge (no rim to span the scene with)";
   if (mesh.nonManifoldEdges || mesh.inconsistentEdges) return "non-manifold or inconsistently wound";
 
   glm::dvec3 total(0.0);
