@@ -61,6 +61,7 @@ def main():
                             text=True).stdout.strip()
     result = {"machine": machine_info(), "commit": commit, "old": a.old, "new": a.new,
               "command": "python3 benchmarks/query_speed.py " + " ".join(sys.argv[1:]),
+              "lookup_isa": os.environ.get("CPVS_LOOKUP_ISA", "best the CPU has"),
               "load_average_before": os.getloadavg(), "rows": []}
     for key, label, scene, _, sun, spot in SCENES:
         points = os.path.join(a.out, key + ".csv")

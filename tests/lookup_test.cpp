@@ -230,10 +230,11 @@ private:
   uint16_t* data_ = nullptr;
 };
 
-// Every voxel of the DAG walked from the root (in groups, as the lookups do) with the vector walks: its
-// visibility, and its tile's mask at its slice.
-TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
-  if (!vectorWalksAvailable()) GTEST_SKIP() << "no AVX-512F on this CPU (or CPVS_LOOKUP_ISA lowers it)";
+using DescendGroup = void (*)(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkResult, void*);
+
+// Every voxel of the DAG walked from the root (in groups, as the lookups do) with the vector walks `descendGroup`:
+// its visibility, and its tile's mask at its slice.
+void expectWalksEqualDagLookupsOnEveryVoxel(DescendGroup descendGroup) {
   size_t dagsWalked = 0;
   std::vector<std::pair<uint32_t, uint32_t>> cases{{16, 0}};  // (N, seed); seed 0: wideReferenceDag
   for (uint32_t n : {16u, 32u, 64u})
@@ -255,12 +256,12 @@ TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
     std::vector<uint64_t> masks(count, 0x5A5A5A5A5A5A5A5Aull);
     start();
     for (size_t b = 0; b < count; b += kWalksInFlight)
-      descendGroupAvx512(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, WalkResult::Visibility,
-                         visibility.data());
+      descendGroup(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, WalkResult::Visibility,
+                   visibility.data());
     start();
     for (size_t b = 0; b < count; b += kWalksInFlight)
-      descendGroupAvx512(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, WalkResult::TileMask,
-                         masks.data());
+      descendGroup(walkDag, walks.from(b), std::min(kWalksInFlight, count - b), n, WalkResult::TileMask,
+                   masks.data());
     for (uint32_t i = 0; i < count; ++i) {
       const uint32_t x = i % n, y = (i / n) % n, z = i / (n * n);
       ASSERT_EQ(visibility[i], view.shadowed(x, y, z) ? 0.0f : 1.0f) << "N=" << n << " at " << x << "," << y << "," << z;
@@ -272,6 +273,16 @@ TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
     ++dagsWalked;
   }
   EXPECT_GE(dagsWalked, 9u);
+}
+
+TEST(DagWalks, VectorWalksEqualDagLookupsOnEveryVoxel) {
+  if (!vectorWalksAvailable()) GTEST_SKIP() << "no AVX-512F on this CPU (or CPVS_LOOKUP_ISA lowers it)";
+  expectWalksEqualDagLookupsOnEveryVoxel(&descendGroupAvx512);
+}
+
+TEST(DagWalks, Avx2WalksEqualDagLookupsOnEveryVoxel) {
+  if (bestCellIsa() < CellIsa::Avx2) GTEST_SKIP() << "no AVX2 on this CPU (or CPVS_LOOKUP_ISA lowers it)";
+  expectWalksEqualDagLookupsOnEveryVoxel(&descendGroupAvx2);
 }
 
 // The batch lookups through LightShadow on a DAG that ends at an unreadable page: the vector walks (where the

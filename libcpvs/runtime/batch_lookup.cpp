@@ -86,11 +86,14 @@ WalkDag walkDag(const DagView& dag) {
 WalkStart walkStart(const DagView& dag, const TopGrid& grid) {
   return {walkDag(dag), grid.empty() ? nullptr : grid.cells.data(), grid.shift, grid.level, uint32_t(dag.rootCode)};
 }
-// The AVX-512 walks where the CPU has them and the DAG and the batch (`slots` results: answers, or four tile
-// masks per footprint) fit their signed 32-bit gather and scatter indices.
-bool vectorWalks(const DagView& dag, size_t slots) {
-  return vectorWalksAvailable() && dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
-         dag.leaves.size() < (size_t(1) << 30) && slots < (size_t(1) << 31);
+// The vector walks the CPU runs (AVX-512, else AVX2), where the DAG and the batch (`slots` results: answers, or
+// four tile masks per footprint) fit their signed 32-bit gather and scatter indices; else Scalar.
+CellIsa vectorWalks(const DagView& dag, size_t slots) {
+  const bool fits = dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
+                    dag.leaves.size() < (size_t(1) << 30) && slots < (size_t(1) << 31);
+  if (!fits) return CellIsa::Scalar;
+  if (vectorWalksAvailable()) return CellIsa::Avx512;
+  return bestCellIsa() >= CellIsa::Avx2 ? CellIsa::Avx2 : CellIsa::Scalar;
 }
 
 // The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
@@ -99,7 +102,8 @@ bool vectorWalks(const DagView& dag, size_t slots) {
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
-// (walkVoxelsAvx512, filterFootprintsAvx512), which gives the same results.
+// (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 the K = 1 batches in dag_walks_avx2.cpp
+// (walkVoxelsAvx2), which give the same results.
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
@@ -165,14 +169,14 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
                                                 const uint32_t* indices, size_t count, std::span<float> out) const {
   const DagView& dag = dags_[view];
   const TopGrid& grid = grids_[view];
-  if (vectorWalks(dag, out.size())) {
+  if (const CellIsa isa = vectorWalks(dag, out.size()); isa != CellIsa::Scalar) {
     VoxelWalkBatch batch;
     batch.start = walkStart(dag, grid);
     batch.cells = cells;
     batch.indices = indices;
     batch.count = count;
     batch.answers = out.data();
-    return walkVoxelsAvx512(batch);
+    return isa == CellIsa::Avx512 ? walkVoxelsAvx512(batch) : walkVoxelsAvx2(batch);
   }
   const uint16_t* nodes = nodeUnits(dag);
   // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
@@ -379,7 +383,7 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
     const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
     const bool walks = dag.rootCode == ChildCode::Ref;
-    if (walks && k <= kCornerTileKernel && vectorWalks(dag, 4 * lanes)) {
+    if (walks && k <= kCornerTileKernel && vectorWalks(dag, 4 * lanes) == CellIsa::Avx512) {
       FootprintBatch batch;
       batch.start = walkStart(dag, grids_[view]);
       batch.cells = cells;

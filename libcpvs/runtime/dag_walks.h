@@ -4,8 +4,8 @@
 // reach a homogeneous child or a leaf, and compacts the others for the next pass, prefetching their nodes,
 // which are read one pass later. The walks are kept one array per field, so that the AVX-512 path
 // (dag_walks_avx512.cpp) takes sixteen of them per instruction: gathers for the node reads, compress-stores
-// for the compaction. The scalar path (batch_lookup.cpp) runs the same passes on the same arrays, and both
-// give the same results bit for bit.
+// for the compaction; the AVX2 path (dag_walks_avx2.cpp) eight, packing by a permutation table. The scalar path
+// (batch_lookup.cpp) runs the same passes on the same arrays, and all give the same results bit for bit.
 //
 // Why a vector path: once the mapping ran eight points at a time, the scalar walk's ~50 instructions per
 // level and walk (child index, header decode, the reference's popcount, compaction) were most of a lookup's
@@ -84,8 +84,19 @@ inline constexpr TileSpans kTileSpans;
 inline constexpr size_t kWalksInFlight = 512;
 
 // Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
-// lowers mapCells).
+// lowers mapCells). Without them, a CPU with AVX2 runs the AVX2 walks (dag_walks_avx2.cpp: the K = 1 lookups;
+// PCF footprints walk scalar there).
 bool vectorWalksAvailable();
+
+// As prefetchNode in batch_lookup.cpp, for the walks offsets[begin, end): a node (at most 34 bytes) may straddle
+// two cache lines.
+inline void prefetchWalkNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
+  for (size_t i = begin; i < end; ++i) {
+    const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
+    __builtin_prefetch(node, 0, 3);
+    __builtin_prefetch(node + 33, 0, 3);
+  }
+}
 
 // AVX-512: walks [0, count) (best in groups of kWalksInFlight), each at a node of edge startSize, descend level
 // by level to their voxels; each writes its result when it reaches a homogeneous child or a leaf. The batch
@@ -96,6 +107,9 @@ bool vectorWalksAvailable();
 // next group's when `count` is a multiple of 16, which those writes then never reach).
 void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
                         void* results);
+// The same eight walks at a time with AVX2 (bestCellIsa() >= CellIsa::Avx2), the same results bit for bit.
+void descendGroupAvx2(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                      void* results);
 
 // Where the walks of a batch start: the DAG and its top grid.
 struct WalkStart {
@@ -116,6 +130,8 @@ struct VoxelWalkBatch {
 };
 // Same preconditions as descendGroupAvx512.
 void walkVoxelsAvx512(const VoxelWalkBatch& batch);
+// The same with AVX2 (descendGroupAvx2's preconditions).
+void walkVoxelsAvx2(const VoxelWalkBatch& batch);
 
 // K <= 9 PCF, AVX-512: LightShadow's filter for one view's mapped batch (lane j answers point indices[j], or j
 // when null), where the DAG's root is a reference. Every lane gets its answer without the DAG first (1 for

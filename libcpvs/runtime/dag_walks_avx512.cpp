@@ -145,15 +145,6 @@ struct Results {
   }
 };
 
-// As prefetchNode in batch_lookup.cpp: a node (at most 34 bytes) may straddle two cache lines.
-inline void prefetchNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
-  for (size_t i = begin; i < end; ++i) {
-    const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
-    __builtin_prefetch(node, 0, 3);
-    __builtin_prefetch(node + 33, 0, 3);
-  }
-}
-
 // Sixteen walks' fields (WalkSet's arrays) in lanes.
 struct WalkLanes {
   V x, y, z, offset, out;
@@ -189,7 +180,7 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
       results.homogeneous(m & M(~s.isRef), l.out, s.code);
       l.offset = base + s.ref;
       const size_t next = storeWalks(w, kept, s.isRef, l);
-      prefetchNodes(dag.nodes, w.offset, kept, next);
+      prefetchWalkNodes(dag.nodes, w.offset, kept, next);
       kept = next;
     }
     active = kept;
@@ -241,7 +232,7 @@ inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
 // kWalksInFlight (a group's prefetched lines are still in L1 one pass later).
 template <WalkResult kKind>
 void descendFromStart(const WalkStart& g, const WalkSet& w, size_t started, const Results<kKind>& results) {
-  prefetchNodes(g.dag.nodes, w.offset, 0, started);
+  prefetchWalkNodes(g.dag.nodes, w.offset, 0, started);
   const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
   for (size_t begin = 0; begin < started; begin += kWalksInFlight)
     descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);

@@ -1,0 +1,299 @@
+// dag_walks.h with AVX2: eight walks per instruction, 32 bits a lane, for the CPUs without AVX-512 (AMD Zen 2
+// and 3, Intel's client chips since 2021). The same passes as dag_walks_avx512.cpp and the scalar descendGroup
+// in batch_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of the walks that
+// end, gather the references of the others, pack them for the next pass and prefetch their nodes, read one
+// pass later. What AVX2 lacks is done another way: masks are vectors of all-ones lanes; the packing is a
+// permutation from a table (no compress); the results are stored lane by lane (no scatter).
+#if defined(__x86_64__) && defined(__GNUC__)
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cstddef>
+#include <cstdint>
+
+#include <immintrin.h>
+
+#include "libcpvs/runtime/isa_target.h"
+
+#include "libcpvs/runtime/dag_walks.h"
+
+namespace cpvs {
+namespace {
+
+// For each 8-bit lane mask, the indices of its set lanes packed to the front (3 bits each, lane k's index at
+// bits 3k): the permutation that stands in for a compress. Computed once, 1 KiB.
+constexpr std::array<uint32_t, 256> kPackOrder = [] {
+  std::array<uint32_t, 256> table{};
+  for (uint32_t mask = 0; mask < 256; ++mask) {
+    uint32_t packed = 0, kept = 0;
+    for (uint32_t lane = 0; lane < 8; ++lane)
+      if (mask & (1u << lane)) packed |= lane << (3 * kept++);
+    table[mask] = packed;
+  }
+  return table;
+}();
+
+}  // namespace
+}  // namespace cpvs
+
+CPVS_TARGET_BEGIN_AVX2
+
+namespace cpvs {
+namespace {
+
+// Eight unsigned 32-bit lanes (a wrapper: __m256i's own operators work on 64-bit lanes), and a lane mask: all
+// ones in the lanes that are set.
+struct V {
+  __m256i v;
+  V() = default;
+  V(__m256i x) : v(x) {}
+};
+struct M {
+  __m256i v;
+};
+
+inline V splat(uint32_t x) { return _mm256_set1_epi32(int32_t(x)); }
+inline V operator&(V a, V b) { return _mm256_and_si256(a.v, b.v); }
+inline V operator|(V a, V b) { return _mm256_or_si256(a.v, b.v); }
+inline V operator+(V a, V b) { return _mm256_add_epi32(a.v, b.v); }
+inline V operator-(V a, V b) { return _mm256_sub_epi32(a.v, b.v); }
+inline V operator<<(V a, unsigned n) { return _mm256_slli_epi32(a.v, int(n)); }
+inline V shr(V a, unsigned n) { return _mm256_srli_epi32(a.v, int(n)); }
+inline V shr(V a, V n) { return _mm256_srlv_epi32(a.v, n.v); }
+inline V shl(V a, V n) { return _mm256_sllv_epi32(a.v, n.v); }
+inline M operator&(M a, M b) { return {_mm256_and_si256(a.v, b.v)}; }
+inline M operator|(M a, M b) { return {_mm256_or_si256(a.v, b.v)}; }
+inline M andNot(M a, M b) { return {_mm256_andnot_si256(b.v, a.v)}; }  // a and not b
+inline M equal(V a, V b) { return {_mm256_cmpeq_epi32(a.v, b.v)}; }
+inline V blend(M m, V a, V b) { return _mm256_blendv_epi8(a.v, b.v, m.v); }  // b where m, else a
+inline V iota() { return _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7); }
+inline M laneMask(size_t lanes) { return {_mm256_cmpgt_epi32(splat(uint32_t(std::min<size_t>(lanes, 8))).v, iota().v)}; }
+inline unsigned bits(M m) { return unsigned(_mm256_movemask_ps(_mm256_castsi256_ps(m.v))); }
+inline size_t lanesSet(M m) { return size_t(std::popcount(bits(m))); }
+// Masked lanes read nothing (a masked load does not fault), and are 0.
+inline V load(const uint32_t* p, M m) { return _mm256_maskload_epi32(reinterpret_cast<const int*>(p), m.v); }
+inline V load(const int32_t* p, M m) { return _mm256_maskload_epi32(p, m.v); }
+// The lanes of m packed to the front, stored as a whole vector: up to 7 slots past the last kept lane are
+// written (within kWalkPadding).
+inline void compress(uint32_t* p, M m, V v) {
+  const V order = shr(splat(kPackOrder[bits(m)]), _mm256_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21)) & splat(7);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), _mm256_permutevar8x32_epi32(v.v, order.v));
+}
+// 32 bits at base + kScale * index[lane] for the lanes of m, 0 elsewhere.
+template <int kScale>
+inline V gather(M m, V index, const void* base) {
+  return _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), static_cast<const int*>(base), index.v, m.v, kScale);
+}
+inline void store(uint32_t (&lanes)[8], V v) { _mm256_storeu_si256(reinterpret_cast<__m256i*>(lanes), v.v); }
+
+// Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
+inline V popcount16(V v) {
+  v = v - (shr(v, 1) & splat(0x5555u));
+  v = (v & splat(0x3333u)) + (shr(v, 2) & splat(0x3333u));
+  v = (v + shr(v, 4)) & splat(0x0F0Fu);
+  return (v + shr(v, 8)) & splat(0x1Fu);
+}
+
+// Unit reads as in dag_walks_avx512.cpp: 32 bits gathered at a unit index give that unit and the next, except at
+// the DAG's last unit, where the read starts one unit earlier and is shifted down.
+struct Units {
+  const uint16_t* nodes;
+  V last;
+  V pair(M m, V index) const {
+    const M atLast = equal(index, last);
+    const V v = gather<2>(m, index - (splat(1) & V(atLast.v)), nodes);
+    return blend(atLast, v, shr(v, 16));
+  }
+};
+
+// One step of eight walks at their nodes: child c's code (0 lit, 1 shadowed, 2 reference: childCodeOf) and,
+// for the references, readRef's value.
+struct Step {
+  V code, ref;
+  M isRef;
+};
+inline Step step(const Units& units, M m, V offset, V c) {
+  const V header = units.pair(m, offset) & splat(0xFFFFu);
+  const V twoC = c + c;
+  const V raw = shr(header, twoC) & splat(3);
+  Step s;
+  s.code = raw - (raw & shr(raw, 1));
+  s.isRef = m & equal(raw & splat(2), splat(2));
+  // The reference's unit follows the header and the units of the references before it (readRef).
+  const V refBits = (header & splat(0xAAAAu)) | (header & shr(header, 1) & splat(0x5555u));
+  const V before = shl(splat(1), twoC) - splat(1);
+  const V pair = units.pair(s.isRef, offset + splat(1) + popcount16(refBits & before));
+  s.ref = blend(equal(raw, splat(3)), pair & splat(0xFFFFu), pair);  // a wide reference takes both units
+  return s;
+}
+
+// Results of the walks that end, as dag_walks.h's WalkResult says, stored lane by lane.
+template <WalkResult kKind>
+struct Results {
+  void* slots;
+  // Walks ending on a homogeneous child: code 1 shadowed, else lit.
+  void homogeneous(M m, V out, V code) const {
+    uint32_t outs[8], codes[8];
+    store(outs, out);
+    store(codes, code);
+    for (unsigned set = bits(m); set; set &= set - 1) {
+      const unsigned lane = unsigned(std::countr_zero(set));
+      if constexpr (kKind == WalkResult::Visibility)
+        static_cast<float*>(slots)[outs[lane]] = codes[lane] == 1 ? 0.0f : 1.0f;
+      else
+        static_cast<uint64_t*>(slots)[outs[lane]] = codes[lane] == 1 ? ~uint64_t(0) : 0;
+    }
+  }
+  // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
+  void leaf(const uint64_t* leaves, M m, V out, V leaf, V x, V y) const {
+    if constexpr (kKind == WalkResult::Visibility) {
+      const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
+      const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
+      homogeneous(m, out, shr(word, bit & splat(31)) & splat(1));
+    } else {
+      (void)x, (void)y;
+      uint32_t outs[8], leafs[8];
+      store(outs, out);
+      store(leafs, leaf);
+      for (unsigned set = bits(m); set; set &= set - 1) {
+        const unsigned lane = unsigned(std::countr_zero(set));
+        static_cast<uint64_t*>(slots)[outs[lane]] = leaves[leafs[lane]];
+      }
+    }
+  }
+};
+
+// Eight walks' fields (WalkSet's arrays) in lanes.
+struct WalkLanes {
+  V x, y, z, offset, out;
+};
+inline WalkLanes loadWalks(const WalkSet& w, size_t i, M m) {
+  return {load(w.x + i, m), load(w.y + i, m), load(w.z + i, m), load(w.offset + i, m), load(w.out + i, m)};
+}
+// Appends the walks of the lanes `keep` at w[at, ...) and returns the new count (the stores may write over the
+// walks being read: those lanes are already in registers).
+inline size_t storeWalks(const WalkSet& w, size_t at, M keep, const WalkLanes& l) {
+  compress(w.x + at, keep, l.x);
+  compress(w.y + at, keep, l.y);
+  compress(w.z + at, keep, l.z);
+  compress(w.offset + at, keep, l.offset);
+  compress(w.out + at, keep, l.out);
+  return at + lanesSet(keep);
+}
+
+template <WalkResult kKind>
+void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
+  const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
+  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
+  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
+    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
+    const V base = splat(dag.childBase[bit + 1]);
+    size_t kept = 0;
+    for (size_t i = 0; i < active; i += 8) {
+      const M m = laneMask(active - i);
+      WalkLanes l = loadWalks(w, i, m);
+      const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
+      const Step s = step(units, m, l.offset, c);
+      results.homogeneous(andNot(m, s.isRef), l.out, s.code);
+      l.offset = base + s.ref;
+      const size_t next = storeWalks(w, kept, s.isRef, l);
+      prefetchWalkNodes(dag.nodes, w.offset, kept, next);
+      kept = next;
+    }
+    active = kept;
+  }
+  if (active == 0) return;
+  // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
+  size_t kept = 0;
+  for (size_t i = 0; i < active; i += 8) {
+    const M m = laneMask(active - i);
+    WalkLanes l = loadWalks(w, i, m);
+    const Step s = step(units, m, l.offset, l.z & splat(7));
+    results.homogeneous(andNot(m, s.isRef), l.out, s.code);
+    l.offset = s.ref;  // a leaf index from here on
+    const size_t next = storeWalks(w, kept, s.isRef, l);
+    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
+    kept = next;
+  }
+  // Leaves.
+  for (size_t i = 0; i < kept; i += 8) {
+    const M m = laneMask(kept - i);
+    results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
+  }
+}
+
+// Lanes j .. j + 7 (those of m) of a mapped batch: the cell, its state, and the slot of its answer
+// (indices[j + lane], or j + lane without an index list).
+struct CellLanes8 {
+  V x, y, z, state, out;
+};
+inline CellLanes8 loadCells(const CellBatchOutput& cells, const uint32_t* indices, size_t j, M m) {
+  alignas(8) uint8_t stateBytes[8] = {};
+  std::copy_n(cells.state + j, lanesSet(m), stateBytes);  // m covers the first lanes
+  return {load(cells.x + j, m), load(cells.y + j, m), load(cells.z + j, m),
+          _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(stateBytes))),
+          indices ? load(indices + j, m) : iota() + splat(uint32_t(j))};
+}
+
+// The top-grid entries ((offset << 2) | code) of voxels (x, y, z) in the lanes of m, or the root's entry.
+inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
+  const V entry = splat(g.rootEntry);
+  if (!g.gridCells) return entry;
+  const V sh = splat(g.gridShift);
+  const V cell = shl(shr(z, sh), splat(2 * g.gridLevel)) | shl(shr(y, sh), splat(g.gridLevel)) | shr(x, sh);
+  return _mm256_mask_i32gather_epi32(entry.v, reinterpret_cast<const int*>(g.gridCells), cell.v, m.v, 4);
+}
+
+thread_local WalkStorage tVoxelWalks;
+
+}  // namespace
+
+void descendGroupAvx2(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
+                      void* results) {
+  if (kind == WalkResult::Visibility)
+    return descend(dag, walks, count, startSize, Results<WalkResult::Visibility>{results});
+  descend(dag, walks, count, startSize, Results<WalkResult::TileMask>{results});
+}
+
+void walkVoxelsAvx2(const VoxelWalkBatch& b) {
+  const WalkStart& g = b.start;
+  const WalkSet w = tVoxelWalks.reserve(b.count);
+  const Results<WalkResult::Visibility> results{b.answers};
+  size_t started = 0;
+  for (size_t j = 0; j < b.count; j += 8) {
+    const M m = laneMask(b.count - j);
+    const auto [x, y, z, state, out] = loadCells(b.cells, b.indices, j, m);
+    const V entry = startEntries(g, m, x, y, z);
+    const V code = entry & splat(3);
+    const M voxel = m & equal(state, splat(kCellVoxel));
+    // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
+    // follows.
+    const M lit = andNot(voxel, equal(code, splat(1))) | equal(state, splat(kCellLit));
+    results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
+    started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
+  }
+  prefetchWalkNodes(g.dag.nodes, w.offset, 0, started);
+  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
+  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
+}
+
+}  // namespace cpvs
+
+CPVS_TARGET_END
+
+#else
+
+#include <cstdlib>
+
+#include "libcpvs/runtime/dag_walks.h"
+
+namespace cpvs {
+void descendGroupAvx2(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkResult, void*) {
+  std::abort();  // unreachable: walkIsa() is never Avx2 here
+}
+void walkVoxelsAvx2(const VoxelWalkBatch&) { std::abort(); }
+}  // namespace cpvs
+
+#endif
