@@ -208,7 +208,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
 // distinct corner tile walks from its own top-grid cell (the same descent as K = 1, ending in the tile's mask
 // at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 the
 // whole filter runs in dag_walks_avx512.cpp instead (filterFootprintsAvx512), sixteen footprints at a time,
-// with the same answers. (Walking once per
+// with the same answers; with AVX2 the corner walks here go eight at a time (descendGroupAvx2). (Walking once per
 // footprint to the node its corner tiles share, then from there, took as long: the grouping it needs cost
 // what the shared steps saved; docs/lookups.md.)
 CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
@@ -243,7 +243,15 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
       started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
     }
   }
-  descend(dag, corners, started, startSize, TileMasks{masks.data()});
+  // The corner walks eight or sixteen at a time where the CPU has AVX2 or AVX-512 (the same masks).
+  if (const CellIsa isa = vectorWalks(dag, 4 * n); isa == CellIsa::Scalar) {
+    descend(dag, corners, started, startSize, TileMasks{masks.data()});
+  } else {
+    const auto descendGroup = isa == CellIsa::Avx512 ? &descendGroupAvx512 : &descendGroupAvx2;
+    for (size_t begin = 0; begin < started; begin += kWalksInFlight)
+      descendGroup(walkDag(dag), corners.from(begin), std::min(kWalksInFlight, started - begin), startSize,
+                   WalkResult::TileMask, masks.data());
+  }
   counts.resize(n);
   for (size_t p = 0; p < n; ++p) {
     const Footprint& f = pending[p].f;

@@ -128,38 +128,60 @@ inline Step step(const Units& units, M m, V offset, V c) {
   return s;
 }
 
-// Results of the walks that end, as dag_walks.h's WalkResult says, stored lane by lane.
+// Stores value[k] at slots[out[k]] for the first `lanes` lanes: one store a lane, no branch on the values (AVX2
+// has no scatter).
+template <class T>
+inline void storeLanes(T* slots, size_t lanes, const uint32_t (&out)[8], const T (&value)[8]) {
+  if (lanes == 8) {
+    for (size_t k = 0; k < 8; ++k) slots[out[k]] = value[k];
+  } else {
+    for (size_t k = 0; k < lanes; ++k) slots[out[k]] = value[k];
+  }
+}
+
+// Results, as dag_walks.h's WalkResult says, for the first `lanes` lanes (the walks of a group). As the scalar
+// walks do, every walk's result is written at every step, final unless a reference follows: a store per lane
+// whatever the codes, where storing only the walks that end took a branch per lane that mispredicts.
 template <WalkResult kKind>
 struct Results {
   void* slots;
-  // Walks ending on a homogeneous child: code 1 shadowed, else lit.
-  void homogeneous(M m, V out, V code) const {
-    uint32_t outs[8], codes[8];
+  // Code 1 shadowed, else lit.
+  void homogeneous(size_t lanes, V out, V code) const {
+    uint32_t outs[8];
     store(outs, out);
-    store(codes, code);
-    for (unsigned set = bits(m); set; set &= set - 1) {
-      const unsigned lane = unsigned(std::countr_zero(set));
-      if constexpr (kKind == WalkResult::Visibility)
-        static_cast<float*>(slots)[outs[lane]] = codes[lane] == 1 ? 0.0f : 1.0f;
-      else
-        static_cast<uint64_t*>(slots)[outs[lane]] = codes[lane] == 1 ? ~uint64_t(0) : 0;
+    const M shadowed = equal(code, splat(1));
+    if constexpr (kKind == WalkResult::Visibility) {
+      alignas(32) float values[8];
+      _mm256_store_ps(values, _mm256_castsi256_ps(_mm256_andnot_si256(shadowed.v, _mm256_castps_si256(_mm256_set1_ps(1.0f)))));
+      storeLanes(static_cast<float*>(slots), lanes, outs, values);
+    } else {
+      alignas(32) uint64_t values[8];
+      _mm256_store_si256(reinterpret_cast<__m256i*>(values), _mm256_cvtepi32_epi64(_mm256_castsi256_si128(shadowed.v)));
+      _mm256_store_si256(reinterpret_cast<__m256i*>(values + 4), _mm256_cvtepi32_epi64(_mm256_extracti128_si256(shadowed.v, 1)));
+      storeLanes(static_cast<uint64_t*>(slots), lanes, outs, values);
     }
   }
   // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
-  void leaf(const uint64_t* leaves, M m, V out, V leaf, V x, V y) const {
+  void leaf(const uint64_t* leaves, size_t lanes, V out, V leaf, V x, V y) const {
+    const M m = laneMask(lanes);
     if constexpr (kKind == WalkResult::Visibility) {
       const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
       const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
-      homogeneous(m, out, shr(word, bit & splat(31)) & splat(1));
+      homogeneous(lanes, out, shr(word, bit & splat(31)) & splat(1));
     } else {
       (void)x, (void)y;
-      uint32_t outs[8], leafs[8];
+      alignas(32) uint64_t values[8];
+      const __m128i low = _mm256_castsi256_si128(leaf.v), high = _mm256_extracti128_si256(leaf.v, 1);
+      const __m256i lowMask = _mm256_cvtepi32_epi64(_mm256_castsi256_si128(m.v));
+      const __m256i highMask = _mm256_cvtepi32_epi64(_mm256_extracti128_si256(m.v, 1));
+      const auto* base = reinterpret_cast<const long long*>(leaves);
+      _mm256_store_si256(reinterpret_cast<__m256i*>(values),
+                         _mm256_mask_i32gather_epi64(_mm256_setzero_si256(), base, low, lowMask, 8));
+      _mm256_store_si256(reinterpret_cast<__m256i*>(values + 4),
+                         _mm256_mask_i32gather_epi64(_mm256_setzero_si256(), base, high, highMask, 8));
+      uint32_t outs[8];
       store(outs, out);
-      store(leafs, leaf);
-      for (unsigned set = bits(m); set; set &= set - 1) {
-        const unsigned lane = unsigned(std::countr_zero(set));
-        static_cast<uint64_t*>(slots)[outs[lane]] = leaves[leafs[lane]];
-      }
+      storeLanes(static_cast<uint64_t*>(slots), lanes, outs, values);
     }
   }
 };
@@ -191,11 +213,12 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
     const V base = splat(dag.childBase[bit + 1]);
     size_t kept = 0;
     for (size_t i = 0; i < active; i += 8) {
-      const M m = laneMask(active - i);
+      const size_t lanes = std::min<size_t>(8, active - i);
+      const M m = laneMask(lanes);
       WalkLanes l = loadWalks(w, i, m);
       const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
       const Step s = step(units, m, l.offset, c);
-      results.homogeneous(andNot(m, s.isRef), l.out, s.code);
+      results.homogeneous(lanes, l.out, s.code);
       l.offset = base + s.ref;
       const size_t next = storeWalks(w, kept, s.isRef, l);
       prefetchWalkNodes(dag.nodes, w.offset, kept, next);
@@ -207,10 +230,11 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
   // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
   size_t kept = 0;
   for (size_t i = 0; i < active; i += 8) {
-    const M m = laneMask(active - i);
+    const size_t lanes = std::min<size_t>(8, active - i);
+    const M m = laneMask(lanes);
     WalkLanes l = loadWalks(w, i, m);
     const Step s = step(units, m, l.offset, l.z & splat(7));
-    results.homogeneous(andNot(m, s.isRef), l.out, s.code);
+    results.homogeneous(lanes, l.out, s.code);
     l.offset = s.ref;  // a leaf index from here on
     const size_t next = storeWalks(w, kept, s.isRef, l);
     for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
@@ -218,8 +242,9 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
   }
   // Leaves.
   for (size_t i = 0; i < kept; i += 8) {
-    const M m = laneMask(kept - i);
-    results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
+    const size_t lanes = std::min<size_t>(8, kept - i);
+    const M m = laneMask(lanes);
+    results.leaf(dag.leaves, lanes, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
   }
 }
 
@@ -262,7 +287,8 @@ void walkVoxelsAvx2(const VoxelWalkBatch& b) {
   const Results<WalkResult::Visibility> results{b.answers};
   size_t started = 0;
   for (size_t j = 0; j < b.count; j += 8) {
-    const M m = laneMask(b.count - j);
+    const size_t lanes = std::min<size_t>(8, b.count - j);
+    const M m = laneMask(lanes);
     const auto [x, y, z, state, out] = loadCells(b.cells, b.indices, j, m);
     const V entry = startEntries(g, m, x, y, z);
     const V code = entry & splat(3);
@@ -270,7 +296,7 @@ void walkVoxelsAvx2(const VoxelWalkBatch& b) {
     // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
     // follows.
     const M lit = andNot(voxel, equal(code, splat(1))) | equal(state, splat(kCellLit));
-    results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
+    results.homogeneous(lanes, out, blend(lit, splat(1), splat(0)));
     started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
   }
   prefetchWalkNodes(g.dag.nodes, w.offset, 0, started);
