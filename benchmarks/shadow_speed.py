@@ -108,8 +108,10 @@ def main():
     scene = os.path.join(a.out, "city-spots.glb")
     subprocess.run([os.path.join(a.bin, "cpvs-scenegen"), "city-spots", "--lights", "165", "-o", scene], check=True)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    # The command as it ran, with the lookup ISA it was forced to, if any (docs/cli.md, CPVS_LOOKUP_ISA).
+    isa = "CPVS_LOOKUP_ISA=%s " % os.environ["CPVS_LOOKUP_ISA"] if "CPVS_LOOKUP_ISA" in os.environ else ""
     result = {"machine": machine_info(), "commit": commit, "size": a.size, "load_average_before": os.getloadavg(),
-              "command": "python3 benchmarks/shadow_speed.py " + " ".join(sys.argv[1:]), "resolutions": {}}
+              "command": isa + "python3 benchmarks/shadow_speed.py " + " ".join(sys.argv[1:]), "resolutions": {}}
     for resolution in a.resolutions.split(","):
         cpvs = os.path.join(a.out, "city-%s.cpvs" % resolution)
         if not os.path.exists(cpvs):

@@ -84,8 +84,8 @@ inline constexpr TileSpans kTileSpans;
 inline constexpr size_t kWalksInFlight = 512;
 
 // Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
-// lowers mapCells). Without them, a CPU with AVX2 runs the AVX2 walks (dag_walks_avx2.cpp: the K = 1 lookups;
-// PCF footprints walk scalar there).
+// lowers mapCells). Without them, a CPU with AVX2 runs the AVX2 walks (dag_walks_avx2.cpp: the K = 1 lookups
+// and the PCF filter's corner-tile walks; the filter's packing and counting stay scalar there).
 bool vectorWalksAvailable();
 
 // As prefetchNode in batch_lookup.cpp, for the walks offsets[begin, end): a node (at most 34 bytes) may straddle

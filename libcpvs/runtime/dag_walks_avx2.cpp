@@ -52,6 +52,7 @@ struct V {
 struct M {
   __m256i v;
 };
+constexpr size_t kLanes = 8;
 
 inline V splat(uint32_t x) { return _mm256_set1_epi32(int32_t(x)); }
 inline V operator&(V a, V b) { return _mm256_and_si256(a.v, b.v); }
@@ -87,14 +88,6 @@ inline V gather(M m, V index, const void* base) {
 }
 inline void store(uint32_t (&lanes)[8], V v) { _mm256_storeu_si256(reinterpret_cast<__m256i*>(lanes), v.v); }
 
-// Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
-inline V popcount16(V v) {
-  v = v - (shr(v, 1) & splat(0x5555u));
-  v = (v & splat(0x3333u)) + (shr(v, 2) & splat(0x3333u));
-  v = (v + shr(v, 4)) & splat(0x0F0Fu);
-  return (v + shr(v, 8)) & splat(0x1Fu);
-}
-
 // Unit reads as in dag_walks_avx512.cpp: 32 bits gathered at a unit index give that unit and the next, except at
 // the DAG's last unit, where the read starts one unit earlier and is shifted down.
 struct Units {
@@ -107,26 +100,8 @@ struct Units {
   }
 };
 
-// One step of eight walks at their nodes: child c's code (0 lit, 1 shadowed, 2 reference: childCodeOf) and,
-// for the references, readRef's value.
-struct Step {
-  V code, ref;
-  M isRef;
-};
-inline Step step(const Units& units, M m, V offset, V c) {
-  const V header = units.pair(m, offset) & splat(0xFFFFu);
-  const V twoC = c + c;
-  const V raw = shr(header, twoC) & splat(3);
-  Step s;
-  s.code = raw - (raw & shr(raw, 1));
-  s.isRef = m & equal(raw & splat(2), splat(2));
-  // The reference's unit follows the header and the units of the references before it (readRef).
-  const V refBits = (header & splat(0xAAAAu)) | (header & shr(header, 1) & splat(0x5555u));
-  const V before = shl(splat(1), twoC) - splat(1);
-  const V pair = units.pair(s.isRef, offset + splat(1) + popcount16(refBits & before));
-  s.ref = blend(equal(raw, splat(3)), pair & splat(0xFFFFu), pair);  // a wide reference takes both units
-  return s;
-}
+// The lanes of m whose 2-bit child code is a reference (2 or 3).
+inline M isReference(M m, V raw) { return m & equal(raw & splat(2), splat(2)); }
 
 // Stores value[k] at slots[out[k]] for the first `lanes` lanes: one store a lane, no branch on the values (AVX2
 // has no scatter).
@@ -145,8 +120,8 @@ inline void storeLanes(T* slots, size_t lanes, const uint32_t (&out)[8], const T
 template <WalkResult kKind>
 struct Results {
   void* slots;
-  // Code 1 shadowed, else lit.
-  void homogeneous(size_t lanes, V out, V code) const {
+  // Code 1 shadowed, else lit; every lane of the group, not only the `ending` ones.
+  void homogeneous(M, size_t lanes, V out, V code) const {
     uint32_t outs[8];
     store(outs, out);
     const M shadowed = equal(code, splat(1));
@@ -162,12 +137,11 @@ struct Results {
     }
   }
   // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
-  void leaf(const uint64_t* leaves, size_t lanes, V out, V leaf, V x, V y) const {
-    const M m = laneMask(lanes);
+  void leaf(const uint64_t* leaves, M m, size_t lanes, V out, V leaf, V x, V y) const {
     if constexpr (kKind == WalkResult::Visibility) {
       const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
       const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
-      homogeneous(lanes, out, shr(word, bit & splat(31)) & splat(1));
+      homogeneous(m, lanes, out, shr(word, bit & splat(31)) & splat(1));
     } else {
       (void)x, (void)y;
       alignas(32) uint64_t values[8];
@@ -186,67 +160,7 @@ struct Results {
   }
 };
 
-// Eight walks' fields (WalkSet's arrays) in lanes.
-struct WalkLanes {
-  V x, y, z, offset, out;
-};
-inline WalkLanes loadWalks(const WalkSet& w, size_t i, M m) {
-  return {load(w.x + i, m), load(w.y + i, m), load(w.z + i, m), load(w.offset + i, m), load(w.out + i, m)};
-}
-// Appends the walks of the lanes `keep` at w[at, ...) and returns the new count (the stores may write over the
-// walks being read: those lanes are already in registers).
-inline size_t storeWalks(const WalkSet& w, size_t at, M keep, const WalkLanes& l) {
-  compress(w.x + at, keep, l.x);
-  compress(w.y + at, keep, l.y);
-  compress(w.z + at, keep, l.z);
-  compress(w.offset + at, keep, l.offset);
-  compress(w.out + at, keep, l.out);
-  return at + lanesSet(keep);
-}
-
-template <WalkResult kKind>
-void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
-  const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
-  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
-    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
-    const V base = splat(dag.childBase[bit + 1]);
-    size_t kept = 0;
-    for (size_t i = 0; i < active; i += 8) {
-      const size_t lanes = std::min<size_t>(8, active - i);
-      const M m = laneMask(lanes);
-      WalkLanes l = loadWalks(w, i, m);
-      const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
-      const Step s = step(units, m, l.offset, c);
-      results.homogeneous(lanes, l.out, s.code);
-      l.offset = base + s.ref;
-      const size_t next = storeWalks(w, kept, s.isRef, l);
-      prefetchWalkNodes(dag.nodes, w.offset, kept, next);
-      kept = next;
-    }
-    active = kept;
-  }
-  if (active == 0) return;
-  // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
-  size_t kept = 0;
-  for (size_t i = 0; i < active; i += 8) {
-    const size_t lanes = std::min<size_t>(8, active - i);
-    const M m = laneMask(lanes);
-    WalkLanes l = loadWalks(w, i, m);
-    const Step s = step(units, m, l.offset, l.z & splat(7));
-    results.homogeneous(lanes, l.out, s.code);
-    l.offset = s.ref;  // a leaf index from here on
-    const size_t next = storeWalks(w, kept, s.isRef, l);
-    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
-    kept = next;
-  }
-  // Leaves.
-  for (size_t i = 0; i < kept; i += 8) {
-    const size_t lanes = std::min<size_t>(8, kept - i);
-    const M m = laneMask(lanes);
-    results.leaf(dag.leaves, lanes, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
-  }
-}
+#include "libcpvs/runtime/dag_walk_passes.h"
 
 // Lanes j .. j + 7 (those of m) of a mapped batch: the cell, its state, and the slot of its answer
 // (indices[j + lane], or j + lane without an index list).
@@ -296,13 +210,10 @@ void walkVoxelsAvx2(const VoxelWalkBatch& b) {
     // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
     // follows.
     const M lit = andNot(voxel, equal(code, splat(1))) | equal(state, splat(kCellLit));
-    results.homogeneous(lanes, out, blend(lit, splat(1), splat(0)));
+    results.homogeneous(m, lanes, out, blend(lit, splat(1), splat(0)));
     started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
   }
-  prefetchWalkNodes(g.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
-  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
+  descendFromStart(g, w, started, results);
 }
 
 }  // namespace cpvs

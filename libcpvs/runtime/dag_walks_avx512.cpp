@@ -40,6 +40,7 @@ struct V {
   V(__m512i x) : v(x) {}
 };
 using M = __mmask16;
+constexpr size_t kLanes = 16;
 
 inline V splat(uint32_t x) { return _mm512_set1_epi32(int32_t(x)); }
 inline V operator&(V a, V b) { return _mm512_and_si512(a.v, b.v); }
@@ -52,6 +53,7 @@ inline V shr(V a, V n) { return _mm512_srlv_epi32(a.v, n.v); }
 inline V shl(V a, V n) { return _mm512_sllv_epi32(a.v, n.v); }
 inline M equal(V a, V b) { return _mm512_cmpeq_epi32_mask(a.v, b.v); }
 inline V blend(M m, V a, V b) { return _mm512_mask_blend_epi32(m, a.v, b.v); }  // b where m, else a
+inline M andNot(M a, M b) { return M(a & ~b); }
 inline M laneMask(size_t lanes) { return lanes >= 16 ? M(0xFFFF) : M((1u << lanes) - 1u); }
 inline V load(const uint32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
 inline V load(const int32_t* p, M m) { return _mm512_maskz_loadu_epi32(m, p); }
@@ -70,14 +72,6 @@ inline size_t lanesSet(M m) { return size_t(std::popcount(unsigned(m))); }
 inline __m256i half(V v, int h) { return h ? _mm512_extracti64x4_epi64(v.v, 1) : _mm512_castsi512_si256(v.v); }
 inline __mmask8 half(M m, int h) { return __mmask8(m >> (8 * h)); }
 
-// Bits set in each lane's low 16 bits (the scalar popcount32 of a 16-bit value).
-inline V popcount16(V v) {
-  v = v - (shr(v, 1) & splat(0x5555u));
-  v = (v & splat(0x3333u)) + (shr(v, 2) & splat(0x3333u));
-  v = (v + shr(v, 4)) & splat(0x0F0Fu);
-  return (v + shr(v, 8)) & splat(0x1Fu);
-}
-
 // Unit reads: 32 bits gathered at a unit index give that unit and the next, except at the DAG's last unit,
 // where the read starts one unit earlier and is shifted down (the caller needs only the low half there: a
 // header or a narrow reference), so no lane reads past the array.
@@ -92,33 +86,15 @@ struct Units {
   }
 };
 
-// One step of sixteen walks at their nodes: child c's code (0 lit, 1 shadowed, 2 reference: childCodeOf)
-// and, for the references, readRef's value.
-struct Step {
-  V code, ref;
-  M isRef;
-};
-inline Step step(const Units& units, M m, V offset, V c) {
-  const V header = units.pair(m, offset) & splat(0xFFFFu);
-  const V twoC = c + c;
-  const V raw = shr(header, twoC) & splat(3);
-  Step s;
-  s.code = raw - (raw & shr(raw, 1));
-  s.isRef = _mm512_mask_cmpge_epu32_mask(m, raw.v, splat(2).v);
-  // The reference's unit follows the header and the units of the references before it (readRef).
-  const V refBits = (header & splat(0xAAAAu)) | (header & shr(header, 1) & splat(0x5555u));
-  const V before = shl(splat(1), twoC) - splat(1);
-  const V pair = units.pair(s.isRef, offset + splat(1) + popcount16(refBits & before));
-  s.ref = blend(equal(raw, splat(3)), pair & splat(0xFFFFu), pair);  // a wide reference takes both units
-  return s;
-}
+// The lanes of m whose 2-bit child code is a reference (2 or 3).
+inline M isReference(M m, V raw) { return _mm512_mask_cmpge_epu32_mask(m, raw.v, splat(2).v); }
 
 // Results of the walks that end, as dag_walks.h's WalkResult says.
 template <WalkResult kKind>
 struct Results {
   void* slots;
   // Walks ending on a homogeneous child: code 1 shadowed, else lit.
-  void homogeneous(M m, V out, V code) const {
+  void homogeneous(M m, size_t, V out, V code) const {
     const M shadowed = equal(code, splat(1));
     if constexpr (kKind == WalkResult::Visibility) {
       const __m512 lit = _mm512_mask_blend_ps(shadowed, _mm512_set1_ps(1.0f), _mm512_setzero_ps());
@@ -130,11 +106,11 @@ struct Results {
     }
   }
   // Walks ending in a leaf: leaf index `leaf`, voxel (x, y) in its tile.
-  void leaf(const uint64_t* leaves, M m, V out, V leaf, V x, V y) const {
+  void leaf(const uint64_t* leaves, M m, size_t, V out, V leaf, V x, V y) const {
     if constexpr (kKind == WalkResult::Visibility) {
       const V bit = ((y & splat(7)) << 3) | (x & splat(7));  // bit (y & 7) * 8 + (x & 7) of the leaf
       const V word = gather<4>(m, leaf + leaf + shr(bit, 5), leaves);
-      homogeneous(m, out, shr(word, bit & splat(31)) & splat(1));
+      homogeneous(m, 16, out, shr(word, bit & splat(31)) & splat(1));
     } else {
       (void)x, (void)y;
       for (int h = 0; h < 2; ++h) {
@@ -145,65 +121,7 @@ struct Results {
   }
 };
 
-// Sixteen walks' fields (WalkSet's arrays) in lanes.
-struct WalkLanes {
-  V x, y, z, offset, out;
-};
-inline WalkLanes loadWalks(const WalkSet& w, size_t i, M m) {
-  return {load(w.x + i, m), load(w.y + i, m), load(w.z + i, m), load(w.offset + i, m), load(w.out + i, m)};
-}
-// Appends the walks of the lanes `keep` at w[at, ...) and returns the new count. The stores may write over the
-// walks being read (at <= their index, and sixteen slots from `at` end at most where those lanes end): those
-// lanes are already in registers.
-inline size_t storeWalks(const WalkSet& w, size_t at, M keep, const WalkLanes& l) {
-  compress(w.x + at, keep, l.x);
-  compress(w.y + at, keep, l.y);
-  compress(w.z + at, keep, l.z);
-  compress(w.offset + at, keep, l.offset);
-  compress(w.out + at, keep, l.out);
-  return at + lanesSet(keep);
-}
-
-template <WalkResult kKind>
-void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t startSize, const Results<kKind>& results) {
-  const Units units{dag.nodes, splat(uint32_t(dag.nodeUnits - 1))};
-  // Octree levels: child c = (z, y, x bits at the child's edge) in Z-order.
-  for (uint32_t size = startSize; size > 8 && active > 0; size >>= 1) {
-    const unsigned bit = unsigned(std::countr_zero(size)) - 1u;  // log2 of the child's edge
-    const V base = splat(dag.childBase[bit + 1]);
-    size_t kept = 0;
-    for (size_t i = 0; i < active; i += 16) {
-      const M m = laneMask(active - i);
-      WalkLanes l = loadWalks(w, i, m);
-      const V c = (shr(l.z, bit) & splat(1)) << 2 | (shr(l.y, bit) & splat(1)) << 1 | (shr(l.x, bit) & splat(1));
-      const Step s = step(units, m, l.offset, c);
-      results.homogeneous(m & M(~s.isRef), l.out, s.code);
-      l.offset = base + s.ref;
-      const size_t next = storeWalks(w, kept, s.isRef, l);
-      prefetchWalkNodes(dag.nodes, w.offset, kept, next);
-      kept = next;
-    }
-    active = kept;
-  }
-  if (active == 0) return;
-  // Leaf parents: the z-only split into 8 x 8 x 1 leaves.
-  size_t kept = 0;
-  for (size_t i = 0; i < active; i += 16) {
-    const M m = laneMask(active - i);
-    WalkLanes l = loadWalks(w, i, m);
-    const Step s = step(units, m, l.offset, l.z & splat(7));
-    results.homogeneous(m & M(~s.isRef), l.out, s.code);
-    l.offset = s.ref;  // a leaf index from here on
-    const size_t next = storeWalks(w, kept, s.isRef, l);
-    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
-    kept = next;
-  }
-  // Leaves.
-  for (size_t i = 0; i < kept; i += 16) {
-    const M m = laneMask(kept - i);
-    results.leaf(dag.leaves, m, load(w.out + i, m), load(w.offset + i, m), load(w.x + i, m), load(w.y + i, m));
-  }
-}
+#include "libcpvs/runtime/dag_walk_passes.h"
 
 // Lanes j .. j + 15 (those of m) of a mapped batch: the cell, its state, and the slot of its answer
 // (indices[j + lane], or j + lane without an index list).
@@ -226,16 +144,6 @@ inline V startEntries(const WalkStart& g, M m, V x, V y, V z) {
   const V sh = splat(g.gridShift);
   const V cell = shl(shr(z, sh), splat(2 * g.gridLevel)) | shl(shr(y, sh), splat(g.gridLevel)) | shr(x, sh);
   return _mm512_mask_i32gather_epi32(entry.v, m, cell.v, g.gridCells, 4);
-}
-
-// Walks [0, started), each at its start entry's node: their nodes prefetched, then descended in groups of
-// kWalksInFlight (a group's prefetched lines are still in L1 one pass later).
-template <WalkResult kKind>
-void descendFromStart(const WalkStart& g, const WalkSet& w, size_t started, const Results<kKind>& results) {
-  prefetchWalkNodes(g.dag.nodes, w.offset, 0, started);
-  const uint32_t startSize = g.gridCells ? 1u << g.gridShift : g.dag.resolution;
-  for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-    descend(g.dag, w.from(begin), std::min(kWalksInFlight, started - begin), startSize, results);
 }
 
 thread_local WalkStorage tVoxelWalks;
@@ -263,7 +171,7 @@ void walkVoxelsAvx512(const VoxelWalkBatch& b) {
     // As walkVoxels: lit for a voxel in a cell that is not shadowed or a lane mapped lit; final unless a walk
     // follows.
     const M lit = (voxel & M(~equal(code, splat(1)))) | equal(state, splat(kCellLit));
-    results.homogeneous(m, out, blend(lit, splat(1), splat(0)));
+    results.homogeneous(m, 16, out, blend(lit, splat(1), splat(0)));
     started = storeWalks(w, started, voxel & equal(code, splat(2)), {x, y, z, shr(entry, 2), out});
   }
   descendFromStart(g, w, started, results);
