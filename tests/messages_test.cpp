@@ -134,6 +134,9 @@ TEST(Messages, CpvsInfoSaysWhatItLookedForAndDidNotFind) {
   EXPECT_TRUE(contains(r.output, "ground sheets: none found (every casting mesh is closed; a ground sheet is an open "
                                  "mesh"))
       << r.output;
+  // The JSON says the same.
+  const auto json = runTool(toolPath("cpvs-info") + " " + torusKnot() + " --json");
+  EXPECT_TRUE(contains(json.output, "\"noGroundSheet\": \"every casting mesh is closed; ")) << json.output;
   // With the check off, it says so.
   const auto off = runTool(toolPath("cpvs-info") + " " + torusKnot() + " --ground off");
   EXPECT_TRUE(contains(off.output, "ground sheets: none found (--ground off)")) << off.output;

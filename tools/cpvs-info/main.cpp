@@ -129,6 +129,8 @@ void printJson(const Scene& scene, const WorldGeometry& world, const Totals& tot
         {"alphaTestedTriangles", world.masked.count()},
         {"lights", scene.lights.size()}}},
       {"groundSheets", groundJson(world)},
+      // Why groundSheets is empty (null when it is not).
+      {"noGroundSheet", world.groundSheets.empty() ? nlohmann::ordered_json(world.noGroundSheet) : nlohmann::ordered_json(nullptr)},
       {"warnings", scene.warnings},
       // What a cpvs-bake with the same lights and bake options writes into its file's BAKE block.
       {"input_hash", cpvs::hex64(inputHash)}};
