@@ -40,6 +40,24 @@ TEST(Cli, SuggestsTheNearestKnownOption) {
   EXPECT_EQ(tools::nearestOption(app, "--sbot"), "--spot or --slot");   // equally near
 }
 
+TEST(Cli, AValueErrorIsKeptBesideTheWordsTakenForNothing) {
+  CLI::App app{"test", "tool"};
+  int count = 0;
+  std::string scene;
+  app.add_option("--count", count);
+  app.add_option("scene", scene)->type_name("SCENE");
+  try {
+    app.parse("--count abc level.gltf extra.gltf", false);
+    FAIL() << "parsed";
+  } catch (const CLI::ParseError& e) {
+    const std::string message = tools::describeParseError(app, e);
+    EXPECT_NE(message.find("--count"), std::string::npos) << message;
+    EXPECT_NE(message.find("abc"), std::string::npos) << message;
+    EXPECT_NE(message.find("'extra.gltf', the 2nd positional argument, was taken for nothing"), std::string::npos)
+        << message;
+  }
+}
+
 TEST(Cli, NamesThePositionalArguments) {
   CLI::App app{"test", "cpvs-view"};
   std::string scene, file;

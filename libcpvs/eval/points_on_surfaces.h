@@ -18,18 +18,19 @@ namespace cpvs {
 inline constexpr double kOffSurfaceVoxels = 4.0;
 inline constexpr double kOffSurfaceFloor = 1e-4;
 inline constexpr double kOffSurfaceCeiling = 1e-2;
+// How many points a check looks at, at most.
+inline constexpr size_t kSurfaceCheckPoints = 4096;
 
 struct SurfaceCheck {
   size_t checked = 0;     // finite points looked at
   size_t offSurface = 0;  // of them, off every surface
-  double offFraction() const { return checked ? double(offSurface) / double(checked) : 0.0; }
   // "Most" points off the scene: a warning's worth.
   bool mostOff() const { return checked > 0 && 2 * offSurface > checked; }
 };
 
 // Checks up to `most` of `points`, spread evenly over them, against `scene`, with the voxels of `lights`' views.
 SurfaceCheck checkPointsOnSurfaces(const SurfaceProximity& scene, const std::vector<const LightShadow*>& lights,
-                                   std::span<const SurfacePoint> points, size_t most = 4096);
+                                   std::span<const SurfacePoint> points, size_t most = kSurfaceCheckPoints);
 
 // The largest edge, in world units, of the voxel of `view` at `world` (the grid is not uniform in perspective
 // views, nor in depth).

@@ -102,8 +102,8 @@ CellIsa vectorWalks(const DagView& dag, size_t slots) {
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
-// (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 the K = 1 batches in dag_walks_avx2.cpp
-// (walkVoxelsAvx2), which give the same results.
+// (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 the K = 1 batches and the corner-tile walks in
+// dag_walks_avx2.cpp (walkVoxelsAvx2, descendGroupAvx2), which give the same results.
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
@@ -248,8 +248,9 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
     descend(dag, corners, started, startSize, TileMasks{masks.data()});
   } else {
     const auto descendGroup = isa == CellIsa::Avx512 ? &descendGroupAvx512 : &descendGroupAvx2;
+    const WalkDag walked = walkDag(dag);
     for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-      descendGroup(walkDag(dag), corners.from(begin), std::min(kWalksInFlight, started - begin), startSize,
+      descendGroup(walked, corners.from(begin), std::min(kWalksInFlight, started - begin), startSize,
                    WalkResult::TileMask, masks.data());
   }
   counts.resize(n);

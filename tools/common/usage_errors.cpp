@@ -147,8 +147,11 @@ std::string positionalUsage(const CLI::App& app) {
 
 std::string describeParseError(const CLI::App& app, const CLI::ParseError& error) {
   const Leftovers words = leftovers(app);
-  std::string message;
-  if (!words.unknownOptions.empty()) message = unknownOptionsMessage(app, words.unknownOptions);
+  // CLI11's own message first where it is about a value (a conversion, a check): the leftovers come after it.
+  const bool aboutWords = dynamic_cast<const CLI::RequiredError*>(&error) || dynamic_cast<const CLI::ExtrasError*>(&error);
+  std::string message = aboutWords ? std::string() : std::string(error.what());
+  if (!words.unknownOptions.empty())
+    message += (message.empty() ? "" : "; ") + unknownOptionsMessage(app, words.unknownOptions);
   if (!words.strayPositionals.empty())
     message += (message.empty() ? "" : "; ") + strayPositionalsMessage(app, words.strayPositionals);
   if (const CLI::Option* missing = missingRequired(app); missing && dynamic_cast<const CLI::RequiredError*>(&error)) {

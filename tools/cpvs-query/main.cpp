@@ -348,7 +348,7 @@ void queryGBuffer(const Options& options, const std::vector<SelectedLight>& ligh
   uint32_t width = 0, height = 0;
   std::vector<QueryPoint> points = readGBuffer(options.points, options.normals, width, height, eval.hasNormals);
   // Spread over the whole image, not its top rows (often sky).
-  for (size_t i = 0, stride = std::max<size_t>(1, points.size() / 4096); i < points.size(); i += stride)
+  for (size_t i = 0, stride = std::max<size_t>(1, points.size() / kSurfaceCheckPoints); i < points.size(); i += stride)
     eval.surfaceSample.push_back(points[i]);
   std::vector<float> values, chunkValues;
   values.resize(points.size() * nl);
