@@ -1,4 +1,4 @@
-"""The views of a .cpvs file as the node-encoding studies read them (docs/format.md): per view its level node
+"""The views of a .cpvs file as the node-encoding studies read them (formats/cpvs/format.md): per view its level node
 counts, its NODE section as an array of node words (format 1.x, u32) or units (2.x, u16), and its leaf count.
 The studies trust the file (validate it with cpvs-info first)."""
 import array

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """What a format-2 .cpvs DAG would weigh with a "repeat" child code: the study for a possible format 3.0.
 
-Format 2.0 (docs/format.md) stores a node as a u16 header, 2 bits per child (0 lit, 1 shadowed, 2 one-unit
+Format 2.0 (formats/cpvs/format.md) stores a node as a u16 header, 2 bits per child (0 lit, 1 shadowed, 2 one-unit
 reference, 3 two-unit reference), then the references: many of them repeat another child's. Leaf parents
 split z only, and a Kampe chain keeps one mask for many slices, so child c often names the same leaf as child
 c - 1; an octree node's far child c (c >= 4) often equals its near child c - 4 (the Z-neighbour that node

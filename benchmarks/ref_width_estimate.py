@@ -2,7 +2,7 @@
 """What a .cpvs DAG would weigh with narrower node encodings: the design study behind format 2.0.
 
 Format 1.0 stores every node as a u32 header (2 bits per child) and one u32 per referenced child: a word offset
-into NODE, or a leaf index (docs/format.md). Most of those references need far fewer than 32 bits. This script
+into NODE, or a leaf index (formats/cpvs/format.md). Most of those references need far fewer than 32 bits. This script
 reads a baked file and prints, per view, the DAG bytes as written and as they would be with
 
   * "16/32-bit refs": a u16 header whose code 3 (invalid in 1.0) marks a 32-bit reference and code 2 a 16-bit

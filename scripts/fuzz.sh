@@ -23,7 +23,7 @@ seed() {  # seed TARGET: fills out/fuzz/corpus/TARGET once
   mkdir -p "$dir"
   case "$1" in
     fuzz_cpvs|fuzz_cpvs_semantic)
-      cp "$root"/tests/golden/*.cpvs "$dir/"
+      cp "$root"/formats/cpvs/golden/*.cpvs "$root"/tests/golden/*.cpvs "$dir/"
       if [ -x "$root/build/bin/cpvs-bake" ]; then  # small bakes with spot and point lights too
         "$root/build/bin/cpvs-bake" "$root/data/scenes/TorusKnot/torusknot.gltf" -r 32 --sun 0.3,-1,0.2 \
           --spot 10,60,-30,-0.15,-0.85,0.5,0.6,200 --point 0,30,0,0 -o "$dir/tk32.cpvs" --quiet || true

@@ -31,8 +31,9 @@ struct Golden {
 };
 Golden golden() {
   Golden g;
-  for (const char* name : {"tiny_v2.cpvs", "tiny_scene_bake64_v2.cpvs", "alpha_test_bake128_v2.cpvs", "tiny_v1.cpvs"}) {
-    g.files.push_back(orThrow(CpvsFile::open(test::sourcePath(std::string("tests/golden/") + name))));
+  for (const char* path : {"formats/cpvs/golden/tiny_v2.cpvs", "tests/golden/tiny_scene_bake64_v2.cpvs",
+                           "tests/golden/alpha_test_bake128_v2.cpvs", "formats/cpvs/golden/tiny_v1.cpvs"}) {
+    g.files.push_back(orThrow(CpvsFile::open(test::sourcePath(path))));
     for (const auto& light : g.files.back()->lights())
       for (const auto& view : light.views) g.dags.push_back(view.dag);
   }

@@ -1,4 +1,4 @@
-// The .cpvs container (docs/format.md): round trip of baked DAGs, determinism, golden bytes that pin version
+// The .cpvs container (formats/cpvs/format.md): round trip of baked DAGs, determinism, golden bytes that pin version
 // 2.0, 1.0 files that still open (converted) and decode the same, and a reader that rejects every corrupt,
 // truncated or foreign input with Error(InputInvalid) — never a crash — while opening later 2.x files.
 //
@@ -249,7 +249,7 @@ void expectSameContent(const CpvsContent& content, const CpvsFile& file, bool sa
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// An independent packer (written from docs/format.md, not from the writer) to build files the writer never
+// An independent packer (written from formats/cpvs/format.md, not from the writer) to build files the writer never
 // makes: other versions, unknown sections, extended records, and structurally bad DAGs with valid checksums.
 
 struct RawSection {
@@ -330,7 +330,7 @@ RawSection& sectionOf(RawFile& f, uint32_t type) {
 }
 
 const std::string& goldenPath() {
-  static const std::string path = test::sourcePath("tests/golden/tiny_v2.cpvs");
+  static const std::string path = test::sourcePath("formats/cpvs/golden/tiny_v2.cpvs");
   return path;
 }
 
@@ -422,8 +422,8 @@ TEST(Format, GoldenBytesPinVersion2_0) {
   }
   const Bytes golden = goldenBytes();
   // A change that alters these bytes changes the format: bump kCpvsMinorVersion (compatible additions) or
-  // kCpvsMajorVersion, update docs/format.md, and regenerate the golden file.
-  ASSERT_EQ(toBytes(bytes), golden) << "writeCpvs no longer produces tests/golden/tiny_v2.cpvs";
+  // kCpvsMajorVersion, update formats/cpvs/format.md, and regenerate the golden file.
+  ASSERT_EQ(toBytes(bytes), golden) << "writeCpvs no longer produces formats/cpvs/golden/tiny_v2.cpvs";
 }
 
 TEST(Format, GoldenFileReadsBack) {
@@ -454,10 +454,10 @@ TEST(Format, GoldenFileReadsBack) {
   EXPECT_TRUE(std::isinf(file->lights()[2].light.range));
 }
 
-// tests/golden/tiny_v1.cpvs holds the same content in format 1.0 (32-bit words, absolute references), as the
+// formats/cpvs/golden/tiny_v1.cpvs holds the same content in format 1.0 (32-bit words, absolute references), as the
 // writer of cpvs 0.1 produced it: it opens, converted, and every voxel decodes the same.
 const std::string& format1GoldenPath() {
-  static const std::string path = test::sourcePath("tests/golden/tiny_v1.cpvs");
+  static const std::string path = test::sourcePath("formats/cpvs/golden/tiny_v1.cpvs");
   return path;
 }
 

@@ -12,7 +12,7 @@
 // change is intended (cpvs-info on old and new file shows what moved), regenerate with:
 //   CPVS_UPDATE_GOLDEN=1 build/bin/golden_test
 // and commit the new tests/golden/tiny_scene_bake64_v2*.cpvs and alpha_test_bake128_v2*.cpvs. A change in the container layout must also bump
-// the format version (libcpvs/runtime/cpvs_file.h) and update docs/format.md and tests/golden/tiny_v2.cpvs.
+// the format version (libcpvs/runtime/cpvs_file.h) and update formats/cpvs/format.md and formats/cpvs/golden/tiny_v2.cpvs.
 // tests/golden/tiny_scene_bake64_v1.cpvs is the same bake by cpvs 0.1 in format 1.0, and
 // tests/golden/tiny_scene_bake64_v2_cpvs-bake-0.2.0.cpvs the same DAGs by cpvs 0.2 in format 2.0 (before
 // cpvs 0.3 placed Kampe's mask changes differently); both stay, to show that 1.x files open, convert to

@@ -3,7 +3,7 @@
 // kind of input is decided by the magic, not the name; and corrupt copies (flipped bytes in every part of the
 // file, cuts at and around every section boundary, foreign magic, text-mode damage, a future major version)
 // are rejected with exit code 2 and a message that names the file — never a crash. The bake is a format 2.0
-// file (16-bit node units); a format 1.0 file (32-bit node words, tests/golden/tiny_v1.cpvs) is shown in words.
+// file (16-bit node units); a format 1.0 file (32-bit node words, formats/cpvs/golden/tiny_v1.cpvs) is shown in words.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -311,7 +311,7 @@ TEST_F(CpvsInfo, ALaterMinorVersionIsShownAsSuch) {
 // A format 1.0 file is still read (its DAGs converted to 16-bit units on open) and shown as it is stored: node
 // words (u32) and the NODE section's bytes in the file; the JSON gives the converted units and the file's bytes.
 TEST_F(CpvsInfo, AFormat1FileIsShownInWords) {
-  const std::string v1 = sourcePath("tests/golden/tiny_v1.cpvs");
+  const std::string v1 = sourcePath("formats/cpvs/golden/tiny_v1.cpvs");
   const auto old = orThrow(CpvsFile::open(v1));
   ASSERT_EQ(old->majorVersion(), 1);
   const auto r = runTool(info() + " " + v1);

@@ -2,7 +2,8 @@
 """Includes run one way, down the pipeline: every #include "..." of a library folder must name a folder that
 its CMake target links. The layers are read from the build itself: each `cpvs_stage(cpvs_X ... LINKS ...)` in
 libcpvs/CMakeLists.txt is folder libcpvs/X, and a folder may include the folders of the stages it links,
-directly or through them (cpvs_runtime, defined in libcpvs/runtime/, is the lowest). Exit 1 and one line per
+directly or through them (cpvs_runtime, defined in libcpvs/runtime/, is the lowest); formats/cpvs, the file's
+definition, is below them all and includes nothing outside itself. Exit 1 and one line per
 wrong-way include (or per stage without a folder), else a summary line. Usage: layering_check.py SOURCE_DIR"""
 import os
 import re
@@ -38,7 +39,12 @@ def allowed_folders(links):
     for stage in links:
         reach = below(stage, set())
         allowed[folder(stage)] = {folder(s) for s in reach} | set().union(*(GENERATED.get(s, set()) for s in reach))
-    allowed["examples/lookup"] = {"libcpvs/runtime"}
+    # formats/cpvs defines the file for its writer and its reader: every layer may include it, and it includes
+    # nothing but itself (an engine vendors it with the runtime).
+    for folder_name in allowed:
+        allowed[folder_name].add("formats/cpvs")
+    allowed["formats/cpvs"] = {"formats/cpvs"}
+    allowed["examples/lookup"] = {"libcpvs/runtime", "formats/cpvs"}
     return allowed
 
 

@@ -85,8 +85,9 @@ struct Views {
 
 Views goldenViews() {
   Views v;
-  for (const char* name : {"tiny_v2.cpvs", "tiny_scene_bake64_v2.cpvs", "alpha_test_bake128_v2.cpvs"}) {
-    v.files.push_back(orThrow(CpvsFile::open(test::sourcePath(std::string("tests/golden/") + name))));
+  for (const char* path : {"formats/cpvs/golden/tiny_v2.cpvs", "tests/golden/tiny_scene_bake64_v2.cpvs",
+                           "tests/golden/alpha_test_bake128_v2.cpvs"}) {
+    v.files.push_back(orThrow(CpvsFile::open(test::sourcePath(path))));
     for (const auto& light : v.files.back()->lights())
       for (const auto& view : light.views) v.dags.push_back(view.dag);
   }

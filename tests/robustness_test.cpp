@@ -311,7 +311,7 @@ namespace {
 TEST(Robustness, FifosAreRefusedByEveryReader) {
   const std::string dir = tempDir();
   for (const char* name : {"/f.cpvs", "/f.csv", "/f.exr"}) ASSERT_EQ(::mkfifo((dir + name).c_str(), 0600), 0);
-  const std::string cpvs = test::sourcePath("tests/golden/tiny_v2.cpvs");
+  const std::string cpvs = test::sourcePath("formats/cpvs/golden/tiny_v2.cpvs");
   const std::string points = dir + "/p.csv";
   writeText(points, "x,y,z\n0,0,0\n");
   const std::string commands[] = {

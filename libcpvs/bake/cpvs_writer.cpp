@@ -1,4 +1,4 @@
-// Writes the .cpvs container, version 2.0 (docs/format.md). Every byte is written explicitly (little-endian,
+// Writes the .cpvs container, version 2.0 (formats/cpvs/format.md; field offsets: formats/cpvs/cpvs_layout.h). Every byte is written explicitly (little-endian,
 // no struct images), padding is zero, and nothing depends on the time, the machine or memory addresses: the
 // same content gives the same bytes.
 #include <bit>
@@ -17,6 +17,10 @@ static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs forma
 namespace cpvs {
 
 using namespace cpvsformat;
+using H = HeaderLayout;
+using E = SectionEntryLayout;
+using L = LightRecordLayout;
+using V = ViewRecordLayout;
 
 namespace {
 
@@ -87,19 +91,19 @@ CpvsWriter::CpvsWriter(std::string settingsJson, std::vector<Light> lights, std:
   for (size_t li = 0; li < lights_.size(); ++li) {
     const Light& l = lights_[li];
     const uint64_t r = li * kLightRecordSize;
-    out.u32(r + 0, uint32_t(l.type));
-    out.u32(r + 4, uint32_t(nameOffset));
-    out.u32(r + 8, uint32_t(l.name.size()));
-    out.u32(r + 12, uint32_t(viewIndex));
-    out.u32(r + 16, uint32_t(viewsPerLight_[li]));
-    for (int c = 0; c < 3; ++c) out.f32(r + 20 + 4 * c, l.color[c]);
-    out.f32(r + 32, l.intensity);
-    // r + 36: reserved, zero
-    out.f64(r + 40, l.range);
-    out.f64(r + 48, l.innerConeAngle);
-    out.f64(r + 56, l.outerConeAngle);
-    for (int c = 0; c < 3; ++c) out.f64(r + 64 + 8 * c, l.position[c]);
-    for (int c = 0; c < 3; ++c) out.f64(r + 88 + 8 * c, l.direction[c]);
+    out.u32(r + L::kType, uint32_t(l.type));
+    out.u32(r + L::kNameOffset, uint32_t(nameOffset));
+    out.u32(r + L::kNameLength, uint32_t(l.name.size()));
+    out.u32(r + L::kFirstView, uint32_t(viewIndex));
+    out.u32(r + L::kViewCount, uint32_t(viewsPerLight_[li]));
+    for (int c = 0; c < 3; ++c) out.f32(r + L::kColor + 4 * c, l.color[c]);
+    out.f32(r + L::kIntensity, l.intensity);
+    // L::kReserved: zero
+    out.f64(r + L::kRange, l.range);
+    out.f64(r + L::kInnerCone, l.innerConeAngle);
+    out.f64(r + L::kOuterCone, l.outerConeAngle);
+    for (int c = 0; c < 3; ++c) out.f64(r + L::kPosition + 8 * c, l.position[c]);
+    for (int c = 0; c < 3; ++c) out.f64(r + L::kDirection + 8 * c, l.direction[c]);
     nameOffset += l.name.size();
     viewIndex += viewsPerLight_[li];
   }
@@ -175,28 +179,28 @@ void CpvsWriter::add(const BakedLight& baked) {
     std::string record(kViewRecordSize, '\0');
     Out out(record);
     const uint32_t levels = DagView{v.resolution, dag.rootCode, {}, {}}.levels();
-    out.u8(0, uint8_t(v.projection));
-    out.u8(1, uint8_t(v.mapping));
-    out.u8(2, uint8_t(int8_t(v.face)));
-    out.u8(3, v.empty ? 1 : 0);
-    out.u32(4, v.resolution);
-    out.u8(8, uint8_t(dag.rootCode));
-    out.u8(9, uint8_t(std::min<uint32_t>(levels, 255)));
-    // 10: reserved u16, zero
-    out.u32(12, uint32_t(li));
-    out.u32(16, sectionIndex);
-    out.u32(20, sectionIndex + 1);
-    out.u64(24, dag.nodes.size());
-    out.u64(32, dag.leaves.size());
+    out.u8(V::kProjection, uint8_t(v.projection));
+    out.u8(V::kDepthMapping, uint8_t(v.mapping));
+    out.u8(V::kFace, uint8_t(int8_t(v.face)));
+    out.u8(V::kFlags, v.empty ? 1 : 0);
+    out.u32(V::kResolution, v.resolution);
+    out.u8(V::kRootCode, uint8_t(dag.rootCode));
+    out.u8(V::kLevels, uint8_t(std::min<uint32_t>(levels, 255)));
+    // V::kReserved: zero
+    out.u32(V::kLight, uint32_t(li));
+    out.u32(V::kNodeSection, sectionIndex);
+    out.u32(V::kLeafSection, sectionIndex + 1);
+    out.u64(V::kNodeUnits, dag.nodes.size());
+    out.u64(V::kLeafCount, dag.leaves.size());
     for (int c = 0; c < 4; ++c)
-      for (int row = 0; row < 4; ++row) out.f64(40 + 8 * (4 * c + row), v.viewFromWorld[c][row]);
-    out.f64(168, v.xMin);
-    out.f64(176, v.xMax);
-    out.f64(184, v.yMin);
-    out.f64(192, v.yMax);
-    out.f64(200, v.near);
-    out.f64(208, v.far);
-    for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(216 + 8 * k, dag.nodesPerLevel[k]);
+      for (int row = 0; row < 4; ++row) out.f64(V::kViewFromWorld + 8 * (4 * c + row), v.viewFromWorld[c][row]);
+    out.f64(V::kXMin, v.xMin);
+    out.f64(V::kXMax, v.xMax);
+    out.f64(V::kYMin, v.yMin);
+    out.f64(V::kYMax, v.yMax);
+    out.f64(V::kNear, v.near);
+    out.f64(V::kFar, v.far);
+    for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(V::kNodesPerLevel + 8 * k, dag.nodesPerLevel[k]);
     viewRecords_[viewsAdded_].assign(record.begin(), record.end());
     sections_[sectionIndex].size = dag.nodes.size() * 2;
     writeSection(sections_[sectionIndex], dag.nodes.data());
@@ -223,23 +227,23 @@ uint64_t CpvsWriter::finish() {
   for (size_t i = 0; i < sections_.size(); ++i) {
     const Section& s = sections_[i];
     const uint64_t e = tableOffset + i * kSectionEntrySize;
-    out.u32(e + 0, s.type);
-    out.u32(e + 4, s.elementSize);
-    out.u64(e + 8, s.offset);
-    out.u64(e + 16, s.size);
-    out.u64(e + 24, s.checksum);
+    out.u32(e + E::kType, s.type);
+    out.u32(e + E::kElementSize, s.elementSize);
+    out.u64(e + E::kOffset, s.offset);
+    out.u64(e + E::kSize, s.size);
+    out.u64(e + E::kChecksum, s.checksum);
   }
-  out.raw(0, kCpvsMagic, sizeof kCpvsMagic);
-  out.u16(8, kCpvsMajorVersion);
-  out.u16(10, kCpvsMinorVersion);
-  out.u32(12, kHeaderSize);
-  out.u32(16, uint32_t(sections_.size()));
-  out.u32(20, 0);  // flags
-  out.u64(24, tableOffset);
-  out.u64(32, end_);  // the file ends where the last section ends
-  out.u64(40, XXH3_64bits(head.data() + tableOffset, tableSize));
-  // 48..55: reserved, zero
-  out.u64(56, XXH3_64bits(head.data(), 56));
+  out.raw(H::kMagic, kCpvsMagic, sizeof kCpvsMagic);
+  out.u16(H::kMajor, kCpvsMajorVersion);
+  out.u16(H::kMinor, kCpvsMinorVersion);
+  out.u32(H::kHeaderSize, kHeaderSize);
+  out.u32(H::kSectionCount, uint32_t(sections_.size()));
+  out.u32(H::kFlags, 0);
+  out.u64(H::kTableOffset, tableOffset);
+  out.u64(H::kFileSize, end_);  // the file ends where the last section ends
+  out.u64(H::kTableChecksum, XXH3_64bits(head.data() + tableOffset, tableSize));
+  // H::kReserved: zero
+  out.u64(H::kChecksum, XXH3_64bits(head.data(), H::kChecksum));
   writeAt_(0, head.data(), head.size());
   return end_;
 }

@@ -1,12 +1,12 @@
 #pragma once
-// Serialising a bake into a .cpvs (the byte-level spec: docs/format.md), all at once or light by light as a bake
+// Serialising a bake into a .cpvs (the byte-level spec: formats/cpvs/format.md), all at once or light by light as a bake
 // finishes them.
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "libcpvs/runtime/cpvs_format.h"
+#include "formats/cpvs/cpvs_format.h"
 #include "libcpvs/runtime/light.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/shadow_dag.h"

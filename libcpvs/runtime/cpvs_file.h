@@ -1,5 +1,5 @@
 #pragma once
-// The .cpvs container, version 2.0 (byte-level spec: docs/format.md). Little-endian, pointer-free,
+// The .cpvs container, version 2.0 (byte-level spec: formats/cpvs/format.md). Little-endian, pointer-free,
 // memory-mappable; a 64-byte header, a section table, 64-byte aligned sections each with an XXH3-64 checksum,
 // zero padding; no timestamps or random ids (same content, same bytes).
 //
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "libcpvs/runtime/cpvs_format.h"
+#include "formats/cpvs/cpvs_format.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/light.h"

@@ -1,4 +1,4 @@
-// Reads and validates the .cpvs container, version 1.x (docs/format.md). The input is untrusted: every count
+// Reads and validates the .cpvs container, version 1.x (formats/cpvs/format.md). The input is untrusted: every count
 // is checked against the file size before it sizes anything, every offset before it is followed, and every
 // DAG is validated level by level so that traversal stays in bounds and terminates. Linear in the file size.
 #include <algorithm>
@@ -24,6 +24,10 @@ static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs forma
 namespace cpvs {
 
 using namespace cpvsformat;
+using H = HeaderLayout;
+using E = SectionEntryLayout;
+using L = LightRecordLayout;
+using V = ViewRecordLayout;
 
 namespace {
 
@@ -335,9 +339,9 @@ FileLayout readHeader(const Reader& r) {
     r.fail("truncated: " + std::to_string(size) + " bytes (a .cpvs header alone is " + std::to_string(kHeaderSize) +
            ")");
   FileLayout f;
-  f.major = r.u16(8);
-  f.minor = r.u16(10);
-  const bool headerOk = XXH3_64bits(r.data(), 56) == r.u64(56);
+  f.major = r.u16(H::kMajor);
+  f.minor = r.u16(H::kMinor);
+  const bool headerOk = XXH3_64bits(r.data(), H::kChecksum) == r.u64(H::kChecksum);
   if (f.major != kCpvsMajorVersion && f.major != kCpvsOldestReadableMajor)
     r.fail("written by format version " + std::to_string(f.major) + "." + std::to_string(f.minor) +
            "; this build reads " +
@@ -350,11 +354,11 @@ FileLayout readHeader(const Reader& r) {
   f.dotZero = std::to_string(f.major) + ".0";
   const bool strict = f.strict;
   const std::string& dotZero = f.dotZero;
-  if (r.u32(12) != kHeaderSize)
-    r.fail("header size " + std::to_string(r.u32(12)) + " (expected " + std::to_string(kHeaderSize) + ")");
-  if (strict && (r.u32(20) != 0 || r.u64(48) != 0))
+  if (r.u32(H::kHeaderSize) != kHeaderSize)
+    r.fail("header size " + std::to_string(r.u32(H::kHeaderSize)) + " (expected " + std::to_string(kHeaderSize) + ")");
+  if (strict && (r.u32(H::kFlags) != 0 || r.u64(H::kReserved) != 0))
     r.fail("reserved header fields are not zero in a " + dotZero + " file");
-  const uint64_t declared = r.u64(32);
+  const uint64_t declared = r.u64(H::kFileSize);
   if (declared > size)
     r.fail("truncated: the header says " + std::to_string(declared) + " bytes, the file has " + std::to_string(size));
   if (declared < size)
@@ -366,8 +370,8 @@ FileLayout readHeader(const Reader& r) {
 // Step 2: the section table, each section's place and checksum (into `sections` as cpvs-info lists them).
 void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::SectionInfo>& sections) {
   const uint64_t size = r.size();
-  const uint64_t count = r.u32(16);
-  const uint64_t tableOffset = r.u64(24);
+  const uint64_t count = r.u32(H::kSectionCount);
+  const uint64_t tableOffset = r.u64(H::kTableOffset);
   f.tableOffset = tableOffset;
   if (count == 0) r.fail("the section table is empty");
   if (tableOffset % kAlignment != 0 || tableOffset < kHeaderSize || tableOffset > size ||
@@ -376,7 +380,7 @@ void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::Sect
            ") does not lie inside the file after the header, 64-byte aligned");
   const uint64_t tableSize = count * kSectionEntrySize;
   f.tableSize = tableSize;
-  if (XXH3_64bits(r.data() + tableOffset, tableSize) != r.u64(40))
+  if (XXH3_64bits(r.data() + tableOffset, tableSize) != r.u64(H::kTableChecksum))
     r.fail("section table checksum mismatch — the file is corrupt");
 
   std::vector<Entry>& entries = f.entries;
@@ -386,10 +390,10 @@ void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::Sect
   for (uint64_t i = 0; i < count; ++i) {
     const uint64_t e = tableOffset + i * kSectionEntrySize;
     Entry& s = entries[i];
-    s.type = r.u32(e);
-    s.elementSize = r.u32(e + 4);
-    s.offset = r.u64(e + 8);
-    s.size = r.u64(e + 16);
+    s.type = r.u32(e + E::kType);
+    s.elementSize = r.u32(e + E::kElementSize);
+    s.offset = r.u64(e + E::kOffset);
+    s.size = r.u64(e + E::kSize);
     const std::string label = "section " + std::to_string(i) + " '" + (printable(s.type) ? typeName(s.type) : "?") + "'";
     if (!printable(s.type)) r.fail(label + ": type is not four printable characters");
     if (s.offset % kAlignment != 0) r.fail(label + ": offset " + std::to_string(s.offset) + " is not 64-byte aligned");
@@ -397,7 +401,7 @@ void readSectionTable(const Reader& r, FileLayout& f, std::vector<CpvsFile::Sect
       r.fail(label + ": " + std::to_string(s.size) + " bytes at offset " + std::to_string(s.offset) +
              " run past the end of the file (" + std::to_string(size) + " bytes)");
     const uint64_t checksum = XXH3_64bits(r.data() + s.offset, size_t(s.size));
-    if (checksum != r.u64(e + 24)) r.fail(label + " checksum mismatch — the file is corrupt");
+    if (checksum != r.u64(e + E::kChecksum)) r.fail(label + " checksum mismatch — the file is corrupt");
     sections.push_back({typeName(s.type), s.elementSize, s.offset, s.size, checksum, true});
   }
 }
@@ -475,8 +479,8 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
   const std::string vwhat = named + " view " + std::to_string(vi) + " (record " + std::to_string(index) + ")";
   CpvsFile::View out;
   LightView& v = out.view;
-  const uint8_t projection = r.u8(w), mapping = r.u8(w + 1), flags = r.u8(w + 3);
-  const int face = int(int8_t(r.u8(w + 2)));
+  const uint8_t projection = r.u8(w + V::kProjection), mapping = r.u8(w + V::kDepthMapping), flags = r.u8(w + V::kFlags);
+  const int face = int(int8_t(r.u8(w + V::kFace)));
   if (projection > 1) r.fail(vwhat + ": unknown projection " + std::to_string(projection));
   if (mapping > 1) r.fail(vwhat + ": unknown depth mapping " + std::to_string(mapping));
   if (face < -1 || face > 5) r.fail(vwhat + ": cube face " + std::to_string(face) + " (expected -1..5)");
@@ -486,27 +490,27 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
   v.mapping = DepthMapping(mapping);
   v.face = face;
   v.empty = flags & 1u;
-  v.resolution = r.u32(w + 4);
+  v.resolution = r.u32(w + V::kResolution);
   if (v.resolution < 8 || v.resolution > kMaxResolution || !std::has_single_bit(v.resolution))
     r.fail(vwhat + ": resolution " + std::to_string(v.resolution) + " (expected a power of two from 8 to " +
            std::to_string(kMaxResolution) + ")");
   const uint32_t levels = uint32_t(std::countr_zero(v.resolution)) - 2;
-  const uint8_t rootCode = r.u8(w + 8);
+  const uint8_t rootCode = r.u8(w + V::kRootCode);
   if (rootCode > 2) r.fail(vwhat + ": root code " + std::to_string(rootCode) + " (expected 0..2)");
-  if (r.u8(w + 9) != levels)
-    r.fail(vwhat + ": " + std::to_string(r.u8(w + 9)) + " DAG levels for resolution " +
+  if (r.u8(w + V::kLevels) != levels)
+    r.fail(vwhat + ": " + std::to_string(r.u8(w + V::kLevels)) + " DAG levels for resolution " +
            std::to_string(v.resolution) + " (expected " + std::to_string(levels) + ")");
-  if (strict && r.u16(w + 10) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
-  if (r.u32(w + 12) != li)
-    r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + 12)) + ", not " + std::to_string(li));
-  const uint64_t nodeSection = r.u32(w + 16), leafSection = r.u32(w + 20);
+  if (strict && r.u16(w + V::kReserved) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
+  if (r.u32(w + V::kLight) != li)
+    r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + V::kLight)) + ", not " + std::to_string(li));
+  const uint64_t nodeSection = r.u32(w + V::kNodeSection), leafSection = r.u32(w + V::kLeafSection);
   if (nodeSection >= count || entries[nodeSection].type != kNode)
     r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
   if (leafSection >= count || entries[leafSection].type != kLeaf)
     r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
   const Entry& nodeS = entries[nodeSection];
   const Entry& leafS = entries[leafSection];
-  const uint64_t words = r.u64(w + 24), leafCount = r.u64(w + 32);
+  const uint64_t words = r.u64(w + V::kNodeUnits), leafCount = r.u64(w + V::kLeafCount);
   const uint64_t nodeElement = format1 ? 4 : 2;
   const std::string unit = format1 ? " node words" : " node units";
   if (words != nodeS.size / nodeElement)
@@ -520,16 +524,16 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
   bool finite = true;
   for (int c = 0; c < 4; ++c)
     for (int row = 0; row < 4; ++row) {
-      v.viewFromWorld[c][row] = r.f64(w + 40 + 8 * (4 * c + row));
+      v.viewFromWorld[c][row] = r.f64(w + V::kViewFromWorld + 8 * (4 * c + row));
       finite = finite && std::isfinite(v.viewFromWorld[c][row]);
     }
   if (!finite) r.fail(vwhat + ": viewFromWorld has a non-finite element");
-  v.xMin = r.f64(w + 168);
-  v.xMax = r.f64(w + 176);
-  v.yMin = r.f64(w + 184);
-  v.yMax = r.f64(w + 192);
-  v.near = r.f64(w + 200);
-  v.far = r.f64(w + 208);
+  v.xMin = r.f64(w + V::kXMin);
+  v.xMax = r.f64(w + V::kXMax);
+  v.yMin = r.f64(w + V::kYMin);
+  v.yMax = r.f64(w + V::kYMax);
+  v.near = r.f64(w + V::kNear);
+  v.far = r.f64(w + V::kFar);
   for (double x : {v.xMin, v.xMax, v.yMin, v.yMax, v.near, v.far})
     if (!std::isfinite(x)) r.fail(vwhat + ": a lateral or depth bound is not finite");
   if (!(v.xMin < v.xMax) || !(v.yMin < v.yMax))
@@ -555,7 +559,7 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
                num(2 * kMaxViewCoordinate));
   out.nodesPerLevel.resize(levels);
   for (uint32_t k = 0; k < kMaxLevels; ++k) {
-    const uint64_t c = r.u64(w + 216 + 8 * k);
+    const uint64_t c = r.u64(w + V::kNodesPerLevel + 8 * k);
     if (k < levels) out.nodesPerLevel[k] = c;
     else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
                             std::to_string(levels) + " levels");
@@ -596,28 +600,28 @@ CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li
   const std::string what = "light " + std::to_string(li);
   CpvsFile::LightEntry entry;
   Light& l = entry.light;
-  const uint32_t type = r.u32(at);
+  const uint32_t type = r.u32(at + L::kType);
   if (type >= kLightTypeCount) r.fail(what + ": unknown light type " + std::to_string(type));
   l.type = LightType(type);
-  const uint64_t nameOffset = r.u32(at + 4), nameLength = r.u32(at + 8);
+  const uint64_t nameOffset = r.u32(at + L::kNameOffset), nameLength = r.u32(at + L::kNameLength);
   if (nameOffset > strsS.size || nameLength > strsS.size - nameOffset)
     r.fail(what + ": name (" + std::to_string(nameLength) + " bytes at " + std::to_string(nameOffset) +
            ") lies outside the string pool (" + std::to_string(strsS.size) + " bytes)");
   l.name.assign(reinterpret_cast<const char*>(r.data() + strsS.offset + nameOffset), size_t(nameLength));
   const std::string named = what + " '" + l.name + "'";
-  const uint64_t firstView = r.u32(at + 12), views = r.u32(at + 16);
+  const uint64_t firstView = r.u32(at + L::kFirstView), views = r.u32(at + L::kViewCount);
   if (firstView != nextView || views > viewCount - nextView)
     r.fail(named + ": views " + std::to_string(firstView) + ".." + std::to_string(firstView + views) +
            " do not follow the previous light's within the " + std::to_string(viewCount) + " view records");
   nextView += views;
-  for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + 20 + 4 * c);
-  l.intensity = r.f32(at + 32);
-  if (strict && r.u32(at + 36) != 0) r.fail(named + ": reserved field is not zero in a " + dotZero + " file");
-  l.range = r.f64(at + 40);
-  l.innerConeAngle = r.f64(at + 48);
-  l.outerConeAngle = r.f64(at + 56);
-  for (int c = 0; c < 3; ++c) l.position[c] = r.f64(at + 64 + 8 * c);
-  for (int c = 0; c < 3; ++c) l.direction[c] = r.f64(at + 88 + 8 * c);
+  for (int c = 0; c < 3; ++c) l.color[c] = r.f32(at + L::kColor + 4 * c);
+  l.intensity = r.f32(at + L::kIntensity);
+  if (strict && r.u32(at + L::kReserved) != 0) r.fail(named + ": reserved field is not zero in a " + dotZero + " file");
+  l.range = r.f64(at + L::kRange);
+  l.innerConeAngle = r.f64(at + L::kInnerCone);
+  l.outerConeAngle = r.f64(at + L::kOuterCone);
+  for (int c = 0; c < 3; ++c) l.position[c] = r.f64(at + L::kPosition + 8 * c);
+  for (int c = 0; c < 3; ++c) l.direction[c] = r.f64(at + L::kDirection + 8 * c);
   bool finite = std::isfinite(l.intensity) && std::isfinite(l.innerConeAngle) && std::isfinite(l.outerConeAngle);
   for (int c = 0; c < 3; ++c)
     finite = finite && std::isfinite(l.color[c]) && std::isfinite(l.position[c]) && std::isfinite(l.direction[c]);

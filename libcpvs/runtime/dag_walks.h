@@ -21,7 +21,7 @@
 
 namespace cpvs {
 
-// A DAG as the walks read it: DagView's stored form (docs/format.md).
+// A DAG as the walks read it: DagView's stored form (formats/cpvs/format.md).
 struct WalkDag {
   const uint16_t* nodes = nullptr;
   size_t nodeUnits = 0;

@@ -1,4 +1,5 @@
-# The runtime's files, for this build and for any project that vendors them (docs/runtime.md).
+# The runtime's files, for this build and for any project that vendors them (docs/runtime.md). Their include
+# root also holds formats/cpvs/, the file's definition (headers only), which the runtime includes.
 get_filename_component(CPVS_RUNTIME_INCLUDE_DIR "${CMAKE_CURRENT_LIST_DIR}/../.." ABSOLUTE)
 set(_cpvs_runtime_dir "${CPVS_RUNTIME_INCLUDE_DIR}/libcpvs/runtime")
 set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 batch_lookup cpvs_reader dag_walks_avx2 dag_walks_avx512

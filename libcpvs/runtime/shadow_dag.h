@@ -1,5 +1,5 @@
 #pragma once
-// The shadow DAG of one light view, pointer-free (docs/construction.md, §6; byte-level spec in docs/format.md).
+// The shadow DAG of one light view, pointer-free (docs/construction.md, §6; byte-level spec in formats/cpvs/format.md).
 //
 // Node levels l = 0..L with L = log2(N) - 3. A node at level l covers a cube of s = N >> l voxels.
 //  * Octree nodes (s > 8) have 8 children of s/2 in Z-order: child c = (zbit << 2) | (ybit << 1) | xbit,

@@ -78,7 +78,7 @@ std::string settingString(const ordered_json& settings, const char* key) {
 void printText(const std::string& path, const CpvsFile& file) {
   const auto bytes = file.bytes();
   const uint8_t* d = bytes.data();
-  const uint64_t tableOffset = loadLE(d + 24, 8);
+  const uint64_t tableOffset = loadLE(d + HeaderLayout::kTableOffset, 8);
   const uint64_t tableSize = file.sections().size() * uint64_t(kSectionEntrySize);
   const ordered_json settings = parseSettings(file.settingsJson());
   std::ostream& out = std::cout;
@@ -87,7 +87,7 @@ void printText(const std::string& path, const CpvsFile& file) {
   out << "format: .cpvs " << file.majorVersion() << "." << file.minorVersion() << " (this build reads "
       << kCpvsOldestReadableMajor << ".x and " << kCpvsMajorVersion << ".x, writes " << kCpvsMajorVersion << "."
       << kCpvsMinorVersion << ")\n";
-  out << "header: " << loadLE(d + 12, 4) << " bytes, flags " << loadLE(d + 20, 4) << ", "
+  out << "header: " << loadLE(d + HeaderLayout::kHeaderSize, 4) << " bytes, flags " << loadLE(d + HeaderLayout::kFlags, 4) << ", "
       << file.sections().size() << " sections in a table at offset " << tableOffset << ", file size "
       << file.fileSize() << " bytes\n";
   const std::string tool = settingString(settings, "tool"), toolVersion = settingString(settings, "tool_version");
@@ -224,14 +224,14 @@ void printJson(const std::string& path, const CpvsFile& file) {
       {"major", file.majorVersion()},
       {"minor", file.minorVersion()},
       {"header",
-       {{"size", loadLE(d + 12, 4)},
-        {"flags", loadLE(d + 20, 4)},
+       {{"size", loadLE(d + HeaderLayout::kHeaderSize, 4)},
+        {"flags", loadLE(d + HeaderLayout::kFlags, 4)},
         {"sectionCount", file.sections().size()},
-        {"sectionTableOffset", loadLE(d + 24, 8)},
-        {"fileSize", loadLE(d + 32, 8)},
-        {"checksum", hex64(loadLE(d + 56, 8))},
+        {"sectionTableOffset", loadLE(d + HeaderLayout::kTableOffset, 8)},
+        {"fileSize", loadLE(d + HeaderLayout::kFileSize, 8)},
+        {"checksum", hex64(loadLE(d + HeaderLayout::kChecksum, 8))},
         {"checksumOk", true},
-        {"sectionTableChecksum", hex64(loadLE(d + 40, 8))},
+        {"sectionTableChecksum", hex64(loadLE(d + HeaderLayout::kTableChecksum, 8))},
         {"sectionTableChecksumOk", true}}},
       {"tool", tool.empty() ? ordered_json(nullptr) : ordered_json(tool)},
       {"toolVersion", toolVersion.empty() ? ordered_json(nullptr) : ordered_json(toolVersion)},
@@ -313,8 +313,9 @@ ChecksumScan scanChecksums(const std::string& path) {
     scan.note = "the file does not start with the .cpvs magic";
     return scan;
   }
-  scan.headerOk = XXH3_64bits(header, 56) == loadLE(header + 56, 8);
-  const uint64_t count = loadLE(header + 16, 4), tableOffset = loadLE(header + 24, 8);
+  scan.headerOk = XXH3_64bits(header, HeaderLayout::kChecksum) == loadLE(header + HeaderLayout::kChecksum, 8);
+  const uint64_t count = loadLE(header + HeaderLayout::kSectionCount, 4),
+                 tableOffset = loadLE(header + HeaderLayout::kTableOffset, 8);
   if (tableOffset > scan.fileSize || count > (scan.fileSize - tableOffset) / kSectionEntrySize) {
     scan.note = "the section table (" + std::to_string(count) + " entries at offset " + std::to_string(tableOffset) +
                 ") does not lie inside the file";
@@ -325,7 +326,7 @@ ChecksumScan scanChecksums(const std::string& path) {
     scan.note = "the section table cannot be read";
     return scan;
   }
-  scan.tableOk = XXH3_64bits(table.data(), table.size()) == loadLE(header + 40, 8);
+  scan.tableOk = XXH3_64bits(table.data(), table.size()) == loadLE(header + HeaderLayout::kTableChecksum, 8);
 
   constexpr size_t kListed = 1024;  // entries listed at most
   uint64_t budget = std::max<uint64_t>(uint64_t(1) << 30, 4 * scan.fileSize);
@@ -336,8 +337,8 @@ ChecksumScan scanChecksums(const std::string& path) {
     ChecksumScan::Section s;
     s.index = i;
     for (int k = 0; k < 4; ++k) s.type += (e[k] >= 0x20 && e[k] <= 0x7E) ? char(e[k]) : '?';
-    s.offset = loadLE(e + 8, 8);
-    s.size = loadLE(e + 16, 8);
+    s.offset = loadLE(e + SectionEntryLayout::kOffset, 8);
+    s.size = loadLE(e + SectionEntryLayout::kSize, 8);
     if (s.offset > scan.fileSize || s.size > scan.fileSize - s.offset) {
       s.status = "outside the file";
     } else if (s.size > budget) {
@@ -352,7 +353,7 @@ ChecksumScan scanChecksums(const std::string& path) {
         if (ok) XXH3_64bits_update(state, chunk.data(), n);
         at += n;
       }
-      s.status = !ok ? "not checked" : XXH3_64bits_digest(state) == loadLE(e + 24, 8) ? "ok" : "mismatch";
+      s.status = !ok ? "not checked" : XXH3_64bits_digest(state) == loadLE(e + SectionEntryLayout::kChecksum, 8) ? "ok" : "mismatch";
     }
     scan.sections.push_back(std::move(s));
   }

@@ -7,7 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "libcpvs/runtime/cpvs_format.h"
+#include "formats/cpvs/cpvs_format.h"
 #include "libcpvs/import/gltf_import.h"
 #include "libcpvs/scene/scene.h"
 #include "tools/common/cli.h"
@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
                "format version this build does not read, is reported with exit code 2, naming the file and\n"
                "what is wrong, with the checksum status of every section that can be located. The kind of\n"
                "input is decided by its first bytes, not by its name.\n"
-               "Format: docs/format.md.",
+               "Format: formats/cpvs/format.md.",
                kTool};
   cpvs::tools::addStandardFlags(app, kTool);
   std::string input;

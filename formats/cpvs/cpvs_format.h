@@ -1,9 +1,13 @@
 #pragma once
 // The .cpvs format's version and layout constants, shared by the reader (libcpvs/runtime/cpvs_file.h) and the
-// writer (libcpvs/bake/cpvs_writer.h). The byte-level spec is docs/format.md.
+// writer (libcpvs/bake/cpvs_writer.h); each field's offset is in cpvs_layout.h. The byte-level spec is
+// formats/cpvs/format.md. Like everything in formats/cpvs/, standard library only: an engine vendors this
+// folder beside libcpvs/runtime/.
 #include <cstdint>
 #include <cstdio>
 #include <string>
+
+#include "formats/cpvs/cpvs_layout.h"
 
 namespace cpvs {
 
@@ -26,7 +30,7 @@ inline constexpr uint16_t kCpvsOldestReadableMajor = 1;
 // PNG-style magic: a high-bit byte, the name, CR LF, Ctrl-Z — catches 7-bit and text-mode corruption.
 inline constexpr uint8_t kCpvsMagic[8] = {0x89, 'C', 'P', 'V', 'S', '\r', '\n', 0x1A};
 
-// Layout constants of version 2.0, the same as 1.0 but for the NODE element (docs/format.md has the tables).
+// Layout constants of version 2.0, the same as 1.0 but for the NODE element (formats/cpvs/format.md has the tables).
 namespace cpvsformat {
 inline constexpr uint32_t kHeaderSize = 64;
 inline constexpr uint32_t kSectionEntrySize = 32;
@@ -48,6 +52,12 @@ inline constexpr uint32_t kLght = fourcc('L', 'G', 'H', 'T');  // light records
 inline constexpr uint32_t kView = fourcc('V', 'I', 'E', 'W');  // view records
 inline constexpr uint32_t kNode = fourcc('N', 'O', 'D', 'E');  // one view's node units (u16; 1.x: u32 words)
 inline constexpr uint32_t kLeaf = fourcc('L', 'E', 'A', 'F');  // one view's leaf masks (u64)
+
+// The records end where their last field ends (cpvs_layout.h): a field added without its size fails here.
+static_assert(LightRecordLayout::kDirection + 3 * 8 == kLightRecordSize);
+static_assert(ViewRecordLayout::kNodesPerLevel + kMaxLevels * 8 == kViewRecordSize);
+static_assert(HeaderLayout::kChecksum + 8 == kHeaderSize);
+static_assert(SectionEntryLayout::kChecksum + 8 == kSectionEntrySize);
 }  // namespace cpvsformat
 
 }  // namespace cpvs
