@@ -125,7 +125,7 @@ TEST_F(CpvsInfo, TextShowsHeaderSettingsLightsViewsAndChecksums) {
   const std::string& out = r.output;
   auto has = [&](const std::string& s) { EXPECT_NE(out.find(s), std::string::npos) << "missing '" << s << "' in\n" << out; };
   has("file: " + *path_ + "\n");
-  has("format: .cpvs 2.0 (this build reads 1.x and 2.x, writes 2.0)\n");
+  has("format: .cpvs 2.0 (this build reads 1.x to 3.x and writes 2.0, or 3.0 with --format-version 3)\n");
   has("tool: cpvs-bake " + std::string(kVersion) + "\n");
   std::smatch m;
   ASSERT_TRUE(std::regex_search(out, m, std::regex("input hash: ([0-9a-f]{16})\n"))) << out;
@@ -304,7 +304,7 @@ TEST_F(CpvsInfo, ALaterMinorVersionIsShownAsSuch) {
   resealHeader(later);
   const auto r = runOn(later, "later.cpvs");
   EXPECT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("format: .cpvs 2.3 (this build reads 1.x and 2.x, writes 2.0)"), std::string::npos)
+  EXPECT_NE(r.output.find("format: .cpvs 2.3 (this build reads 1.x to 3.x and writes 2.0, or 3.0 with --format-version 3)"), std::string::npos)
       << r.output;
 }
 
@@ -316,7 +316,7 @@ TEST_F(CpvsInfo, AFormat1FileIsShownInWords) {
   ASSERT_EQ(old->majorVersion(), 1);
   const auto r = runTool(info() + " " + v1);
   ASSERT_EQ(r.exitCode, 0) << r.output;
-  EXPECT_NE(r.output.find("format: .cpvs 1.0 (this build reads 1.x and 2.x, writes 2.0)\n"), std::string::npos)
+  EXPECT_NE(r.output.find("format: .cpvs 1.0 (this build reads 1.x to 3.x and writes 2.0, or 3.0 with --format-version 3)\n"), std::string::npos)
       << r.output;
   EXPECT_EQ(r.output.find(" units ("), std::string::npos) << r.output;
   const json j = jsonOf(v1, 0);
@@ -353,6 +353,62 @@ TEST_F(CpvsInfo, AFormat1FileIsShownInWords) {
   EXPECT_EQ(views, 8u);
   EXPECT_GT(nonEmpty, 0u);
   EXPECT_EQ(j["totals"]["dagBytes"], dagBytes);
+}
+
+TEST_F(CpvsInfo, AFormat3FileShowsItsPool) {
+  const std::string v3 = scratch() + "/tiny64_v3.cpvs";
+  const auto bake = runTool(toolPath("cpvs-bake") + " " + sourcePath("data/scenes/Tiny/tiny.gltf") + " -o " + v3 +
+                            " --resolution 64 --quiet --sun 0.3,-1,0.2 --spot 0,5,0,0,-1,0,0.6,20 --point 0.5,3,1.5,0"
+                            " --format-version 3");
+  ASSERT_EQ(bake.exitCode, 0) << bake.output;
+  const auto pooled = orThrow(CpvsFile::open(v3));
+  ASSERT_EQ(pooled->majorVersion(), 3);
+  const auto r = runTool(info() + " " + v3);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("format: .cpvs 3.0 ("), std::string::npos) << r.output;
+  // Every view as the 2.0 bake of the same lights shows it (the same nodes and leaves), in the pool.
+  uint64_t viewsAs2 = 0, poolNodes = 0;
+  for (size_t li = 0; li < file_->lights().size(); ++li)
+    for (size_t vi = 0; vi < file_->lights()[li].views.size(); ++vi) {
+      const auto& v = file_->lights()[li].views[vi];
+      uint64_t nodes = 0;
+      for (uint64_t c : v.nodesPerLevel) nodes += c;
+      const uint64_t bytes = v.nodeBytes + v.dag.leaves.size() * 8;
+      EXPECT_EQ(pooled->lights()[li].views[vi].nodesPerLevel, v.nodesPerLevel);
+      if (v.dag.rootCode == ChildCode::Ref) {
+        EXPECT_NE(r.output.find(" = " + std::to_string(nodes) + " nodes, unique leaves " +
+                                std::to_string(v.dag.leaves.size()) + ", in the pool (as a 2.0 DAG: " +
+                                std::to_string(bytes) + " bytes)\n"),
+                  std::string::npos)
+            << r.output;
+      }
+      viewsAs2 += bytes;
+    }
+  uint64_t poolBytes = 3 + pooled->poolLeaves() * 8;
+  for (const auto& level : pooled->poolLevels()) {
+    poolNodes += level.nodes;
+    poolBytes += level.bytes + 4 * level.hotEntries;
+  }
+  EXPECT_NE(r.output.find("pool: " + std::to_string(pooled->poolLevels().size()) + " levels, " +
+                          std::to_string(poolNodes) + " nodes, " + std::to_string(pooled->poolLeaves()) + " leaves, " +
+                          std::to_string(poolBytes) + " bytes (its views as 2.0 DAGs: " + std::to_string(viewsAs2) +
+                          " bytes)\n"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("  edge 8: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; DAGs " + std::to_string(poolBytes) + " bytes in 8 views"), std::string::npos) << r.output;
+  EXPECT_LT(poolBytes, viewsAs2);
+  const json j = jsonOf(v3, 0);
+  EXPECT_EQ(j["formatVersion"], "3.0");
+  ASSERT_TRUE(j["pool"].is_object());
+  EXPECT_EQ(j["pool"]["bytes"], poolBytes);
+  EXPECT_EQ(j["pool"]["viewsAs2Bytes"], viewsAs2);
+  EXPECT_EQ(j["pool"]["levels"].size(), pooled->poolLevels().size());
+  EXPECT_EQ(j["pool"]["levels"][0]["edge"], 8);
+  EXPECT_EQ(j["lights"][0]["views"][0]["inPool"], true);
+  EXPECT_EQ(j["totals"]["dagBytes"], poolBytes);
+  // A 2.0 file has no pool.
+  EXPECT_TRUE(jsonOf(*path_, 0)["pool"].is_null());
 }
 
 TEST_F(CpvsInfo, HelpDocumentsCpvsInputAndExitCodes) {
@@ -477,19 +533,19 @@ TEST_F(CpvsInfo, WrongMagicTextModeDamageAndAFutureMajorAreRejectedWithWhatToDo)
 
   // A genuine file of a future major version (its header checksum is right): told what to do.
   Bytes future = bytes_;
-  putLE(future, 8, 3, 2);
+  putLE(future, 8, 4, 2);
   putLE(future, 10, 1, 2);
   resealHeader(future);
   const auto major = runOn(future, "future.cpvs");
-  expectRejected(major, "future.cpvs", "major 3");
-  EXPECT_NE(major.output.find("future.cpvs: written by format version 3.1; this build reads 1.x and 2.x — update "
+  expectRejected(major, "future.cpvs", "major 4");
+  EXPECT_NE(major.output.find("future.cpvs: written by format version 4.1; this build reads 1.x, 2.x and 3.x — update "
                               "cpvs or re-bake"),
             std::string::npos)
       << major.output;
   writeFile(scratch() + "/future.cpvs", future);
   const json majorJson = jsonOf(scratch() + "/future.cpvs", 2);
   EXPECT_EQ(majorJson["valid"], false);
-  EXPECT_NE(majorJson["error"].get<std::string>().find("format version 3.1"), std::string::npos);
+  EXPECT_NE(majorJson["error"].get<std::string>().find("format version 4.1"), std::string::npos);
   EXPECT_EQ(majorJson["checksums"]["headerChecksumOk"], true);
   // Nor is a major below the oldest one this build reads.
   Bytes ancient = bytes_;
@@ -497,7 +553,7 @@ TEST_F(CpvsInfo, WrongMagicTextModeDamageAndAFutureMajorAreRejectedWithWhatToDo)
   resealHeader(ancient);
   const auto zero = runOn(ancient, "ancient.cpvs");
   expectRejected(zero, "ancient.cpvs", "major 0");
-  EXPECT_NE(zero.output.find("ancient.cpvs: written by format version 0.0; this build reads 1.x and 2.x"),
+  EXPECT_NE(zero.output.find("ancient.cpvs: written by format version 0.0; this build reads 1.x, 2.x and 3.x"),
             std::string::npos)
       << zero.output;
 

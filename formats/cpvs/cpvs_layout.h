@@ -47,7 +47,9 @@ struct LightRecordLayout {
   static constexpr uint32_t kDirection = 88;      // f64[3]
 };
 
-// One 472-byte record of VIEW.
+// One record of VIEW: 472 bytes in 1.0 and 2.0; 216 in 3.0, which ends before kNodesPerLevel, has no sections of
+// its own (kNodeSection, kLeafSection and kLeafCount are reserved, zero) and holds kPoolRoot where 2.0 holds
+// kNodeUnits.
 struct ViewRecordLayout {
   static constexpr uint32_t kProjection = 0;      // u8
   static constexpr uint32_t kDepthMapping = 1;    // u8
@@ -69,7 +71,21 @@ struct ViewRecordLayout {
   static constexpr uint32_t kYMax = 192;
   static constexpr uint32_t kNear = 200;
   static constexpr uint32_t kFar = 208;
-  static constexpr uint32_t kNodesPerLevel = 216;  // u64[32], root level first
+  static constexpr uint32_t kNodesPerLevel = 216;  // u64[32], root level first (1.0, 2.0)
+  static constexpr uint32_t kPoolRoot = 24;        // u64 (3.0): the root node's byte offset in its pool level
+};
+
+// One 40-byte record of POOL (3.0): a level of the pool, the nodes of one edge.
+struct PoolLevelLayout {
+  static constexpr uint32_t kEdge = 0;        // u32: 8, 16, 32, ... (records ascending, none missing)
+  static constexpr uint32_t kShortBytes = 4;  // u8: 1..4, the width of a child code 2 reference
+  static constexpr uint32_t kLongBytes = 5;   // u8: short..4, the width of a child code 3 reference
+  static constexpr uint32_t kReserved = 6;    // u16
+  static constexpr uint32_t kOffset = 8;      // u64: the level's first byte in NODE
+  static constexpr uint32_t kSize = 16;       // u64: its bytes
+  static constexpr uint32_t kNodes = 24;      // u64: its nodes
+  static constexpr uint32_t kFirstHot = 32;   // u32: its hot table's first entry in HOTT
+  static constexpr uint32_t kHotCount = 36;   // u32: its entries (0: no table, short references are offsets)
 };
 
 }  // namespace cpvs::cpvsformat

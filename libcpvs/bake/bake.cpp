@@ -106,6 +106,11 @@ uint64_t bakeInputHash(const WorldGeometry& world, const std::vector<Light>& lig
   XXH3_64bits_update(state, more, sizeof more);
   const std::vector<uint64_t> lossy = lossySettingWords(settings);
   if (!lossy.empty()) XXH3_64bits_update(state, lossy.data(), lossy.size() * sizeof(uint64_t));
+  // The container's version changes the bytes too (a 2.0 bake's hash is what it was before 3.0 existed).
+  if (settings.formatMajor != 2) {
+    const uint64_t major = settings.formatMajor;
+    XXH3_64bits_update(state, &major, sizeof major);
+  }
   const uint64_t hash = XXH3_64bits_digest(state);
   XXH3_freeState(state);
   return hash;
@@ -553,7 +558,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
       lights.push_back(scene.lights[li]);
       viewCounts.push_back(allViews[li].size());
     }
-    writer.emplace(content.settingsJson, std::move(lights), std::move(viewCounts), *stream);
+    writer.emplace(content.settingsJson, std::move(lights), std::move(viewCounts), *stream, settings.formatMajor);
     rep.writeMs += write.ms();
   }
   const unsigned lanes = lanesFor(settings, chosen.size());

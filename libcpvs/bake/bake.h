@@ -48,6 +48,8 @@ struct BakeSettings {
   // exceeds it (checked after every region), before the system would kill it. The library sets none by
   // itself; cpvs-bake defaults to defaultMemoryBudget() (libcpvs/base/memory_limit.h).
   uint64_t maxMemoryBytes = 0;
+  // The .cpvs major version written: 2 (a DAG per view) or 3 (one node pool per file; formats/cpvs/format.md).
+  uint16_t formatMajor = kCpvsDefaultMajor;
   std::string maxMemorySource;  // where the budget came from, for the message when it is exceeded
   // A budget the caller did not ask for (cpvs-bake's default) only stops the bake: it never lowers the region
   // size, which is recorded in the file and its input hash, so the bytes never depend on the machine.

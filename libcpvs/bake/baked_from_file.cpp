@@ -1,5 +1,6 @@
 #include "libcpvs/bake/baked_from_file.h"
 
+#include <bit>
 #include <cstdio>
 
 #include <nlohmann/json.hpp>
@@ -19,6 +20,10 @@ BakedLight bakedLightOf(const CpvsFile::LightEntry& entry) {
     view.dag.nodes.assign(v.dag.nodes.begin(), v.dag.nodes.end());
     view.dag.leaves.assign(v.dag.leaves.begin(), v.dag.leaves.end());
     view.dag.nodesPerLevel = v.nodesPerLevel;
+    // Where each level starts: level l + 1 where the references of level l count from (DagView::childBase).
+    const uint32_t log2 = uint32_t(std::countr_zero(v.view.resolution));
+    for (size_t l = 0; l < v.nodesPerLevel.size(); ++l)
+      view.dag.levelOffsets.push_back(l == 0 ? 0 : v.dag.childBase[log2 - l + 1]);
     baked.views.push_back(std::move(view));
   }
   return baked;
@@ -60,6 +65,7 @@ BakedFromCheck checkBakedFrom(const Scene& scene, const CpvsFile& file) {
     bake.voxelSize = settings.value("voxel_size", 0.0);
     if (settings.contains("max_voxel_error")) bake.maxVoxelError = settings.at("max_voxel_error").get<uint32_t>();
     bake.maxEdgeError = settings.value("max_edge_error", 0u);
+    bake.formatMajor = file.majorVersion() >= 3 ? file.majorVersion() : 2;
     std::vector<Light> lights;
     for (const CpvsFile::LightEntry& entry : file.lights()) lights.push_back(entry.light);
     check.sceneHash = bakeInputHash(flatten(scene, bake.ground), lights, bake);

@@ -1,4 +1,4 @@
-// Writes the .cpvs container, version 2.0 (formats/cpvs/format.md; field offsets: formats/cpvs/cpvs_layout.h). Every byte is written explicitly (little-endian,
+// Writes the .cpvs container, version 2.0 or 3.0 (formats/cpvs/format.md; field offsets: formats/cpvs/cpvs_layout.h). Every byte is written explicitly (little-endian,
 // no struct images), padding is zero, and nothing depends on the time, the machine or memory addresses: the
 // same content gives the same bytes.
 #include <bit>
@@ -10,6 +10,7 @@
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/base/error.h"
+#include "libcpvs/dag/node_pool.h"
 
 static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
                                                           "big-endian hosts are not supported");
@@ -21,6 +22,7 @@ using H = HeaderLayout;
 using E = SectionEntryLayout;
 using L = LightRecordLayout;
 using V = ViewRecordLayout;
+using P = PoolLevelLayout;
 
 namespace {
 
@@ -55,11 +57,15 @@ std::string where(const Light& light, size_t li, size_t vi) {
 
 }  // namespace
 
+CpvsWriter::~CpvsWriter() = default;
+
 CpvsWriter::CpvsWriter(std::string settingsJson, std::vector<Light> lights, std::vector<size_t> viewsPerLight,
-                       WriteAt writeAt)
+                       WriteAt writeAt, uint16_t major)
     : settingsJson_(std::move(settingsJson)), lights_(std::move(lights)), viewsPerLight_(std::move(viewsPerLight)),
-      writeAt_(std::move(writeAt)) {
+      writeAt_(std::move(writeAt)), major_(major) {
   constexpr uint64_t kU32 = std::numeric_limits<uint32_t>::max();
+  if (!canWriteMajor(major_)) fail("format version " + std::to_string(major_) + " cannot be written (2 or 3)");
+  const bool pooled = major_ >= 3;
   if (viewsPerLight_.size() != lights_.size()) fail("a view count is needed for every light");
   uint64_t viewCount = 0, namesBytes = 0;
   for (size_t li = 0; li < lights_.size(); ++li) {
@@ -69,14 +75,22 @@ CpvsWriter::CpvsWriter(std::string settingsJson, std::vector<Light> lights, std:
   if (lights_.size() > kU32 || viewCount > kU32 || namesBytes > kU32)
     fail("too many lights, views or name bytes for 32-bit fields");
 
-  // Layout: header, section table, BAKE, STRS, LGHT, VIEW, then NODE and LEAF of each view in order.
+  // Layout: header, section table, BAKE, STRS, LGHT, VIEW, then NODE and LEAF of each view in order (2.0) or
+  // POOL, HOTT, NODE and LEAF of the pool (3.0).
+  const uint32_t viewRecordSize = pooled ? kPooledViewRecordSize : kViewRecordSize;
   sections_.push_back({kBake, 1, 0, settingsJson_.size()});
   sections_.push_back({kStrs, 1, 0, namesBytes});
   sections_.push_back({kLght, kLightRecordSize, 0, lights_.size() * uint64_t(kLightRecordSize)});
-  sections_.push_back({kView, kViewRecordSize, 0, viewCount * kViewRecordSize});
-  for (uint64_t v = 0; v < viewCount; ++v) {
-    sections_.push_back({kNode, 2});
-    sections_.push_back({kLeaf, 8});
+  sections_.push_back({kView, viewRecordSize, 0, viewCount * viewRecordSize});
+  if (pooled) {
+    for (const auto& [type, element] : {std::pair{kPool, kPoolLevelRecordSize}, {kHott, 4u}, {kNode, 1u}, {kLeaf, 8u}})
+      sections_.push_back({type, element});
+    pool_ = std::make_unique<NodePool>();
+  } else {
+    for (uint64_t v = 0; v < viewCount; ++v) {
+      sections_.push_back({kNode, 2});
+      sections_.push_back({kLeaf, 8});
+    }
   }
   end_ = alignUp(kHeaderSize + sections_.size() * uint64_t(kSectionEntrySize));  // header and table: at finish()
   viewRecords_.assign(viewCount, {});
@@ -126,7 +140,6 @@ void CpvsWriter::writeSection(Section& section, const void* data) {
 }
 
 void CpvsWriter::add(const BakedLight& baked) {
-  constexpr uint64_t kU32 = std::numeric_limits<uint32_t>::max();
   const size_t li = added_;
   if (li >= lights_.size()) fail("more lights added than the file was laid out for");
   const Light& light = lights_[li];
@@ -146,7 +159,7 @@ void CpvsWriter::add(const BakedLight& baked) {
     CpvsWriter alone(settingsJson_, {light}, {records.views.size()}, [&](uint64_t at, const char* data, size_t n) {
       if (bytes.size() < at + n) bytes.resize(at + n, '\0');
       std::memcpy(bytes.data() + at, data, n);
-    });
+    }, major_);
     alone.checkLights_ = false;
     alone.add(records);
     alone.finish();
@@ -163,57 +176,142 @@ void CpvsWriter::add(const BakedLight& baked) {
   }
   for (size_t vi = 0; vi < baked.views.size(); ++vi) {
     const BakedView& bv = baked.views[vi];
-    const LightView& v = bv.view;
     const ShadowDag& dag = bv.dag;
-    if (dag.resolution != v.resolution && !(dag.resolution == 0 && dag.nodes.empty() && dag.leaves.empty()))
-      fail(where(light, li, vi) + ": the DAG's resolution " + std::to_string(dag.resolution) +
-           " differs from the view's " + std::to_string(v.resolution));
-    if (dag.nodesPerLevel.size() > kMaxLevels)
-      fail(where(light, li, vi) + ": " + std::to_string(dag.nodesPerLevel.size()) + " DAG levels (at most " +
-           std::to_string(kMaxLevels) + ")");
-    if (dag.nodes.size() > kU32 || dag.leaves.size() > kU32)
-      fail(where(light, li, vi) + ": DAG too large for 32-bit references");
-    if (v.face < -1 || v.face > 5)
-      fail(where(light, li, vi) + ": cube face " + std::to_string(v.face) + " (expected -1..5)");
     const uint32_t sectionIndex = uint32_t(4 + 2 * viewsAdded_);
-    std::string record(kViewRecordSize, '\0');
-    Out out(record);
-    const uint32_t levels = DagView{v.resolution, dag.rootCode, {}, {}}.levels();
-    out.u8(V::kProjection, uint8_t(v.projection));
-    out.u8(V::kDepthMapping, uint8_t(v.mapping));
-    out.u8(V::kFace, uint8_t(int8_t(v.face)));
-    out.u8(V::kFlags, v.empty ? 1 : 0);
-    out.u32(V::kResolution, v.resolution);
-    out.u8(V::kRootCode, uint8_t(dag.rootCode));
-    out.u8(V::kLevels, uint8_t(std::min<uint32_t>(levels, 255)));
-    // V::kReserved: zero
-    out.u32(V::kLight, uint32_t(li));
-    out.u32(V::kNodeSection, sectionIndex);
-    out.u32(V::kLeafSection, sectionIndex + 1);
-    out.u64(V::kNodeUnits, dag.nodes.size());
-    out.u64(V::kLeafCount, dag.leaves.size());
-    for (int c = 0; c < 4; ++c)
-      for (int row = 0; row < 4; ++row) out.f64(V::kViewFromWorld + 8 * (4 * c + row), v.viewFromWorld[c][row]);
-    out.f64(V::kXMin, v.xMin);
-    out.f64(V::kXMax, v.xMax);
-    out.f64(V::kYMin, v.yMin);
-    out.f64(V::kYMax, v.yMax);
-    out.f64(V::kNear, v.near);
-    out.f64(V::kFar, v.far);
-    for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(V::kNodesPerLevel + 8 * k, dag.nodesPerLevel[k]);
-    viewRecords_[viewsAdded_].assign(record.begin(), record.end());
-    sections_[sectionIndex].size = dag.nodes.size() * 2;
-    writeSection(sections_[sectionIndex], dag.nodes.data());
-    sections_[sectionIndex + 1].size = dag.leaves.size() * 8;
-    writeSection(sections_[sectionIndex + 1], dag.leaves.data());
+    viewRecords_[viewsAdded_] = viewRecord(bv, li, vi, sectionIndex);
+    if (pool_) {
+      if (dag.rootCode == ChildCode::Ref && dag.levelOffsets.size() != dag.nodesPerLevel.size())
+        fail(where(light, li, vi) + ": the DAG's level offsets are missing (a bug in the baker)");
+      DagView view = dag.view();
+      view.resolution = bv.view.resolution;  // a DAG without nodes may leave it 0
+      pool_->add(view);
+    } else {
+      sections_[sectionIndex].size = dag.nodes.size() * 2;
+      writeSection(sections_[sectionIndex], dag.nodes.data());
+      sections_[sectionIndex + 1].size = dag.leaves.size() * 8;
+      writeSection(sections_[sectionIndex + 1], dag.leaves.data());
+    }
     ++viewsAdded_;
   }
   ++added_;
 }
 
+std::vector<uint8_t> CpvsWriter::viewRecord(const BakedView& bv, size_t li, size_t vi, uint32_t sectionIndex) const {
+  constexpr uint64_t kU32 = std::numeric_limits<uint32_t>::max();
+  const Light& light = lights_[li];
+  const LightView& v = bv.view;
+  const ShadowDag& dag = bv.dag;
+  if (dag.resolution != v.resolution && !(dag.resolution == 0 && dag.nodes.empty() && dag.leaves.empty()))
+    fail(where(light, li, vi) + ": the DAG's resolution " + std::to_string(dag.resolution) +
+         " differs from the view's " + std::to_string(v.resolution));
+  if (dag.nodesPerLevel.size() > kMaxLevels)
+    fail(where(light, li, vi) + ": " + std::to_string(dag.nodesPerLevel.size()) + " DAG levels (at most " +
+         std::to_string(kMaxLevels) + ")");
+  if (dag.nodes.size() > kU32 || dag.leaves.size() > kU32)
+    fail(where(light, li, vi) + ": DAG too large for 32-bit references");
+  if (v.face < -1 || v.face > 5)
+    fail(where(light, li, vi) + ": cube face " + std::to_string(v.face) + " (expected -1..5)");
+  const bool pooled = major_ >= 3;
+  std::string record(pooled ? kPooledViewRecordSize : kViewRecordSize, '\0');
+  Out out(record);
+  const uint32_t levels = DagView{v.resolution, dag.rootCode, {}, {}}.levels();
+  out.u8(V::kProjection, uint8_t(v.projection));
+  out.u8(V::kDepthMapping, uint8_t(v.mapping));
+  out.u8(V::kFace, uint8_t(int8_t(v.face)));
+  out.u8(V::kFlags, v.empty ? 1 : 0);
+  out.u32(V::kResolution, v.resolution);
+  out.u8(V::kRootCode, uint8_t(dag.rootCode));
+  out.u8(V::kLevels, uint8_t(std::min<uint32_t>(levels, 255)));
+  // V::kReserved: zero
+  out.u32(V::kLight, uint32_t(li));
+  if (!pooled) {  // 3.0: the root's place in the pool (V::kPoolRoot) once the pool is laid out
+    out.u32(V::kNodeSection, sectionIndex);
+    out.u32(V::kLeafSection, sectionIndex + 1);
+    out.u64(V::kNodeUnits, dag.nodes.size());
+    out.u64(V::kLeafCount, dag.leaves.size());
+  }
+  for (int c = 0; c < 4; ++c)
+    for (int row = 0; row < 4; ++row) out.f64(V::kViewFromWorld + 8 * (4 * c + row), v.viewFromWorld[c][row]);
+  out.f64(V::kXMin, v.xMin);
+  out.f64(V::kXMax, v.xMax);
+  out.f64(V::kYMin, v.yMin);
+  out.f64(V::kYMax, v.yMax);
+  out.f64(V::kNear, v.near);
+  out.f64(V::kFar, v.far);
+  if (!pooled)
+    for (size_t k = 0; k < dag.nodesPerLevel.size(); ++k) out.u64(V::kNodesPerLevel + 8 * k, dag.nodesPerLevel[k]);
+  return {record.begin(), record.end()};
+}
+
+void CpvsWriter::writeSectionParts(Section& section, std::span<const std::span<const char>> parts) {
+  section.offset = alignUp(end_);
+  static const char kZeros[kAlignment] = {};
+  if (section.offset > end_) writeAt_(end_, kZeros, size_t(section.offset - end_));
+  XXH3_state_t* state = XXH3_createState();
+  if (!state) throw std::bad_alloc();
+  XXH3_64bits_reset(state);
+  uint64_t at = section.offset;
+  for (std::span<const char> part : parts) {
+    if (part.empty()) continue;
+    writeAt_(at, part.data(), part.size());
+    XXH3_64bits_update(state, part.data(), part.size());
+    at += part.size();
+  }
+  section.size = at - section.offset;
+  section.checksum = XXH3_64bits_digest(state);
+  XXH3_freeState(state);
+  end_ = at;
+}
+
+// The pool laid out once every view is in: its level records (POOL), hot tables (HOTT), node bytes (NODE, each
+// level after the other, then kPoolTailBytes zero bytes) and leaves (LEAF), written in that order after VIEW.
+void CpvsWriter::finishPool() {
+  pool_->releaseIndexes();
+  const LaidOutPool laid = pool_->layOut(/*hotTables=*/true);
+  pool_.reset();
+  std::string records(laid.levels.size() * kPoolLevelRecordSize, '\0');
+  Out out(records);
+  std::vector<uint32_t> hot;
+  std::vector<std::span<const char>> nodeParts;
+  uint64_t nodeBytes = 0;
+  for (size_t i = 0; i < laid.levels.size(); ++i) {
+    const PooledLevel& level = laid.levels[i];
+    const uint64_t r = i * kPoolLevelRecordSize;
+    if (hot.size() + level.hot.size() > std::numeric_limits<uint32_t>::max()) fail("hot tables too large");
+    out.u32(r + P::kEdge, level.edge);
+    out.u8(r + P::kShortBytes, level.widths.shortBytes);
+    out.u8(r + P::kLongBytes, level.widths.longBytes);
+    out.u64(r + P::kOffset, nodeBytes);
+    out.u64(r + P::kSize, level.bytes.size());
+    out.u64(r + P::kNodes, level.nodes);
+    out.u32(r + P::kFirstHot, level.hot.empty() ? 0 : uint32_t(hot.size()));
+    out.u32(r + P::kHotCount, uint32_t(level.hot.size()));
+    hot.insert(hot.end(), level.hot.begin(), level.hot.end());
+    nodeParts.push_back({reinterpret_cast<const char*>(level.bytes.data()), level.bytes.size()});
+    nodeBytes += level.bytes.size();
+  }
+  static const char kTail[kPoolTailBytes] = {};
+  nodeParts.push_back({kTail, kPoolTailBytes});
+  Section* const pool = &sections_[4];
+  pool->size = records.size();
+  writeSection(*pool, records.data());
+  sections_[5].size = hot.size() * 4;
+  writeSection(sections_[5], hot.data());
+  writeSectionParts(sections_[6], nodeParts);
+  sections_[7].size = laid.leaves.size() * 8;
+  writeSection(sections_[7], laid.leaves.data());
+  for (size_t v = 0; v < viewRecords_.size(); ++v) {
+    const LaidOutPool::Root& root = laid.roots[v];
+    std::string field(8, '\0');
+    Out(field).u64(0, root.code == ChildCode::Ref ? root.offset : 0);
+    std::memcpy(viewRecords_[v].data() + V::kPoolRoot, field.data(), 8);
+  }
+}
+
 uint64_t CpvsWriter::finish() {
   if (added_ != lights_.size())
     fail(std::to_string(added_) + " of the " + std::to_string(lights_.size()) + " lights were added");
+  if (pool_) finishPool();
   std::string records;
   records.reserve(size_t(sections_[3].size));
   for (const std::vector<uint8_t>& r : viewRecords_) records.append(r.begin(), r.end());
@@ -234,7 +332,7 @@ uint64_t CpvsWriter::finish() {
     out.u64(e + E::kChecksum, s.checksum);
   }
   out.raw(H::kMagic, kCpvsMagic, sizeof kCpvsMagic);
-  out.u16(H::kMajor, kCpvsMajorVersion);
+  out.u16(H::kMajor, major_);
   out.u16(H::kMinor, kCpvsMinorVersion);
   out.u32(H::kHeaderSize, kHeaderSize);
   out.u32(H::kSectionCount, uint32_t(sections_.size()));
@@ -248,7 +346,7 @@ uint64_t CpvsWriter::finish() {
   return end_;
 }
 
-std::string writeCpvs(const CpvsContent& content) {
+std::string writeCpvs(const CpvsContent& content, uint16_t major) {
   std::vector<Light> lights;
   std::vector<size_t> views;
   for (const BakedLight& l : content.lights) {
@@ -259,7 +357,7 @@ std::string writeCpvs(const CpvsContent& content) {
   CpvsWriter writer(content.settingsJson, std::move(lights), std::move(views), [&](uint64_t at, const char* data, size_t n) {
     if (bytes.size() < at + n) bytes.resize(size_t(at + n), '\0');
     std::memcpy(bytes.data() + at, data, n);
-  });
+  }, major);
   writer.checkLights_ = false;  // the whole file is checked below
   for (const BakedLight& l : content.lights) writer.add(l);
   writer.finish();

@@ -62,6 +62,9 @@ CpvsContent mergeParts(const std::vector<NamedPart>& parts) {
     size_t lightsOf = 0;
     const std::vector<uint32_t> lights = partLights(part, settings, lightsOf);
     settings.erase("part");
+    if (part.file->majorVersion() != parts[0].file->majorVersion())
+      fail(part.name + " is a .cpvs " + std::to_string(part.file->majorVersion()) + ".x file and " + parts[0].name +
+           " a " + std::to_string(parts[0].file->majorVersion()) + ".x one: the parts of one bake share a format version");
     if (!common) {
       common = settings;
       commonFrom = part.name;

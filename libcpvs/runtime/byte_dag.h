@@ -58,6 +58,11 @@ struct ByteDagView {
   // The 8x8 mask (bit (y & 7) * 8 + (x & 7) set = shadowed) of the tile holding (x, y) at slice z, as a PCF
   // footprint reads it: one slice, or the rows of four octants at that depth.
   uint64_t tileMask(uint32_t x, uint32_t y, uint32_t z) const;
+  // The same DAG in the stored form of format 2.0 (slice leaves only): the nodes and leaves its root reaches, each
+  // once, in the order the baker writes (NodeOrder::MostReferencedFirst). What the walks that read DagView take
+  // from a 3.0 file until they read the pool in place. Assumes a validated DAG; fails (RuntimeFailure) only where
+  // encodeDag does.
+  Result<ShadowDag> toShadowDag() const;
 
 private:
   uint32_t headerAt(uint64_t at) const { return uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8; }

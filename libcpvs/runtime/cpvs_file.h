@@ -1,5 +1,5 @@
 #pragma once
-// The .cpvs container, version 2.0 (byte-level spec: formats/cpvs/format.md). Little-endian, pointer-free,
+// The .cpvs container, versions 1.x to 3.x (byte-level spec: formats/cpvs/format.md). Little-endian, pointer-free,
 // memory-mappable; a 64-byte header, a section table, 64-byte aligned sections each with an XXH3-64 checksum,
 // zero padding; no timestamps or random ids (same content, same bytes).
 //
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "formats/cpvs/cpvs_format.h"
+#include "libcpvs/runtime/byte_dag.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/light.h"
@@ -26,9 +27,21 @@ class CpvsFile {
 public:
   struct View {
     LightView view;
-    DagView dag;                          // spans into the file's NODE and LEAF sections (format 1: a converted copy)
+    // The DAG in the stored form of 2.0: spans into the view's NODE and LEAF sections (1.x and 3.x: a copy
+    // converted on open, which the file object owns).
+    DagView dag;
+    // The DAG where the file holds it, read in place: the view's own sections (2.x, 1.x: the converted copy) or
+    // the file's node pool (3.x).
+    ByteDagView bytes;
     std::vector<uint64_t> nodesPerLevel;  // one count per level, root level first
-    uint64_t nodeBytes = 0;               // size of the view's NODE section in the file
+    uint64_t nodeBytes = 0;               // size of the view's NODE section in the file (3.x: 0, it has none)
+  };
+  // One level of a 3.x file's node pool (formats/cpvs/format.md, "POOL").
+  struct PoolLevel {
+    uint32_t edge = 0;
+    uint8_t shortBytes = 0, longBytes = 0;
+    uint64_t offset = 0, bytes = 0, nodes = 0;  // in NODE
+    uint64_t hotEntries = 0;                    // 0: short references are byte offsets
   };
   struct LightEntry {
     Light light;
@@ -62,6 +75,9 @@ public:
   const std::vector<SectionInfo>& sections() const { return sections_; }
   uint64_t fileSize() const { return size_; }
   std::span<const uint8_t> bytes() const { return {data_, size_t(size_)}; }
+  // 3.x: the node pool's levels, ascending edge, and its leaves (empty and 0 in 1.x and 2.x files).
+  const std::vector<PoolLevel>& poolLevels() const { return poolLevels_; }
+  uint64_t poolLeaves() const { return poolLeaves_; }
 
 private:
   CpvsFile() = default;
@@ -79,7 +95,9 @@ private:
   std::vector<LightEntry> lights_;
   std::string settingsJson_;
   std::vector<SectionInfo> sections_;
-  std::vector<std::unique_ptr<ShadowDag>> converted_;  // format-1 DAGs in the stored form of format 2
+  std::vector<std::unique_ptr<ShadowDag>> converted_;  // 1.x and 3.x DAGs in the stored form of format 2
+  std::vector<PoolLevel> poolLevels_;
+  uint64_t poolLeaves_ = 0;
 };
 
 // Validates one view's DAG in the stored form exactly as open() validates a view of a file (every node fits,

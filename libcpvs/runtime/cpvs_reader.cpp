@@ -17,6 +17,7 @@
 #include <xxhash.h>
 
 #include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/runtime/file_pool.h"
 
 static_assert(std::endian::native == std::endian::little, "cpvs: the .cpvs format is little-endian; "
                                                           "big-endian hosts are not supported");
@@ -49,6 +50,13 @@ bool printable(uint32_t type) {
     if (c < 0x20 || c > 0x7E) return false;
   }
   return true;
+}
+
+std::string readableMajors() {
+  std::string text;
+  for (uint32_t m = kCpvsOldestReadableMajor; m <= kCpvsNewestMajor; ++m)
+    text += (text.empty() ? "" : m == kCpvsNewestMajor ? " and " : ", ") + std::to_string(m) + ".x";
+  return text;
 }
 
 std::string num(double v) {
@@ -323,11 +331,13 @@ namespace {
 struct FileLayout {
   uint16_t major = 0, minor = 0;
   bool strict = true;    // x.0: reserved fields are zero (later minors may give them meaning)
-  bool format1 = false;  // 32-bit node words, converted on open (the only copy this reader makes)
+  bool format1 = false;  // 32-bit node words, converted on open
+  bool pooled = false;   // 3.x: one node pool per file (views converted on open, for now)
   std::string dotZero;   // "major.0", for messages
   uint64_t tableOffset = 0, tableSize = 0;
   std::vector<Entry> entries;
   int64_t bake = -1, strs = -1, lght = -1, view = -1;  // the singleton sections' indices
+  int64_t pool = -1, hott = -1, node = -1, leaf = -1;  // 3.x: the pool's, also singletons
 };
 
 // Step 1: the header (magic, version before anything whose layout a later major version may change, checksum,
@@ -342,15 +352,14 @@ FileLayout readHeader(const Reader& r) {
   f.major = r.u16(H::kMajor);
   f.minor = r.u16(H::kMinor);
   const bool headerOk = XXH3_64bits(r.data(), H::kChecksum) == r.u64(H::kChecksum);
-  if (f.major != kCpvsMajorVersion && f.major != kCpvsOldestReadableMajor)
+  if (f.major < kCpvsOldestReadableMajor || f.major > kCpvsNewestMajor)
     r.fail("written by format version " + std::to_string(f.major) + "." + std::to_string(f.minor) +
-           "; this build reads " +
-           std::to_string(kCpvsOldestReadableMajor) + ".x and " + std::to_string(kCpvsMajorVersion) +
-           ".x — update cpvs or re-bake" +
+           "; this build reads " + readableMajors() + " — update cpvs or re-bake" +
            (headerOk ? "" : " (or the header is corrupt: its checksum does not match)"));
   if (!headerOk) r.fail("header checksum mismatch — the file is corrupt");
   f.strict = f.minor == 0;
   f.format1 = f.major == 1;
+  f.pooled = f.major >= 3;
   f.dotZero = std::to_string(f.major) + ".0";
   const bool strict = f.strict;
   const std::string& dotZero = f.dotZero;
@@ -430,7 +439,7 @@ void checkPadding(const Reader& r, const FileLayout& f) {
 // Step 4: the four singleton sections and every section's element size (NODE and LEAF are found through the
 // view records; types from a later minor version are skipped).
 void findSections(const Reader& r, FileLayout& f) {
-  const bool strict = f.strict, format1 = f.format1;
+  const bool strict = f.strict, format1 = f.format1, pooled = f.pooled;
   int64_t &bake = f.bake, &strs = f.strs, &lght = f.lght, &view = f.view;
   const uint64_t count = f.entries.size();
   for (uint64_t i = 0; i < count; ++i) {
@@ -454,26 +463,114 @@ void findSections(const Reader& r, FileLayout& f) {
       case kBake: single(bake); expectElement(1, false); break;
       case kStrs: single(strs); expectElement(1, false); break;
       case kLght: single(lght); expectElement(kLightRecordSize, true); break;
-      case kView: single(view); expectElement(kViewRecordSize, true); break;
-      case kNode: expectElement(format1 ? 4 : 2, false); break;
-      case kLeaf: expectElement(8, false); break;
+      case kView: single(view); expectElement(pooled ? kPooledViewRecordSize : kViewRecordSize, true); break;
+      case kNode:
+        if (pooled) single(f.node);
+        expectElement(format1 ? 4 : pooled ? 1 : 2, false);
+        break;
+      case kLeaf:
+        if (pooled) single(f.leaf);
+        expectElement(8, false);
+        break;
+      case kPool:
+        if (!pooled) break;  // not a section of 1.x and 2.x: skipped as unknown
+        single(f.pool);
+        expectElement(kPoolLevelRecordSize, true);
+        break;
+      case kHott:
+        if (!pooled) break;
+        single(f.hott);
+        expectElement(4, false);
+        break;
       default: break;  // a section type from a later minor version: skipped
     }
   }
   for (const auto& [slot, type] : std::initializer_list<std::pair<int64_t, uint32_t>>{
            {bake, kBake}, {strs, kStrs}, {lght, kLght}, {view, kView}})
     if (slot < 0) r.fail("no '" + typeName(type) + "' section");
+  if (pooled)
+    for (const auto& [slot, type] : std::initializer_list<std::pair<int64_t, uint32_t>>{
+             {f.pool, kPool}, {f.hott, kHott}, {f.node, kNode}, {f.leaf, kLeaf}})
+      if (slot < 0) r.fail("no '" + typeName(type) + "' section (a " + f.dotZero.substr(0, 1) + ".x file has one)");
+}
+
+// A 2.x (or 1.x) view's own NODE and LEAF sections, validated (a format-1 DAG converted into `converted`).
+void readViewDag(const Reader& r, const FileLayout& f, const std::string& vwhat, uint64_t w, ChildCode rootCode,
+                 CpvsFile::View& out, std::vector<std::unique_ptr<ShadowDag>>& converted) {
+  const uint8_t* data = r.data();
+  const bool format1 = f.format1;
+  const uint64_t count = f.entries.size();
+  const std::vector<Entry>& entries = f.entries;
+  const LightView& v = out.view;
+  const uint32_t levels = uint32_t(std::countr_zero(v.resolution)) - 2;
+  const uint64_t nodeSection = r.u32(w + V::kNodeSection), leafSection = r.u32(w + V::kLeafSection);
+  if (nodeSection >= count || entries[nodeSection].type != kNode)
+    r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
+  if (leafSection >= count || entries[leafSection].type != kLeaf)
+    r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
+  const Entry& nodeS = entries[nodeSection];
+  const Entry& leafS = entries[leafSection];
+  const uint64_t words = r.u64(w + V::kNodeUnits), leafCount = r.u64(w + V::kLeafCount);
+  const uint64_t nodeElement = format1 ? 4 : 2;
+  const std::string unit = format1 ? " node words" : " node units";
+  if (words != nodeS.size / nodeElement)
+    r.fail(vwhat + ": " + std::to_string(words) + unit + ", but section " + std::to_string(nodeSection) +
+           " 'NODE' holds " + std::to_string(nodeS.size / nodeElement));
+  if (leafCount != leafS.size / 8)
+    r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
+           " 'LEAF' holds " + std::to_string(leafS.size / 8));
+  if (words > UINT32_MAX || leafCount > (uint64_t(1) << 32))
+    r.fail(vwhat + ": DAG too large for 32-bit references");
+  out.nodesPerLevel.resize(levels);
+  for (uint32_t k = 0; k < kMaxLevels; ++k) {
+    const uint64_t c = r.u64(w + V::kNodesPerLevel + 8 * k);
+    if (k < levels) out.nodesPerLevel[k] = c;
+    else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
+                            std::to_string(levels) + " levels");
+  }
+  // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
+  const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data + leafS.offset),
+                                         size_t(leafCount));
+  out.nodeBytes = nodeS.size;
+  if (format1) {
+    const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data + nodeS.offset), size_t(words));
+    const std::vector<uint64_t> levelStart =
+        validateDag(r, vwhat, rootCode, levels, nodes, leafCount, out.nodesPerLevel);
+    Result<ShadowDag> dag =
+        convertFormat1Dag(v.resolution, rootCode, nodes, levelStart, leaves, out.nodesPerLevel);
+    if (!dag) r.fail(vwhat + ": cannot convert the format-1 DAG: " + dag.outcome().message());
+    converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
+    out.dag = converted.back()->view();
+  } else {
+    const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data + nodeS.offset), size_t(words));
+    const std::vector<uint64_t> levelStart =
+        validateDag(r, vwhat, rootCode, levels, nodes, leafCount, out.nodesPerLevel);
+    out.dag = DagView{v.resolution, rootCode, nodes, leaves};
+    out.dag.setLevelStarts(levelStart);
+  }
+  out.bytes = ByteDagView::inPlace(out.dag);
+}
+
+// A 3.x view's root: its code and its byte offset in the pool level of its edge, checked with the pool once every
+// view is read (checkPool).
+void readPoolRoot(const Reader& r, const FileLayout& f, const std::string& vwhat, uint64_t w, ChildCode rootCode,
+                  CpvsFile::View& out) {
+  if (f.strict && (r.u32(w + V::kNodeSection) != 0 || r.u32(w + V::kLeafSection) != 0 || r.u64(w + V::kLeafCount) != 0))
+    r.fail(vwhat + ": reserved field is not zero in a " + f.dotZero + " file");
+  const uint64_t root = r.u64(w + V::kPoolRoot);
+  if (rootCode != ChildCode::Ref && root != 0) r.fail(vwhat + ": a root offset without a root node");
+  out.bytes.resolution = out.view.resolution;
+  out.bytes.rootCode = rootCode;
+  out.bytes.root = root;
+  out.nodesPerLevel.assign(uint32_t(std::countr_zero(out.view.resolution)) - 2, 0);
 }
 
 // One view record (record `index`, view vi of light li), its DAG validated (a format-1 DAG converted into
 // `converted`, which owns it).
 CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const std::string& named, uint64_t vi,
                         uint64_t index, std::vector<std::unique_ptr<ShadowDag>>& converted) {
-  const uint8_t* data = r.data();
-  const bool strict = f.strict, format1 = f.format1;
+  const bool strict = f.strict;
   const std::string& dotZero = f.dotZero;
-  const uint64_t count = f.entries.size();
-  const std::vector<Entry>& entries = f.entries;
   const Entry& viewS = f.entries[f.view];
   const uint64_t w = viewS.offset + index * viewS.elementSize;
   const std::string vwhat = named + " view " + std::to_string(vi) + " (record " + std::to_string(index) + ")";
@@ -503,24 +600,6 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
   if (strict && r.u16(w + V::kReserved) != 0) r.fail(vwhat + ": reserved field is not zero in a " + dotZero + " file");
   if (r.u32(w + V::kLight) != li)
     r.fail(vwhat + ": belongs to light " + std::to_string(r.u32(w + V::kLight)) + ", not " + std::to_string(li));
-  const uint64_t nodeSection = r.u32(w + V::kNodeSection), leafSection = r.u32(w + V::kLeafSection);
-  if (nodeSection >= count || entries[nodeSection].type != kNode)
-    r.fail(vwhat + ": node section index " + std::to_string(nodeSection) + " is not a 'NODE' section");
-  if (leafSection >= count || entries[leafSection].type != kLeaf)
-    r.fail(vwhat + ": leaf section index " + std::to_string(leafSection) + " is not a 'LEAF' section");
-  const Entry& nodeS = entries[nodeSection];
-  const Entry& leafS = entries[leafSection];
-  const uint64_t words = r.u64(w + V::kNodeUnits), leafCount = r.u64(w + V::kLeafCount);
-  const uint64_t nodeElement = format1 ? 4 : 2;
-  const std::string unit = format1 ? " node words" : " node units";
-  if (words != nodeS.size / nodeElement)
-    r.fail(vwhat + ": " + std::to_string(words) + unit + ", but section " + std::to_string(nodeSection) +
-           " 'NODE' holds " + std::to_string(nodeS.size / nodeElement));
-  if (leafCount != leafS.size / 8)
-    r.fail(vwhat + ": " + std::to_string(leafCount) + " leaves, but section " + std::to_string(leafSection) +
-           " 'LEAF' holds " + std::to_string(leafS.size / 8));
-  if (words > UINT32_MAX || leafCount > (uint64_t(1) << 32))
-    r.fail(vwhat + ": DAG too large for 32-bit references");
   bool finite = true;
   for (int c = 0; c < 4; ++c)
     for (int row = 0; row < 4; ++row) {
@@ -557,33 +636,8 @@ CpvsFile::View readView(const Reader& r, const FileLayout& f, uint64_t li, const
       if (!(std::abs(v.viewFromWorld[c][row]) <= 2 * kMaxViewCoordinate))
         r.fail(vwhat + ": viewFromWorld element " + num(v.viewFromWorld[c][row]) + " beyond +-" +
                num(2 * kMaxViewCoordinate));
-  out.nodesPerLevel.resize(levels);
-  for (uint32_t k = 0; k < kMaxLevels; ++k) {
-    const uint64_t c = r.u64(w + V::kNodesPerLevel + 8 * k);
-    if (k < levels) out.nodesPerLevel[k] = c;
-    else if (c != 0) r.fail(vwhat + ": node count for level " + std::to_string(k) + " beyond the DAG's " +
-                            std::to_string(levels) + " levels");
-  }
-  // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
-  const std::span<const uint64_t> leaves(reinterpret_cast<const uint64_t*>(data + leafS.offset),
-                                         size_t(leafCount));
-  out.nodeBytes = nodeS.size;
-  if (format1) {
-    const std::span<const uint32_t> nodes(reinterpret_cast<const uint32_t*>(data + nodeS.offset), size_t(words));
-    const std::vector<uint64_t> levelStart =
-        validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-    Result<ShadowDag> dag =
-        convertFormat1Dag(v.resolution, ChildCode(rootCode), nodes, levelStart, leaves, out.nodesPerLevel);
-    if (!dag) r.fail(vwhat + ": cannot convert the format-1 DAG: " + dag.outcome().message());
-    converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
-    out.dag = converted.back()->view();
-  } else {
-    const std::span<const uint16_t> nodes(reinterpret_cast<const uint16_t*>(data + nodeS.offset), size_t(words));
-    const std::vector<uint64_t> levelStart =
-        validateDag(r, vwhat, ChildCode(rootCode), levels, nodes, leafCount, out.nodesPerLevel);
-    out.dag = DagView{v.resolution, ChildCode(rootCode), nodes, leaves};
-    out.dag.setLevelStarts(levelStart);
-  }
+  if (f.pooled) readPoolRoot(r, f, vwhat, w, ChildCode(rootCode), out);
+  else readViewDag(r, f, vwhat, w, ChildCode(rootCode), out, converted);
   return out;
 }
 
@@ -643,6 +697,24 @@ CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li
   return entry;
 }
 
+// Step 6 (3.x): the node pool, with every view's root; returns its leaf count.
+uint64_t readPool(const Reader& r, const FileLayout& f, std::span<CpvsFile::View* const> views,
+                  std::vector<CpvsFile::PoolLevel>& levels, std::vector<std::unique_ptr<ShadowDag>>& converted) {
+  const Entry &poolS = f.entries[f.pool], &hottS = f.entries[f.hott], &nodeS = f.entries[f.node],
+              &leafS = f.entries[f.leaf];
+  const uint8_t* data = r.data();
+  FilePoolSections sections;
+  sections.records = {data + poolS.offset, size_t(poolS.size)};
+  sections.recordSize = poolS.elementSize;
+  sections.nodes = {data + nodeS.offset, size_t(nodeS.size)};
+  // 64-byte aligned offsets into a buffer aligned to at least 8 bytes: the spans are properly aligned.
+  sections.hot = {reinterpret_cast<const uint32_t*>(data + hottS.offset), size_t(hottS.size / 4)};
+  sections.leaves = {reinterpret_cast<const uint64_t*>(data + leafS.offset), size_t(leafS.size / 8)};
+  sections.strict = f.strict;
+  if (Outcome o = readFilePool(sections, views, levels, converted, r.name()); !o) throw ReadFailure{o.message()};
+  return sections.leaves.size();
+}
+
 }  // namespace
 
 void CpvsFile::parse(const std::string& name) {
@@ -665,6 +737,12 @@ void CpvsFile::parse(const std::string& name) {
   for (uint64_t li = 0; li < lightCount; ++li) lights_.push_back(readLight(r, f, li, nextView, converted_));
   if (nextView != viewCount)
     r.fail(std::to_string(viewCount - nextView) + " view records belong to no light");
+  if (f.pooled) {
+    std::vector<View*> views;
+    for (LightEntry& light : lights_)
+      for (View& view : light.views) views.push_back(&view);
+    poolLeaves_ = readPool(r, f, views, poolLevels_, converted_);
+  }
 }
 
 }  // namespace cpvs

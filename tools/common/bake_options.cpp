@@ -67,6 +67,12 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                  "is a sheet with air on both sides")
       ->capture_default_str()
       ->check(CLI::IsMember({"auto", "off"}));
+  app.add_option("--format-version", formatVersion,
+                 "The .cpvs major version to write: 2 (a DAG per view, what every cpvs runtime reads) or 3 (one pool "
+                 "of nodes and leaves for the whole file: many-light files about a third smaller; readers from "
+                 "cpvs 0.5 on; formats/cpvs/format.md)")
+      ->capture_default_str()
+      ->type_name("2|3");
 }
 
 void BakeShapeOptions::applyTo(BakeSettings& settings) const {
@@ -104,6 +110,9 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
   if (maxEdgeError < 0 || maxEdgeError > int64_t(LeafTable::kMaxEdgeFlips))
     throw Error(ErrorCategory::InvalidArgument, "--max-edge-error must be 0, 1 or 2 texels");
   settings.maxEdgeError = uint32_t(maxEdgeError);
+  if (!canWriteMajor(formatVersion))
+    throw Error(ErrorCategory::InvalidArgument, "--format-version must be 2 or 3 (got " + std::to_string(formatVersion) + ")");
+  settings.formatMajor = uint16_t(formatVersion);
 }
 
 }  // namespace cpvs::tools

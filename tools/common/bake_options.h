@@ -22,6 +22,7 @@ struct BakeShapeOptions {
   std::string ground = "auto";
   int64_t maxVoxelError = -1;  // -1: lossless
   int64_t maxEdgeError = 0;
+  uint32_t formatVersion = kCpvsDefaultMajor;
 
   void addTo(CLI::App& app);
   // Sets those fields of `settings`. Throws Error(InvalidArgument) naming the flag.

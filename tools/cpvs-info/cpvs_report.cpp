@@ -57,7 +57,53 @@ uint64_t sum(const std::vector<uint64_t>& v) {
 }
 
 // As stored in the file (a format-1 file's 32-bit node words count at their size there).
-uint64_t dagBytes(const CpvsFile::View& v) { return v.nodeBytes + v.dag.leaves.size() * 8; }
+// A view's DAG as stored in its own sections; a view of a 3.x file's pool, as a 2.0 file would store it.
+uint64_t dagBytes(const CpvsFile::View& v) {
+  return (v.nodeBytes ? v.nodeBytes : v.dag.nodes.size() * 2) + v.dag.leaves.size() * 8;
+}
+
+bool pooled(const CpvsFile& file) { return file.majorVersion() >= 3; }
+
+// The node pool of a 3.x file: NODE (every level and its zero tail), HOTT and LEAF.
+uint64_t poolBytes(const CpvsFile& file) {
+  uint64_t bytes = kPoolTailBytes + file.poolLeaves() * 8;
+  for (const CpvsFile::PoolLevel& l : file.poolLevels()) bytes += l.bytes + l.hotEntries * 4;
+  return bytes;
+}
+
+std::string versionsText() {
+  return "this build reads " + std::to_string(kCpvsOldestReadableMajor) + ".x to " + std::to_string(kCpvsNewestMajor) +
+         ".x and writes " + std::to_string(kCpvsDefaultMajor) + "." + std::to_string(kCpvsMinorVersion) + ", or " +
+         std::to_string(kCpvsNewestMajor) + "." + std::to_string(kCpvsMinorVersion) + " with --format-version " +
+         std::to_string(kCpvsNewestMajor);
+}
+
+void printPool(std::ostream& out, const CpvsFile& file, uint64_t viewsAs2) {
+  uint64_t nodes = 0;
+  for (const CpvsFile::PoolLevel& l : file.poolLevels()) nodes += l.nodes;
+  out << "pool: " << file.poolLevels().size() << " levels, " << nodes << " nodes, " << file.poolLeaves()
+      << " leaves, " << poolBytes(file) << " bytes (its views as 2.0 DAGs: " << viewsAs2 << " bytes)\n";
+  for (const CpvsFile::PoolLevel& l : file.poolLevels()) {
+    out << "  edge " << l.edge << ": " << l.nodes << " nodes in " << l.bytes << " bytes, references of "
+        << unsigned(l.shortBytes) << " or " << unsigned(l.longBytes) << " bytes";
+    if (l.hotEntries) out << ", a hot table of " << l.hotEntries << " entries (" << l.hotEntries * 4 << " bytes)";
+    out << "\n";
+  }
+}
+
+ordered_json poolJson(const CpvsFile& file, uint64_t viewsAs2) {
+  if (!pooled(file)) return nullptr;
+  ordered_json levels = ordered_json::array();
+  for (const CpvsFile::PoolLevel& l : file.poolLevels())
+    levels.push_back({{"edge", l.edge},
+                      {"shortBytes", l.shortBytes},
+                      {"longBytes", l.longBytes},
+                      {"offset", l.offset},
+                      {"bytes", l.bytes},
+                      {"nodes", l.nodes},
+                      {"hotEntries", l.hotEntries}});
+  return {{"levels", levels}, {"leaves", file.poolLeaves()}, {"bytes", poolBytes(file)}, {"viewsAs2Bytes", viewsAs2}};
+}
 
 // The BAKE block is JSON text by convention; a file from another writer may hold anything (it is checksummed,
 // not interpreted by the reader), so this never throws.
@@ -84,9 +130,7 @@ void printText(const std::string& path, const CpvsFile& file) {
   std::ostream& out = std::cout;
 
   out << "file: " << path << "\n";
-  out << "format: .cpvs " << file.majorVersion() << "." << file.minorVersion() << " (this build reads "
-      << kCpvsOldestReadableMajor << ".x and " << kCpvsMajorVersion << ".x, writes " << kCpvsMajorVersion << "."
-      << kCpvsMinorVersion << ")\n";
+  out << "format: .cpvs " << file.majorVersion() << "." << file.minorVersion() << " (" << versionsText() << ")\n";
   out << "header: " << loadLE(d + HeaderLayout::kHeaderSize, 4) << " bytes, flags " << loadLE(d + HeaderLayout::kFlags, 4) << ", "
       << file.sections().size() << " sections in a table at offset " << tableOffset << ", file size "
       << file.fileSize() << " bytes\n";
@@ -125,14 +169,23 @@ void printText(const std::string& path, const CpvsFile& file) {
           << " levels; nodes per level (root first):";
       for (uint64_t c : v.nodesPerLevel) out << " " << c;
       const bool words = file.majorVersion() == 1;  // format 1: 32-bit node words in the file
-      out << " = " << sum(v.nodesPerLevel) << " nodes in " << v.nodeBytes / (words ? 4 : 2)
-          << (words ? " words (" : " units (") << v.nodeBytes << " bytes); unique leaves " << v.dag.leaves.size() << " ("
-          << v.dag.leaves.size() * 8 << " bytes); " << dagBytes(v) << " bytes\n";
+      if (pooled(file))
+        out << " = " << sum(v.nodesPerLevel) << " nodes, unique leaves " << v.dag.leaves.size()
+            << ", in the pool (as a 2.0 DAG: " << dagBytes(v) << " bytes)\n";
+      else
+        out << " = " << sum(v.nodesPerLevel) << " nodes in " << v.nodeBytes / (words ? 4 : 2)
+            << (words ? " words (" : " units (") << v.nodeBytes << " bytes); unique leaves " << v.dag.leaves.size()
+            << " (" << v.dag.leaves.size() * 8 << " bytes); " << dagBytes(v) << " bytes\n";
       ++viewCount;
       dagTotal += dagBytes(v);
     }
   }
 
+  const uint64_t viewsAs2 = dagTotal;
+  if (pooled(file)) {
+    printPool(out, file, viewsAs2);
+    dagTotal = poolBytes(file);
+  }
   uint64_t sectionBytes = 0;
   out << "sections (" << file.sections().size() << "):\n";
   out << "     #  type      offset        bytes  element  xxh3-64           checksum\n";
@@ -192,6 +245,7 @@ void printJson(const std::string& path, const CpvsFile& file) {
                        {"nodeUnits", v.dag.nodes.size()},
                        {"nodeBytes", v.nodeBytes},
                        {"uniqueLeaves", v.dag.leaves.size()},
+                       {"inPool", pooled(file)},
                        {"bytes", dagBytes(v)}});
       ++viewCount;
       dagTotal += dagBytes(v);
@@ -216,6 +270,8 @@ void printJson(const std::string& path, const CpvsFile& file) {
   const uint64_t tableSize = file.sections().size() * uint64_t(kSectionEntrySize);
   const std::string tool = settingString(settings, "tool"), toolVersion = settingString(settings, "tool_version");
   const std::string inputHash = settingString(settings, "input_hash");
+  const ordered_json pool = poolJson(file, dagTotal);
+  if (pooled(file)) dagTotal = poolBytes(file);
   const ordered_json report = {
       {"file", path},
       {"kind", "cpvs"},
@@ -238,6 +294,7 @@ void printJson(const std::string& path, const CpvsFile& file) {
       {"inputHash", inputHash.empty() ? ordered_json(nullptr) : ordered_json(inputHash)},
       {"settings", settings.is_object() ? settings : ordered_json(file.settingsJson())},
       {"lights", lights},
+      {"pool", pool},
       {"sections", sections},
       {"totals",
        {{"lights", file.lights().size()},

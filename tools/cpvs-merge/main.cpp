@@ -37,7 +37,9 @@ int run(int argc, char** argv) {
     files.push_back(orThrow(CpvsFile::open(path)));
     parts.push_back({path, files.back().get()});
   }
-  const std::string bytes = writeCpvs(mergeParts(parts));
+  // In the parts' format version (mergeParts checks they share it); 1.x parts, which no build writes, as 2.0.
+  const uint16_t major = files.front()->majorVersion() >= 3 ? files.front()->majorVersion() : 2;
+  const std::string bytes = writeCpvs(mergeParts(parts), major);
   out.write(bytes);
   out.commit();
   if (!quiet)

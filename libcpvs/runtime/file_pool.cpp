@@ -1,0 +1,129 @@
+#include "libcpvs/runtime/file_pool.h"
+
+#include <bit>
+#include <cstring>
+
+#include "libcpvs/runtime/pool_validation.h"
+
+namespace cpvs {
+
+using namespace cpvsformat;
+using P = PoolLevelLayout;
+
+namespace {
+
+Outcome invalid(const std::string& name, const std::string& what) {
+  return Outcome(ErrorCategory::InvalidInput, name + ": " + what);
+}
+
+template <class T>
+T load(const uint8_t* at) {
+  T v;
+  std::memcpy(&v, at, sizeof v);  // little-endian hosts only (cpvs_reader.cpp)
+  return v;
+}
+
+// The POOL records: levels of edge 8, 16, ... back to back in NODE from its first byte, each hot table a run of
+// HOTT after the previous one's, NODE ending in kPoolTailBytes zero bytes and HOTT in the last table.
+Outcome readLevels(const FilePoolSections& s, std::vector<CpvsFile::PoolLevel>& levels, const std::string& name) {
+  const uint64_t count = s.records.size() / s.recordSize;
+  if (count > kMaxDagLevels) return invalid(name, "POOL holds " + std::to_string(count) + " levels (at most 32)");
+  uint64_t nodeEnd = 0, hotEnd = 0;
+  levels.clear();
+  for (uint64_t i = 0; i < count; ++i) {
+    const uint8_t* r = s.records.data() + i * s.recordSize;
+    const std::string what = "pool level " + std::to_string(i);
+    CpvsFile::PoolLevel l;
+    l.edge = load<uint32_t>(r + P::kEdge);
+    l.shortBytes = r[P::kShortBytes];
+    l.longBytes = r[P::kLongBytes];
+    l.offset = load<uint64_t>(r + P::kOffset);
+    l.bytes = load<uint64_t>(r + P::kSize);
+    l.nodes = load<uint64_t>(r + P::kNodes);
+    const uint64_t firstHot = load<uint32_t>(r + P::kFirstHot);
+    l.hotEntries = load<uint32_t>(r + P::kHotCount);
+    if (s.strict && load<uint16_t>(r + P::kReserved) != 0)
+      return invalid(name, what + ": reserved field is not zero in a 3.0 file");
+    if (l.edge != (8u << i))
+      return invalid(name, what + " has edge " + std::to_string(l.edge) + ", not " + std::to_string(8u << i) +
+                               " (levels run 8, 16, 32, ...)");
+    if (l.offset != nodeEnd || l.bytes > s.nodes.size() - nodeEnd)
+      return invalid(name, what + ": " + std::to_string(l.bytes) + " bytes at offset " + std::to_string(l.offset) +
+                               " of NODE (expected at " + std::to_string(nodeEnd) + ", within its " +
+                               std::to_string(s.nodes.size()) + " bytes)");
+    if (firstHot != (l.hotEntries ? hotEnd : 0) || l.hotEntries > s.hot.size() - hotEnd)
+      return invalid(name, what + ": a hot table of " + std::to_string(l.hotEntries) + " entries at " +
+                               std::to_string(firstHot) + " (expected at " + std::to_string(hotEnd) + ", within HOTT's " +
+                               std::to_string(s.hot.size()) + ")");
+    nodeEnd += l.bytes;
+    hotEnd += l.hotEntries;
+    levels.push_back(l);
+  }
+  if (s.nodes.size() - nodeEnd != kPoolTailBytes)
+    return invalid(name, "NODE holds " + std::to_string(s.nodes.size()) + " bytes, its levels " +
+                             std::to_string(nodeEnd) + " and the tail " + std::to_string(kPoolTailBytes));
+  for (uint64_t at = nodeEnd; at < s.nodes.size(); ++at)
+    if (s.nodes[at] != 0) return invalid(name, "NODE's tail byte " + std::to_string(at) + " is not zero");
+  if (hotEnd != s.hot.size())
+    return invalid(name, "HOTT holds " + std::to_string(s.hot.size()) + " entries, the levels' tables " +
+                             std::to_string(hotEnd));
+  return {};
+}
+
+// The nodes of each level, counted over its bytes (validatePool has checked that they tile it).
+uint64_t countNodes(std::span<const uint8_t> bytes, const CpvsFile::PoolLevel& l) {
+  uint64_t nodes = 0;
+  for (uint64_t at = 0; at < bytes.size(); ++nodes) {
+    const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
+    const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
+    at += 2 + uint64_t(l.shortBytes) * std::popcount(refs) + uint64_t(l.longBytes - l.shortBytes) * std::popcount(wide);
+  }
+  return nodes;
+}
+
+}  // namespace
+
+Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const> views,
+                     std::vector<CpvsFile::PoolLevel>& levels, std::vector<std::unique_ptr<ShadowDag>>& converted,
+                     const std::string& name) {
+  if (Outcome o = readLevels(s, levels, name); !o) return o;
+  std::vector<PoolLevelView> levelViews;
+  for (const CpvsFile::PoolLevel& l : levels)
+    levelViews.push_back({l.edge, l.shortBytes, l.longBytes, s.nodes.subspan(l.offset, l.bytes), {}});
+  uint64_t hotAt = 0;
+  for (size_t i = 0; i < levels.size(); ++i) {
+    levelViews[i].hot = s.hot.subspan(hotAt, levels[i].hotEntries);
+    hotAt += levels[i].hotEntries;
+  }
+  std::vector<PoolRootView> roots;
+  for (const CpvsFile::View* v : views) roots.push_back({v->bytes.rootCode, v->bytes.resolution, v->bytes.root});
+  if (Outcome o = validatePool(levelViews, s.leaves.size(), roots, name); !o) return o;
+  for (size_t i = 0; i < levels.size(); ++i)
+    if (const uint64_t counted = countNodes(levelViews[i].bytes, levels[i]); counted != levels[i].nodes)
+      return invalid(name, "pool level " + std::to_string(i) + " says " + std::to_string(levels[i].nodes) +
+                               " nodes, its bytes hold " + std::to_string(counted));
+
+  ByteDagView base;
+  base.bytes = s.nodes;
+  base.leaves = s.leaves;
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const unsigned log2 = unsigned(std::countr_zero(levels[i].edge));
+    base.coding[log2] = {i > 0 ? levels[i - 1].offset : 0, levels[i].shortBytes, levels[i].longBytes, 0,
+                         levelViews[i].hot};
+  }
+  for (CpvsFile::View* v : views) {
+    ByteDagView walk = base;
+    walk.resolution = v->bytes.resolution;
+    walk.rootCode = v->bytes.rootCode;
+    walk.root = walk.rootCode == ChildCode::Ref ? levels[std::countr_zero(walk.resolution) - 3].offset + v->bytes.root : 0;
+    Result<ShadowDag> dag = walk.toShadowDag();
+    if (!dag) return invalid(name, "a view's DAG has no 2.0 form: " + dag.outcome().message());
+    converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
+    v->bytes = walk;
+    v->dag = converted.back()->view();
+    if (!converted.back()->nodesPerLevel.empty()) v->nodesPerLevel = converted.back()->nodesPerLevel;
+  }
+  return {};
+}
+
+}  // namespace cpvs
