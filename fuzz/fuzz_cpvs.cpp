@@ -30,16 +30,17 @@ void writeU64(std::vector<uint8_t>& b, size_t at, uint64_t v) { std::memcpy(b.da
 void fixChecksums(std::vector<uint8_t>& b) {
   using namespace cpvs::cpvsformat;
   if (b.size() < kHeaderSize) return;
-  const uint64_t table = readU64(b, 24);
-  const uint32_t count = readU32(b, 16);
+  const uint64_t table = readU64(b, HeaderLayout::kTableOffset);
+  const uint32_t count = readU32(b, HeaderLayout::kSectionCount);
   if (table > b.size() || count > (b.size() - table) / kSectionEntrySize) return;
   for (uint32_t i = 0; i < count; ++i) {
     const size_t e = size_t(table) + size_t(i) * kSectionEntrySize;
-    const uint64_t offset = readU64(b, e + 8), size = readU64(b, e + 16);
-    if (offset <= b.size() && size <= b.size() - offset) writeU64(b, e + 24, XXH3_64bits(b.data() + offset, size));
+    const uint64_t offset = readU64(b, e + SectionEntryLayout::kOffset), size = readU64(b, e + SectionEntryLayout::kSize);
+    if (offset <= b.size() && size <= b.size() - offset)
+      writeU64(b, e + SectionEntryLayout::kChecksum, XXH3_64bits(b.data() + offset, size));
   }
-  writeU64(b, 40, XXH3_64bits(b.data() + table, size_t(count) * kSectionEntrySize));
-  writeU64(b, 56, XXH3_64bits(b.data(), 56));
+  writeU64(b, HeaderLayout::kTableChecksum, XXH3_64bits(b.data() + table, size_t(count) * kSectionEntrySize));
+  writeU64(b, HeaderLayout::kChecksum, XXH3_64bits(b.data(), HeaderLayout::kChecksum));
 }
 
 }  // namespace
@@ -58,8 +59,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       // Every corner and the centre of the grid, straight from the integer coordinates.
       const uint32_t n = v.dag.resolution;
       if (n == 0) continue;
+      // The walk over the file's bytes in place too: a 3.x file's pool, a 2.x view's own sections.
       for (uint32_t x : {0u, n / 2, n - 1})
-        for (uint32_t z : {0u, n / 2, n - 1}) (void)v.dag.shadowed(x, n - 1 - x, z);
+        for (uint32_t z : {0u, n / 2, n - 1}) {
+          (void)v.dag.shadowed(x, n - 1 - x, z);
+          (void)v.bytes.shadowed(x, n - 1 - x, z);
+          (void)v.bytes.tileMask(x, n - 1 - x, z);
+        }
     }
     for (int grid : {0, cpvs::kAutomaticTopGrid}) {
       auto shadow = cpvs::lightShadowOf(entry, grid);

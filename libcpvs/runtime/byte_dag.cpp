@@ -2,8 +2,6 @@
 
 #include <bit>
 #include <cstring>
-#include <unordered_map>
-#include <vector>
 
 namespace cpvs {
 
@@ -35,8 +33,9 @@ uint64_t ByteDagView::childAt(uint64_t at, uint32_t header, unsigned c, unsigned
   }
   const uint32_t below = (1u << (2 * c)) - 1u;
   const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
-  const uint64_t skip = uint64_t(level.shortBytes) * std::popcount(refs & below) +
-                        uint64_t(level.longBytes - level.shortBytes) * std::popcount(wide & below);
+  // popcount32, not std::popcount: without -mpopcnt the latter is a call into libgcc.
+  const uint64_t skip = uint64_t(level.shortBytes) * popcount32(refs & below) +
+                        uint64_t(level.longBytes - level.shortBytes) * popcount32(wide & below);
   const bool isLong = (wide >> (2 * c + 1)) & 1u;
   const uint32_t value = readLittleEndian(bytes.data() + at + 2 + skip, isLong ? level.longBytes : level.shortBytes);
   if (!isLong && !level.hot.empty()) return level.childBase + level.hot[value];
@@ -84,49 +83,6 @@ uint64_t ByteDagView::tileMask(uint32_t x, uint32_t y, uint32_t z) const {
     mask |= spread << ((q >> 1) * 32 + (q & 1u) * 4);
   }
   return mask;
-}
-
-Result<ShadowDag> ByteDagView::toShadowDag() const {
-  if (leafShape != LeafShape::Slices)
-    return Outcome(ErrorCategory::RuntimeFailure, "a DAG of octant leaves has no 2.0 form");
-  if (rootCode != ChildCode::Ref) return encodeDag(resolution, rootCode, {}, {}, {});
-  const uint32_t levels = DagView{resolution, rootCode, {}, {}}.levels();
-  // Build form, level by level from the root: a node's words are its header (codes 0..2) and, per reference, the
-  // child's word offset in the next level's array (a leaf index below the leaf parents), children met first
-  // placed first.
-  std::vector<std::vector<uint32_t>> words(levels);
-  std::vector<uint64_t> nodesPerLevel(levels, 0);
-  std::vector<uint64_t> leafMasks;
-  std::vector<uint64_t> nodesAt{root}, next;  // this level's nodes (byte offsets), in order
-  std::unordered_map<uint64_t, uint32_t> placed;  // the next level's nodes (or the leaves) met so far
-  for (uint32_t l = 0; l < levels; ++l) {
-    const unsigned log2Edge = unsigned(std::countr_zero(resolution)) - l;
-    const bool leafParent = l + 1 == levels;
-    placed.clear();
-    next.clear();
-    uint32_t nextWords = 0;
-    for (uint64_t at : nodesAt) {
-      const uint32_t header = headerAt(at);
-      uint32_t stored = 0;
-      for (unsigned c = 0; c < 8; ++c) stored |= childCodeOf(header, c) << (2 * c);
-      words[l].push_back(stored);
-      for (unsigned c = 0; c < 8; ++c) {
-        if (childCodeOf(header, c) != uint32_t(ChildCode::Ref)) continue;
-        const uint64_t child = childAt(at, header, c, log2Edge);
-        const auto [it, isNew] = placed.try_emplace(child, leafParent ? uint32_t(leafMasks.size()) : nextWords);
-        if (isNew && leafParent) leafMasks.push_back(leaves[child]);
-        if (isNew && !leafParent) {
-          next.push_back(child);
-          nextWords += 1 + popcount32(headerAt(child) & 0xAAAAu);  // its header and a word per reference
-        }
-        words[l].push_back(it->second);
-      }
-    }
-    nodesPerLevel[l] = nodesAt.size();
-    nodesAt.swap(next);
-  }
-  const std::vector<std::span<const uint32_t>> spans(words.begin(), words.end());
-  return encodeDag(resolution, rootCode, spans, nodesPerLevel, std::move(leafMasks), NodeOrder::MostReferencedFirst);
 }
 
 }  // namespace cpvs

@@ -58,15 +58,13 @@ struct ByteDagView {
   // The 8x8 mask (bit (y & 7) * 8 + (x & 7) set = shadowed) of the tile holding (x, y) at slice z, as a PCF
   // footprint reads it: one slice, or the rows of four octants at that depth.
   uint64_t tileMask(uint32_t x, uint32_t y, uint32_t z) const;
-  // The same DAG in the stored form of format 2.0 (slice leaves only): the nodes and leaves its root reaches, each
-  // once, in the order the baker writes (NodeOrder::MostReferencedFirst). What the walks that read DagView take
-  // from a 3.0 file until they read the pool in place. Assumes a validated DAG; fails (RuntimeFailure) only where
-  // encodeDag does.
-  Result<ShadowDag> toShadowDag() const;
 
-private:
+  // The header of the node at byte `at`, and where its child c (a reference) is: the child node's first byte, or
+  // below a leaf parent (log2Edge 3) its leaf index. For walks written outside this class (file_pool.cpp).
   uint32_t headerAt(uint64_t at) const { return uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8; }
   uint64_t childAt(uint64_t at, uint32_t header, unsigned c, unsigned log2Edge) const;
+
+private:
   uint32_t toLeafParent(uint32_t x, uint32_t y, uint32_t z, uint64_t& at) const;
   uint64_t leafMask(uint64_t at, uint32_t header, unsigned c) const;
 };

@@ -76,10 +76,119 @@ uint64_t countNodes(std::span<const uint8_t> bytes, const CpvsFile::PoolLevel& l
   for (uint64_t at = 0; at < bytes.size(); ++nodes) {
     const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
     const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
-    at += 2 + uint64_t(l.shortBytes) * std::popcount(refs) + uint64_t(l.longBytes - l.shortBytes) * std::popcount(wide);
+    at += 2 + uint64_t(l.shortBytes) * popcount32(refs) + uint64_t(l.longBytes - l.shortBytes) * popcount32(wide);
   }
   return nodes;
 }
+
+// Which byte of a (validated) pool starts which node: a node's ordinal in the whole pool, levels ascending, from
+// its level and byte offset in constant time (a bit per byte and a count per 64 bytes).
+class PoolIndex {
+public:
+  PoolIndex(std::span<const CpvsFile::PoolLevel> levels, std::span<const PoolLevelView> views) {
+    for (size_t l = 0; l < levels.size(); ++l) {
+      Level level;
+      level.offset = levels[l].offset;
+      level.firstOrdinal = nodes_;
+      level.starts.assign((views[l].bytes.size() + 63) / 64, 0);
+      const std::span<const uint8_t> bytes = views[l].bytes;
+      for (uint64_t at = 0; at < bytes.size();) {  // as countNodes
+        level.starts[at / 64] |= uint64_t(1) << (at % 64);
+        const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
+        const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
+        at += 2 + uint64_t(levels[l].shortBytes) * popcount32(refs) +
+              uint64_t(levels[l].longBytes - levels[l].shortBytes) * popcount32(wide);
+      }
+      level.before.resize(level.starts.size());
+      uint64_t count = 0;
+      for (size_t w = 0; w < level.starts.size(); ++w) {
+        level.before[w] = count;
+        count += popcount64(level.starts[w]);
+      }
+      nodes_ += count;
+      levels_.push_back(std::move(level));
+    }
+  }
+  uint64_t nodes() const { return nodes_; }
+  // The ordinal of the node at byte `at` of `bytes` (ByteDagView's), in the level of index `level` (0: edge 8).
+  uint64_t ordinal(size_t level, uint64_t at) const {
+    const Level& l = levels_[level];
+    const uint64_t local = at - l.offset;
+    return l.firstOrdinal + l.before[local / 64] + popcount64(l.starts[local / 64] & ((uint64_t(1) << (local % 64)) - 1));
+  }
+
+private:
+  struct Level {
+    uint64_t offset = 0, firstOrdinal = 0;
+    std::vector<uint64_t> starts, before;
+  };
+  std::vector<Level> levels_;
+  uint64_t nodes_ = 0;
+};
+
+// A view's DAG from the pool into the stored form of 2.0 (slice leaves): the nodes and leaves its root reaches,
+// each once, in the order the baker writes (NodeOrder::MostReferencedFirst), for the walks that read DagView.
+// Which pool nodes a view has met is kept per pool node with the view's stamp, so nothing is cleared between
+// views and every lookup is an array read.
+class Conversion {
+public:
+  Conversion(uint64_t nodes, uint64_t leaves) : nodeStamp_(nodes, 0), nodeId_(nodes), leafStamp_(leaves, 0), leafId_(leaves) {}
+
+  Result<ShadowDag> storedForm(const ByteDagView& walk, const PoolIndex& index) {
+    if (walk.rootCode != ChildCode::Ref) return encodeDag(walk.resolution, walk.rootCode, {}, {}, {});
+    ++stamp_;
+    const uint32_t levels = DagView{walk.resolution, walk.rootCode, {}, {}}.levels();
+    const unsigned top = unsigned(std::countr_zero(walk.resolution));
+    // Build form, level by level from the root: a node's words are its header (codes 0..2) and, per reference,
+    // the child's word offset in the next level's array (a leaf index below the leaf parents), children met
+    // first placed first.
+    std::vector<std::vector<uint32_t>> words(levels);
+    std::vector<uint64_t> nodesPerLevel(levels, 0), leafMasks;
+    std::vector<uint64_t> nodesAt{walk.root}, next;  // this level's nodes (byte offsets), in order
+    for (uint32_t l = 0; l < levels; ++l) {
+      const unsigned log2Edge = top - l;
+      const bool leafParent = l + 1 == levels;
+      next.clear();
+      uint32_t nextWords = 0;
+      for (uint64_t at : nodesAt) {
+        const uint32_t header = walk.headerAt(at);
+        uint32_t stored = 0;
+        for (unsigned c = 0; c < 8; ++c) stored |= childCodeOf(header, c) << (2 * c);
+        words[l].push_back(stored);
+        for (unsigned c = 0; c < 8; ++c) {
+          if (childCodeOf(header, c) != uint32_t(ChildCode::Ref)) continue;
+          const uint64_t child = walk.childAt(at, header, c, log2Edge);
+          if (leafParent) {
+            if (leafStamp_[child] != stamp_) {
+              leafStamp_[child] = stamp_;
+              leafId_[child] = uint32_t(leafMasks.size());
+              leafMasks.push_back(walk.leaves[child]);
+            }
+            words[l].push_back(leafId_[child]);
+            continue;
+          }
+          const uint64_t ordinal = index.ordinal(log2Edge - 4, child);  // the child's level: edge 2^(log2Edge - 1)
+          if (nodeStamp_[ordinal] != stamp_) {
+            nodeStamp_[ordinal] = stamp_;
+            nodeId_[ordinal] = nextWords;
+            next.push_back(child);
+            nextWords += 1 + popcount32(walk.headerAt(child) & 0xAAAAu);  // its header and a word per reference
+          }
+          words[l].push_back(nodeId_[ordinal]);
+        }
+      }
+      nodesPerLevel[l] = nodesAt.size();
+      nodesAt.swap(next);
+    }
+    const std::vector<std::span<const uint32_t>> spans(words.begin(), words.end());
+    return encodeDag(walk.resolution, walk.rootCode, spans, nodesPerLevel, std::move(leafMasks),
+                     NodeOrder::MostReferencedFirst);
+  }
+
+private:
+  uint32_t stamp_ = 0;
+  std::vector<uint32_t> nodeStamp_, nodeId_, leafStamp_, leafId_;
+};
 
 }  // namespace
 
@@ -111,12 +220,14 @@ Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const>
     base.coding[log2] = {i > 0 ? levels[i - 1].offset : 0, levels[i].shortBytes, levels[i].longBytes, 0,
                          levelViews[i].hot};
   }
+  const PoolIndex index(levels, levelViews);
+  Conversion scratch(index.nodes(), s.leaves.size());
   for (CpvsFile::View* v : views) {
     ByteDagView walk = base;
     walk.resolution = v->bytes.resolution;
     walk.rootCode = v->bytes.rootCode;
     walk.root = walk.rootCode == ChildCode::Ref ? levels[std::countr_zero(walk.resolution) - 3].offset + v->bytes.root : 0;
-    Result<ShadowDag> dag = walk.toShadowDag();
+    Result<ShadowDag> dag = scratch.storedForm(walk, index);
     if (!dag) return invalid(name, "a view's DAG has no 2.0 form: " + dag.outcome().message());
     converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
     v->bytes = walk;
