@@ -90,10 +90,10 @@ TEST(Format3, GoldenBytesPinVersion3_0) {
   const auto file = orThrow(CpvsFile::open(goldenPath()));
   EXPECT_EQ(file->majorVersion(), 3);
   EXPECT_EQ(file->minorVersion(), 0);
-  // The layout of format.md: BAKE STRS LGHT VIEW, then the pool's POOL HOTT NODE LEAF.
+  // The layout of format.md: BAKE STRS LGHT VIEW, then the pool's LEAF NODE POOL HOTT.
   std::vector<std::string> types;
   for (const CpvsFile::SectionInfo& s : file->sections()) types.push_back(s.type);
-  EXPECT_EQ(types, (std::vector<std::string>{"BAKE", "STRS", "LGHT", "VIEW", "POOL", "HOTT", "NODE", "LEAF"}));
+  EXPECT_EQ(types, (std::vector<std::string>{"BAKE", "STRS", "LGHT", "VIEW", "LEAF", "NODE", "POOL", "HOTT"}));
   EXPECT_EQ(file->sections()[3].elementSize, kPooledViewRecordSize);
   // The sun's leaf parent is shared by two of its root's children and pooled once: two levels (edge 8 and 16),
   // two nodes of edge 8 (the sun's and the point light's face 0; the spot's root is the third).
@@ -227,7 +227,7 @@ TEST(Format3, MalformedPoolsBehindValidChecksumsAreRejected) {
               putLE(sectionOf(f, kView).bytes, ViewRecordLayout::kLevels, 3, 1);
             }).find("no pool level of edge 32"),
             std::string::npos);
-  EXPECT_NE(damaged([&](RawFile& f) { f.sections.erase(f.sections.begin() + 5); }).find("no 'HOTT' section"),
+  EXPECT_NE(damaged([&](RawFile& f) { f.sections.erase(f.sections.begin() + 7); }).find("no 'HOTT' section"),
             std::string::npos);
   // A reference of the edge-16 level (the sun's root, 2 bytes of header then 1-byte references) to a leaf parent
   // that is not there.

@@ -199,6 +199,34 @@ TEST(NodePool, EachLevelTakesTheNarrowestWidthsItsReferencesAllow) {
   for (size_t l = 2; l < laid.levels.size(); ++l) EXPECT_LE(laid.levels[l].widths.longBytes, 2u) << laid.levels[l].edge;
 }
 
+TEST(NodePool, TheStreamedLayoutIsTheLayout) {
+  // layOutInto (the writer's: level by level, each build-form level freed once done, no view counts) hands over
+  // exactly layOut's bytes, with and without hot tables.
+  const Views views = goldenViews();
+  for (const bool hot : {false, true}) {
+    NodePool whole, streamed(LeafShape::Slices, /*countViews=*/false);
+    for (const DagView& dag : views.dags) whole.add(dag), streamed.add(dag);
+    whole.add(views.wide.view()), streamed.add(views.wide.view());
+    const LaidOutPool expected = whole.layOut(hot);
+    LaidOutPool got;
+    streamed.layOutInto(hot, {[&](std::vector<uint64_t>&& leaves) { got.leaves = std::move(leaves); },
+                              [&](PooledLevel&& level) { got.levels.push_back(std::move(level)); },
+                              [&](std::vector<LaidOutPool::Root>&& roots) { got.roots = std::move(roots); }});
+    EXPECT_EQ(got.leaves, expected.leaves);
+    ASSERT_EQ(got.levels.size(), expected.levels.size());
+    for (size_t l = 0; l < got.levels.size(); ++l) {
+      EXPECT_EQ(got.levels[l].bytes, expected.levels[l].bytes) << l;
+      EXPECT_EQ(got.levels[l].hot, expected.levels[l].hot) << l;
+      EXPECT_EQ(got.levels[l].nodes, expected.levels[l].nodes) << l;
+    }
+    ASSERT_EQ(got.roots.size(), expected.roots.size());
+    for (size_t v = 0; v < got.roots.size(); ++v) EXPECT_EQ(got.roots[v].offset, expected.roots[v].offset);
+    // Consumed: nothing more is added or laid out.
+    EXPECT_THROW(streamed.add(views.dags[0]), Error);
+    EXPECT_THROW((void)streamed.layOut(), Error);
+  }
+}
+
 TEST(NodePool, SameViewsGiveTheSameBytes) {
   const Views views = goldenViews();
   NodePool a, b;

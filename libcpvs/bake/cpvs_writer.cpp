@@ -76,16 +76,16 @@ CpvsWriter::CpvsWriter(std::string settingsJson, std::vector<Light> lights, std:
     fail("too many lights, views or name bytes for 32-bit fields");
 
   // Layout: header, section table, BAKE, STRS, LGHT, VIEW, then NODE and LEAF of each view in order (2.0) or
-  // POOL, HOTT, NODE and LEAF of the pool (3.0).
+  // LEAF, NODE, POOL and HOTT of the pool (3.0: in the order the pool's layout hands them over).
   const uint32_t viewRecordSize = pooled ? kPooledViewRecordSize : kViewRecordSize;
   sections_.push_back({kBake, 1, 0, settingsJson_.size()});
   sections_.push_back({kStrs, 1, 0, namesBytes});
   sections_.push_back({kLght, kLightRecordSize, 0, lights_.size() * uint64_t(kLightRecordSize)});
   sections_.push_back({kView, viewRecordSize, 0, viewCount * viewRecordSize});
   if (pooled) {
-    for (const auto& [type, element] : {std::pair{kPool, kPoolLevelRecordSize}, {kHott, 4u}, {kNode, 1u}, {kLeaf, 8u}})
+    for (const auto& [type, element] : {std::pair{kLeaf, 8u}, {kNode, 1u}, {kPool, kPoolLevelRecordSize}, {kHott, 4u}})
       sections_.push_back({type, element});
-    pool_ = std::make_unique<NodePool>();
+    pool_ = std::make_unique<NodePool>(LeafShape::Slices, /*countViews=*/false);
   } else {
     for (uint64_t v = 0; v < viewCount; ++v) {
       sections_.push_back({kNode, 2});
@@ -243,41 +243,32 @@ std::vector<uint8_t> CpvsWriter::viewRecord(const BakedView& bv, size_t li, size
   return {record.begin(), record.end()};
 }
 
-void CpvsWriter::writeSectionParts(Section& section, std::span<const std::span<const char>> parts) {
-  section.offset = alignUp(end_);
-  static const char kZeros[kAlignment] = {};
-  if (section.offset > end_) writeAt_(end_, kZeros, size_t(section.offset - end_));
-  XXH3_state_t* state = XXH3_createState();
-  if (!state) throw std::bad_alloc();
-  XXH3_64bits_reset(state);
-  uint64_t at = section.offset;
-  for (std::span<const char> part : parts) {
-    if (part.empty()) continue;
-    writeAt_(at, part.data(), part.size());
-    XXH3_64bits_update(state, part.data(), part.size());
-    at += part.size();
-  }
-  section.size = at - section.offset;
-  section.checksum = XXH3_64bits_digest(state);
-  XXH3_freeState(state);
-  end_ = at;
-}
-
-// The pool laid out once every view is in: its level records (POOL), hot tables (HOTT), node bytes (NODE, each
-// level after the other, then kPoolTailBytes zero bytes) and leaves (LEAF), written in that order after VIEW.
+// The pool laid out once every view is in, written as it is laid out: LEAF, then NODE level by level (each level's
+// bytes freed once written, then kPoolTailBytes zero bytes), then the level records (POOL) and hot tables (HOTT),
+// and each view record's root.
 void CpvsWriter::finishPool() {
-  pool_->releaseIndexes();
-  const LaidOutPool laid = pool_->layOut(/*hotTables=*/true);
-  pool_.reset();
-  std::string records(laid.levels.size() * kPoolLevelRecordSize, '\0');
-  Out out(records);
+  Section &leaf = sections_[4], &node = sections_[5], &pool = sections_[6], &hott = sections_[7];
+  std::string records;
   std::vector<uint32_t> hot;
-  std::vector<std::span<const char>> nodeParts;
+  XXH3_state_t* state = nullptr;
   uint64_t nodeBytes = 0;
-  for (size_t i = 0; i < laid.levels.size(); ++i) {
-    const PooledLevel& level = laid.levels[i];
-    const uint64_t r = i * kPoolLevelRecordSize;
+  std::vector<LaidOutPool::Root> roots;
+  NodePool::LayoutSink sink;
+  sink.leaves = [&](std::vector<uint64_t>&& leaves) {
+    leaf.size = leaves.size() * 8;
+    writeSection(leaf, leaves.data());
+    node.offset = alignUp(end_);
+    static const char kZeros[kAlignment] = {};
+    if (node.offset > end_) writeAt_(end_, kZeros, size_t(node.offset - end_));
+    state = XXH3_createState();
+    if (!state) throw std::bad_alloc();
+    XXH3_64bits_reset(state);
+  };
+  sink.level = [&](PooledLevel&& level) {
     if (hot.size() + level.hot.size() > std::numeric_limits<uint32_t>::max()) fail("hot tables too large");
+    const uint64_t r = records.size();
+    records.resize(r + kPoolLevelRecordSize, '\0');
+    Out out(records);
     out.u32(r + P::kEdge, level.edge);
     out.u8(r + P::kShortBytes, level.widths.shortBytes);
     out.u8(r + P::kLongBytes, level.widths.longBytes);
@@ -287,21 +278,26 @@ void CpvsWriter::finishPool() {
     out.u32(r + P::kFirstHot, level.hot.empty() ? 0 : uint32_t(hot.size()));
     out.u32(r + P::kHotCount, uint32_t(level.hot.size()));
     hot.insert(hot.end(), level.hot.begin(), level.hot.end());
-    nodeParts.push_back({reinterpret_cast<const char*>(level.bytes.data()), level.bytes.size()});
+    if (!level.bytes.empty()) writeAt_(node.offset + nodeBytes, reinterpret_cast<const char*>(level.bytes.data()), level.bytes.size());
+    XXH3_64bits_update(state, level.bytes.data(), level.bytes.size());
     nodeBytes += level.bytes.size();
-  }
+  };
+  sink.roots = [&](std::vector<LaidOutPool::Root>&& laid) { roots = std::move(laid); };
+  pool_->layOutInto(/*hotTables=*/true, sink);
+  pool_.reset();
   static const char kTail[kPoolTailBytes] = {};
-  nodeParts.push_back({kTail, kPoolTailBytes});
-  Section* const pool = &sections_[4];
-  pool->size = records.size();
-  writeSection(*pool, records.data());
-  sections_[5].size = hot.size() * 4;
-  writeSection(sections_[5], hot.data());
-  writeSectionParts(sections_[6], nodeParts);
-  sections_[7].size = laid.leaves.size() * 8;
-  writeSection(sections_[7], laid.leaves.data());
+  writeAt_(node.offset + nodeBytes, kTail, kPoolTailBytes);
+  XXH3_64bits_update(state, kTail, kPoolTailBytes);
+  node.size = nodeBytes + kPoolTailBytes;
+  node.checksum = XXH3_64bits_digest(state);
+  XXH3_freeState(state);
+  end_ = node.offset + node.size;
+  pool.size = records.size();
+  writeSection(pool, records.data());
+  hott.size = hot.size() * 4;
+  writeSection(hott, hot.data());
   for (size_t v = 0; v < viewRecords_.size(); ++v) {
-    const LaidOutPool::Root& root = laid.roots[v];
+    const LaidOutPool::Root& root = roots[v];
     std::string field(8, '\0');
     Out(field).u64(0, root.code == ChildCode::Ref ? root.offset : 0);
     std::memcpy(viewRecords_[v].data() + V::kPoolRoot, field.data(), 8);

@@ -60,10 +60,8 @@ private:
     uint64_t offset = 0, size = 0, checksum = 0;
   };
   void writeSection(Section& section, const void* data);
-  // A section of several parts, one after the other.
-  void writeSectionParts(Section& section, std::span<const std::span<const char>> parts);
   std::vector<uint8_t> viewRecord(const BakedView& view, size_t li, size_t vi, uint32_t sectionIndex) const;
-  void finishPool();  // 3.0: POOL, HOTT, NODE and LEAF, and each view record's root
+  void finishPool();  // 3.0: LEAF, NODE, POOL and HOTT, and each view record's root
   std::string settingsJson_;
   std::vector<Light> lights_;
   std::vector<size_t> viewsPerLight_;

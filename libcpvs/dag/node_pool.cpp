@@ -72,10 +72,11 @@ LevelChoice narrowestCoding(std::span<const uint32_t> words, const std::vector<u
 }  // namespace
 
 size_t NodePool::add(const DagView& dag) {
-  if (indexesReleased_) throw Error(ErrorCategory::RuntimeFailure, "node pool: a view added after releaseIndexes()");
+  if (indexesReleased_ || consumed_)
+    throw Error(ErrorCategory::RuntimeFailure, "node pool: a view added after releaseIndexes() or layOutInto()");
   if (levels_.empty()) {
     levels_.resize(kMaxDagLevels);
-    offsetOfId_.resize(kMaxDagLevels);
+    nodesIn_.resize(kMaxDagLevels, 0);
     starts_.resize(kMaxDagLevels);
     viewsReaching_.resize(kMaxDagLevels);
   }
@@ -88,6 +89,7 @@ size_t NodePool::add(const DagView& dag) {
     // A view's DAG holds each of its nodes once, so a node met here for the first time in this view is one more
     // view reaching it.
     const auto reached = [&](uint32_t log2, uint32_t id) {
+      if (!countViews_) return id;
       uint32_t& n = viewsReaching_[log2][id];
       n += n != UINT32_MAX;
       return id;
@@ -144,12 +146,10 @@ uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
 uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned count) {
   const uint64_t before = levels_[log2].records().size();
   const uint32_t offset = levels_[log2].intern(words, count);
-  std::vector<uint32_t>& offsets = offsetOfId_[log2];
   if (offset != before) return starts_[log2].idAt(offset);
   // New: appended at the end, so offsets grow with ids.
-  const uint32_t id = uint32_t(offsets.size());
-  offsets.push_back(offset);
-  viewsReaching_[log2].push_back(0);
+  const uint32_t id = nodesIn_[log2]++;
+  if (countViews_) viewsReaching_[log2].push_back(0);
   starts_[log2].append(offset, id);
   return id;
 }
@@ -186,12 +186,30 @@ void NodePool::releaseIndexes() {
 
 uint64_t NodePool::nodes() const {
   uint64_t n = 0;
-  for (const std::vector<uint32_t>& ids : offsetOfId_) n += ids.size();
+  for (const uint32_t count : nodesIn_) n += count;
   return n;
 }
 
 LaidOutPool NodePool::layOut(bool hotTables) const {
   LaidOutPool out;
+  layOutImpl(hotTables,
+             {[&](std::vector<uint64_t>&& leaves) { out.leaves = std::move(leaves); },
+              [&](PooledLevel&& level) { out.levels.push_back(std::move(level)); },
+              [&](std::vector<LaidOutPool::Root>&& roots) { out.roots = std::move(roots); }},
+             false);
+  return out;
+}
+
+void NodePool::layOutInto(bool hotTables, const LayoutSink& sink) {
+  releaseIndexes();
+  layOutImpl(hotTables, sink, true);
+  consumed_ = true;
+}
+
+void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) const {
+  if (consumed_) throw Error(ErrorCategory::RuntimeFailure, "node pool: laid out after layOutInto()");
+  // With `release` (layOutInto, a non-const call), the build form of each level is freed as it is done.
+  NodePool& self = const_cast<NodePool&>(*this);
   uint32_t top = 0;  // log2 of the largest root's edge
   for (const Root& r : roots_)
     if (r.code == ChildCode::Ref) top = std::max(top, r.log2Edge);
@@ -206,16 +224,23 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
   // Each child of the level below: its byte offset (leaves: index) and its rank, by its id (leaf index).
   std::vector<uint32_t> offsetBelow(masks.size()), rankBelow(masks.size());
   std::vector<uint32_t> orderBelow = leafOrder;
-  for (uint32_t i = 0; i < leafOrder.size(); ++i) {
-    offsetBelow[leafOrder[i]] = rankBelow[leafOrder[i]] = i;
-    out.leaves.push_back(masks[leafOrder[i]]);
+  {
+    std::vector<uint64_t> leaves;
+    leaves.reserve(leafOrder.size());
+    for (uint32_t i = 0; i < leafOrder.size(); ++i) {
+      offsetBelow[leafOrder[i]] = rankBelow[leafOrder[i]] = i;
+      leaves.push_back(masks[leafOrder[i]]);
+    }
+    sink.leaves(std::move(leaves));
   }
 
   std::vector<LaidOutPool::Root> roots(roots_.size());
   for (size_t v = 0; v < roots_.size(); ++v) roots[v] = {roots_[v].code, 1u << roots_[v].log2Edge, 0};
   for (uint32_t log2 = 3; top >= 3 && log2 <= top; ++log2) {
     const std::span<const uint32_t> words = levels_[log2].records().span();
-    const std::vector<uint32_t>& offsetOf = offsetOfId_[log2];
+    std::vector<uint32_t> offsetOf;  // where each id's words start: ids are in the order of the words
+    offsetOf.reserve(nodesIn_[log2]);
+    for (size_t at = 0; at < words.size(); at += nodeWordCount(words[at])) offsetOf.push_back(uint32_t(at));
     const size_t nodes = offsetOf.size();
     std::vector<uint32_t> order;  // the level's node ids as laid out
     {
@@ -269,10 +294,12 @@ LaidOutPool NodePool::layOut(bool hotTables) const {
     offsetBelow = std::move(position);
     rankBelow = std::move(rank);
     orderBelow = std::move(order);
-    out.levels.push_back(std::move(level));
+    if (release) {  // this level's words and ids are done with; the level above is read next
+      (void)self.levels_[log2].take();
+    }
+    sink.level(std::move(level));
   }
-  out.roots = std::move(roots);
-  return out;
+  sink.roots(std::move(roots));
 }
 
 PooledDags concatenate(const LaidOutPool& pool, LeafShape shape) {

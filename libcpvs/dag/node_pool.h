@@ -13,6 +13,7 @@
 // first such pair in kWidthPairs).
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "libcpvs/dag/leaf_table.h"
@@ -66,7 +67,9 @@ PooledDags concatenate(const LaidOutPool& pool, LeafShape shape);
 
 class NodePool {
 public:
-  explicit NodePool(LeafShape shape = LeafShape::Slices) : shape_(shape) {}
+  // countViews: keep, per node, how many views reach it (nodesByViewsReaching; 4 bytes a node), for the studies.
+  explicit NodePool(LeafShape shape = LeafShape::Slices, bool countViews = true)
+      : shape_(shape), countViews_(countViews) {}
 
   // Adds one view's DAG in the stored form of format 2.0 (a validated file's, or encodeDag's) and returns its
   // index among the views. Only nodes reachable from the root are pooled.
@@ -75,6 +78,16 @@ public:
   // above the leaf parents may also code its short references as ranks (PooledLevel::hot) where that makes it
   // smaller, the table's 4 bytes an entry counted.
   LaidOutPool layOut(bool hotTables = false) const;
+  // The same layout handed over as it is made, for a writer that streams it: the leaves first, then each level,
+  // ascending edge, as soon as it is laid out; the roots last. Each level's build form is freed once the levels
+  // above no longer need it, so the peak is the build form and one level rather than both forms whole. The same
+  // bytes as layOut(hotTables). Consumes the pool: nothing is added or laid out after it.
+  struct LayoutSink {
+    std::function<void(std::vector<uint64_t>&& leaves)> leaves;
+    std::function<void(PooledLevel&& level)> level;
+    std::function<void(std::vector<LaidOutPool::Root>&& roots)> roots;
+  };
+  void layOutInto(bool hotTables, const LayoutSink& sink);
   // Frees the hash indexes (a fifth of the pool's memory, more while they grow) once no view is to come: add()
   // refuses views after it. layOut() needs only the nodes.
   void releaseIndexes();
@@ -94,10 +107,10 @@ private:
   };
   // levels_[log2(edge)]: the nodes of that edge in build form (a header of codes 0..2, then one word per
   // referenced child: its id in the level below, or its leaf index below a leaf parent). A node's id is its
-  // place in the order the level first met it; offsetOfId_[log2][id] is where its words start, so the layout
-  // keeps its arrays per node rather than per word.
+  // place in the order the level first met it, which is the order of its words (the layout finds where each
+  // id's words start by one pass over the level), so the layout keeps its arrays per node rather than per word.
   std::vector<NodeTable> levels_;
-  std::vector<std::vector<uint32_t>> offsetOfId_;
+  std::vector<uint32_t> nodesIn_;  // per level
   std::vector<std::vector<uint32_t>> viewsReaching_;  // per level, by id
   // Which words start a node, per level, with the ids before each block of 512 words: a record met again gives
   // its id in constant time (its offset's rank), at 1 bit a word.
@@ -111,6 +124,10 @@ private:
   LeafTable leaves_;
   std::vector<Root> roots_;
   LeafShape shape_;
+  bool countViews_ = true;
+  bool consumed_ = false;
+  // layOut's work; with `release`, each level's build form is freed once laid out and the next level counted.
+  void layOutImpl(bool hotTables, const LayoutSink& sink, bool release) const;
   uint32_t internLeafParent(const DagView& dag, uint32_t unit);
   uint32_t internNode(uint32_t log2, const uint32_t* words, unsigned count);  // the node's id in its level
   bool indexesReleased_ = false;
