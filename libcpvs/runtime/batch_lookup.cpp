@@ -102,8 +102,8 @@ CellIsa vectorWalks(const DagView& dag, size_t slots) {
 // the speed of its loads: each child's node is prefetched when its reference is read and read one pass over
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
-// (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 the K = 1 batches and the corner-tile walks in
-// dag_walks_avx2.cpp (walkVoxelsAvx2, descendGroupAvx2), which give the same results.
+// (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 in dag_walks_avx2.cpp (walkVoxelsAvx2,
+// filterFootprintsAvx2), which give the same results.
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
@@ -206,9 +206,9 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
 
 // K <= 9: a footprint covers at most 2 x 2 tiles of 8 x 8 texels, the tiles of its four corners: each
 // distinct corner tile walks from its own top-grid cell (the same descent as K = 1, ending in the tile's mask
-// at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 the
-// whole filter runs in dag_walks_avx512.cpp instead (filterFootprintsAvx512), sixteen footprints at a time,
-// with the same answers; with AVX2 the corner walks here go eight at a time (descendGroupAvx2). (Walking once per
+// at the slice), and the masks are AND-ed with the kernel's part of each tile and counted. With AVX-512 or AVX2
+// the whole filter runs in dag_walks_avx512.cpp or dag_walks_avx2.cpp instead (filterFootprintsAvx512,
+// filterFootprintsAvx2), sixteen or eight footprints at a time, with the same answers. (Walking once per
 // footprint to the node its corner tiles share, then from there, took as long: the grouping it needs cost
 // what the shared steps saved; docs/lookups.md.)
 CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<const PendingPoint> pending,
@@ -243,16 +243,7 @@ CPVS_POPCNT_CLONES void LightShadow::countCornerTiles(uint32_t view, std::span<c
       started += keep & uint32_t(code == uint32_t(ChildCode::Ref));
     }
   }
-  // The corner walks eight or sixteen at a time where the CPU has AVX2 or AVX-512 (the same masks).
-  if (const CellIsa isa = vectorWalks(dag, 4 * n); isa == CellIsa::Scalar) {
-    descend(dag, corners, started, startSize, TileMasks{masks.data()});
-  } else {
-    const auto descendGroup = isa == CellIsa::Avx512 ? &descendGroupAvx512 : &descendGroupAvx2;
-    const WalkDag walked = walkDag(dag);
-    for (size_t begin = 0; begin < started; begin += kWalksInFlight)
-      descendGroup(walked, corners.from(begin), std::min(kWalksInFlight, started - begin), startSize,
-                   WalkResult::TileMask, masks.data());
-  }
+  descend(dag, corners, started, startSize, TileMasks{masks.data()});
   counts.resize(n);
   for (size_t p = 0; p < n; ++p) {
     const Footprint& f = pending[p].f;
@@ -392,7 +383,8 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
     const DagView& dag = dags_[view];
     const int64_t n = dag.resolution;
     const bool walks = dag.rootCode == ChildCode::Ref;
-    if (walks && k <= kCornerTileKernel && vectorWalks(dag, 4 * lanes) == CellIsa::Avx512) {
+    if (const CellIsa isa = walks && k <= kCornerTileKernel ? vectorWalks(dag, 4 * lanes) : CellIsa::Scalar;
+        isa != CellIsa::Scalar) {
       FootprintBatch batch;
       batch.start = walkStart(dag, grids_[view]);
       batch.cells = cells;
@@ -400,7 +392,7 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
       batch.count = lanes;
       batch.kernelHalf = uint32_t(h);
       batch.answers = out.data();
-      return filterFootprintsAvx512(batch);
+      return isa == CellIsa::Avx512 ? filterFootprintsAvx512(batch) : filterFootprintsAvx2(batch);
     }
     size_t pendingCount = 0;
     for (size_t j = 0; j < lanes; ++j) {

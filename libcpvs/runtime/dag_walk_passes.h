@@ -42,6 +42,28 @@ inline Step step(const Units& units, M m, V offset, V c) {
   return s;
 }
 
+// The K <= 9 filters' footprints (filterFootprintsAvx512, filterFootprintsAvx2): the footprints of a batch, one array per field (x0, x1, y0, y1: inclusive texel bounds; z: the slice; out: the
+// answer's slot), each with kWalkPadding spare slots for the packing stores.
+struct FootprintArrays {
+  uint32_t *x0, *x1, *y0, *y1, *z, *out;
+};
+struct FootprintStorage {
+  std::vector<uint32_t> fields[6];
+  FootprintArrays reserve(size_t count) {
+    if (fields[0].size() < count + kWalkPadding)
+      for (std::vector<uint32_t>& f : fields) f.resize(count + kWalkPadding);
+    return {fields[0].data(), fields[1].data(), fields[2].data(), fields[3].data(), fields[4].data(),
+            fields[5].data()};
+  }
+};
+struct FootprintLanes {
+  V x0, x1, y0, y1, z, out;
+};
+inline FootprintLanes loadFootprints(const FootprintArrays& f, size_t i, M m) {
+  return {load(f.x0 + i, m), load(f.x1 + i, m), load(f.y0 + i, m), load(f.y1 + i, m), load(f.z + i, m),
+          load(f.out + i, m)};
+}
+
 // kLanes walks' fields (WalkSet's arrays) in lanes.
 struct WalkLanes {
   V x, y, z, offset, out;

@@ -85,7 +85,7 @@ inline constexpr size_t kWalksInFlight = 512;
 
 // Whether this CPU runs the AVX-512 walks (AVX-512F; CPVS_LOOKUP_ISA below avx512 turns them off, as it
 // lowers mapCells). Without them, a CPU with AVX2 runs the AVX2 walks (dag_walks_avx2.cpp: the K = 1 lookups
-// and the PCF filter's corner-tile walks; the filter's packing and counting stay scalar there).
+// and the K <= 9 PCF filter, filterFootprintsAvx2).
 bool vectorWalksAvailable();
 
 // As prefetchNode in batch_lookup.cpp, for the walks offsets[begin, end): a node (at most 34 bytes) may straddle
@@ -150,5 +150,7 @@ struct FootprintBatch {
 };
 // Same preconditions as descendGroupAvx512, with 4 * count walks.
 void filterFootprintsAvx512(const FootprintBatch& batch);
+// The same eight footprints at a time with AVX2 (descendGroupAvx2's preconditions), the same answers bit for bit.
+void filterFootprintsAvx2(const FootprintBatch& batch);
 
 }  // namespace cpvs

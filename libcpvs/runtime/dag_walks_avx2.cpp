@@ -11,6 +11,7 @@
 #include <bit>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include <immintrin.h>
 
@@ -216,6 +217,139 @@ void walkVoxelsAvx2(const VoxelWalkBatch& b) {
   descendFromStart(g, w, started, results);
 }
 
+namespace {
+
+// 64-bit lanes, four to an AVX2 vector: half h of eight 32-bit lanes widened, a footprint's masks counted.
+inline __m256i widen(V v, int h) {
+  return _mm256_cvtepu32_epi64(h ? _mm256_extracti128_si256(v.v, 1) : _mm256_castsi256_si128(v.v));
+}
+inline __m256i widenMask(M m, int h) {  // all-ones 32-bit lanes to all-ones 64-bit lanes
+  return _mm256_cvtepi32_epi64(h ? _mm256_extracti128_si256(m.v, 1) : _mm256_castsi256_si128(m.v));
+}
+// Bits set in each 64-bit lane: a nibble table per byte, summed per lane (AVX2 has no 64-bit popcount).
+inline __m256i popcount64(__m256i v) {
+  const __m256i table = _mm256_setr_epi8(0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4, 0, 1, 1, 2, 1, 2, 2, 3, 1, 2,
+                                         2, 3, 2, 3, 3, 4);
+  const __m256i nibble = _mm256_set1_epi8(0x0F);
+  const __m256i low = _mm256_shuffle_epi8(table, _mm256_and_si256(v, nibble));
+  const __m256i high = _mm256_shuffle_epi8(table, _mm256_and_si256(_mm256_srli_epi16(v, 4), nibble));
+  return _mm256_sad_epu8(_mm256_add_epi8(low, high), _mm256_setzero_si256());
+}
+inline V maxU(V a, V b) { return _mm256_max_epu32(a.v, b.v); }
+inline V minU(V a, V b) { return _mm256_min_epu32(a.v, b.v); }
+inline V maxS(V a, V b) { return _mm256_max_epi32(a.v, b.v); }
+inline V minS(V a, V b) { return _mm256_min_epi32(a.v, b.v); }
+inline M allLanes() { return {_mm256_set1_epi32(-1)}; }
+
+// As dag_walks_avx512.cpp's tileSpan, four 64-bit lanes: the bits of an 8 x 8 tile in columns a..b of every row
+// and in rows c..d (a variable shift by 64 gives 0, so rows up to 7 need no special case).
+inline __m256i tileSpan(__m256i a, __m256i b, __m256i c, __m256i d) {
+  const __m256i one = _mm256_set1_epi64x(1);
+  const __m256i below = _mm256_sub_epi64(_mm256_sllv_epi64(one, a), one);
+  __m256i columns = _mm256_andnot_si256(below, _mm256_sub_epi64(_mm256_sllv_epi64(_mm256_set1_epi64x(2), b), one));
+  columns = _mm256_or_si256(columns, _mm256_slli_epi64(columns, 8));
+  columns = _mm256_or_si256(columns, _mm256_slli_epi64(columns, 16));
+  columns = _mm256_or_si256(columns, _mm256_slli_epi64(columns, 32));
+  const __m256i upTo = _mm256_sub_epi64(_mm256_sllv_epi64(one, _mm256_slli_epi64(_mm256_add_epi64(d, one), 3)), one);
+  const __m256i rows = _mm256_andnot_si256(_mm256_sub_epi64(_mm256_sllv_epi64(one, _mm256_slli_epi64(c, 3)), one), upTo);
+  return _mm256_and_si256(columns, rows);
+}
+
+thread_local WalkStorage tCornerWalks;
+thread_local FootprintStorage tFootprints;
+thread_local std::vector<uint64_t> tCornerMasks;
+
+// Step 1 of filterFootprintsAvx2: every lane's answer without the DAG, and the voxel lanes' footprints packed
+// into `f`. Returns how many.
+size_t packFootprints(const FootprintBatch& b, const FootprintArrays& f) {
+  const V h = splat(b.kernelHalf), last = splat(b.start.dag.resolution - 1), zero = splat(0);
+  size_t packed = 0;
+  for (size_t j = 0; j < b.count; j += 8) {
+    const size_t lanes = std::min<size_t>(8, b.count - j);
+    const M m = laneMask(lanes);
+    const auto [x, y, z, state, out] = loadCells(b.cells, b.indices, j, m);
+    const M lit = m & equal(state, splat(kCellLit)), voxel = m & equal(state, splat(kCellVoxel));
+    // Final unless a walk follows (the scalar filter's out[i] = float(state == kCellLit)).
+    uint32_t outs[8];
+    store(outs, out);
+    alignas(32) float values[8];
+    _mm256_store_ps(values, _mm256_and_ps(_mm256_castsi256_ps(lit.v), _mm256_set1_ps(1.0f)));
+    storeLanes(b.answers, lanes, outs, values);
+    compress(f.x0 + packed, voxel, maxS(x - h, zero));  // x and y are below 2^31 - 9: no overflow
+    compress(f.x1 + packed, voxel, minS(x + h, last));
+    compress(f.y0 + packed, voxel, maxS(y - h, zero));
+    compress(f.y1 + packed, voxel, minS(y + h, last));
+    compress(f.z + packed, voxel, z);
+    compress(f.out + packed, voxel, out);
+    packed += lanesSet(voxel);
+  }
+  return packed;
+}
+
+}  // namespace
+
+// The AVX-512 filter's steps (filterFootprintsAvx512) eight footprints at a time: pack the voxel lanes'
+// footprints, walk each distinct corner tile to its mask, count each mask within the footprint's part of its
+// tile. The answers are computed per lane as the scalar filter's, float(1 - shadowed / K^2).
+void filterFootprintsAvx2(const FootprintBatch& b) {
+  const WalkStart& g = b.start;
+  const FootprintArrays f = tFootprints.reserve(b.count);
+  const size_t n = packFootprints(b, f);
+  // Corner q of footprint i: x1 if q & 1 else x0, y1 if q & 2 else y0; its mask in masks[q * n + i].
+  const WalkSet w = tCornerWalks.reserve(4 * n);
+  if (tCornerMasks.size() < 4 * n) tCornerMasks.resize(4 * n);
+  uint64_t* masks = tCornerMasks.data();
+  size_t started = 0;
+  for (size_t i = 0; i < n; i += 8) {
+    const size_t lanes = std::min<size_t>(8, n - i);
+    const M m = laneMask(lanes);
+    const FootprintLanes l = loadFootprints(f, i, m);
+    const M twoColumns = andNot(allLanes(), equal(shr(l.x0, 3), shr(l.x1, 3)));
+    const M twoRows = andNot(allLanes(), equal(shr(l.y0, 3), shr(l.y1, 3)));
+    for (uint32_t q = 0; q < 4; ++q) {
+      const V x = q & 1u ? l.x1 : l.x0, y = q & 2u ? l.y1 : l.y0;
+      // A corner in the same tile as corner 0, 1 or 2 counts nothing (its tile is counted once).
+      const M keep = m & (q & 1u ? twoColumns : allLanes()) & (q & 2u ? twoRows : allLanes());
+      const V entry = startEntries(g, keep, x, y, l.z);
+      const V code = entry & splat(3);
+      const M shadowed = keep & equal(code, splat(1));
+      for (int h = 0; h < 2; ++h)  // the homogeneous answers (0 where not kept), final unless a walk follows
+        _mm256_maskstore_epi64(reinterpret_cast<long long*>(masks + q * n + i + 4 * h), widenMask(m, h),
+                               widenMask(shadowed, h));
+      started = storeWalks(w, started, keep & equal(code, splat(2)),
+                           {x, y, l.z, shr(entry, 2), iota() + splat(uint32_t(q * n + i))});
+    }
+  }
+  descendFromStart(g, w, started, Results<WalkResult::TileMask>{masks});
+  const double kernelArea = double(2 * b.kernelHalf + 1) * double(2 * b.kernelHalf + 1);
+  for (size_t i = 0; i < n; i += 8) {
+    const size_t lanes = std::min<size_t>(8, n - i);
+    const M m = laneMask(lanes);
+    const FootprintLanes l = loadFootprints(f, i, m);
+    __m256i total[2] = {_mm256_setzero_si256(), _mm256_setzero_si256()};
+    for (uint32_t q = 0; q < 4; ++q) {
+      // The corner tile's origin and the footprint's columns a..b and rows c..d inside it.
+      const V ox = (q & 1u ? l.x1 : l.x0) & splat(~7u), oy = (q & 2u ? l.y1 : l.y0) & splat(~7u);
+      const V a = maxU(l.x0, ox) - ox, bEnd = minU(l.x1, ox + splat(7)) - ox;
+      const V c = maxU(l.y0, oy) - oy, d = minU(l.y1, oy + splat(7)) - oy;
+      for (int h = 0; h < 2; ++h) {
+        const __m256i tile = tileSpan(widen(a, h), widen(bEnd, h), widen(c, h), widen(d, h));
+        const __m256i mask = _mm256_maskload_epi64(reinterpret_cast<const long long*>(masks + q * n + i + 4 * h),
+                                                   widenMask(m, h));
+        total[h] = _mm256_add_epi64(total[h], popcount64(_mm256_and_si256(mask, tile)));
+      }
+    }
+    alignas(32) uint64_t shadowed[8];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(shadowed), total[0]);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(shadowed + 4), total[1]);
+    float values[8];
+    for (size_t k = 0; k < 8; ++k) values[k] = float(1.0 - double(shadowed[k]) / kernelArea);
+    uint32_t outs[8];
+    store(outs, l.out);
+    storeLanes(b.answers, lanes, outs, values);
+  }
+}
+
 }  // namespace cpvs
 
 CPVS_TARGET_END
@@ -231,6 +365,7 @@ void descendGroupAvx2(const WalkDag&, const WalkSet&, size_t, uint32_t, WalkResu
   std::abort();  // unreachable: walkIsa() is never Avx2 here
 }
 void walkVoxelsAvx2(const VoxelWalkBatch&) { std::abort(); }
+void filterFootprintsAvx2(const FootprintBatch&) { std::abort(); }
 }  // namespace cpvs
 
 #endif

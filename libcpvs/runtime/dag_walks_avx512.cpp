@@ -198,27 +198,6 @@ inline V maxS(V a, V b) { return _mm512_max_epi32(a.v, b.v); }
 inline V minS(V a, V b) { return _mm512_min_epi32(a.v, b.v); }
 inline __m512i widen(V v, int h) { return _mm512_cvtepu32_epi64(half(v, h)); }  // lanes 8h .. 8h + 7, 64-bit
 
-// The footprints of a batch, one array per field (x0, x1, y0, y1: inclusive texel bounds; z: the slice; out: the
-// answer's slot), each with kWalkPadding spare slots for the packing stores.
-struct FootprintArrays {
-  uint32_t *x0, *x1, *y0, *y1, *z, *out;
-};
-struct FootprintStorage {
-  std::vector<uint32_t> fields[6];
-  FootprintArrays reserve(size_t count) {
-    if (fields[0].size() < count + kWalkPadding)
-      for (std::vector<uint32_t>& f : fields) f.resize(count + kWalkPadding);
-    return {fields[0].data(), fields[1].data(), fields[2].data(), fields[3].data(), fields[4].data(),
-            fields[5].data()};
-  }
-};
-struct FootprintLanes {
-  V x0, x1, y0, y1, z, out;
-};
-inline FootprintLanes loadFootprints(const FootprintArrays& f, size_t i, M m) {
-  return {load(f.x0 + i, m), load(f.x1 + i, m), load(f.y0 + i, m), load(f.y1 + i, m), load(f.z + i, m),
-          load(f.out + i, m)};
-}
 
 // The bits of an 8 x 8 tile (bit row * 8 + column) in columns a..b of every row and in rows c..d, for 64-bit
 // lanes (kTileSpans' entries, computed: a variable shift by 64 gives 0, so rows up to 7 need no special case).
