@@ -2,6 +2,7 @@
 // Ctrl-C leaves neither a partial target nor a stray temporary beside it.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -115,6 +116,31 @@ TEST(AtomicFile, SigkillAtAnyMomentLeavesNothing) {
     EXPECT_EQ(readAll(target), "old");
     EXPECT_EQ(entries(dir), 1u) << "moment " << moment << ": something was left in " << dir;
   }
+}
+
+TEST(AtomicFile, ANamedPipeIsWrittenInPlaceNotReplaced) {
+  // What `cpvs-query ... -o /dev/null` needs: a target that is a device or a pipe stays one (renaming a
+  // finished file over /dev/null made it a regular file). A pipe stands in for the device, so that a broken
+  // build replaces nothing of the machine's.
+  const fs::path dir = test::tempDir();
+  const fs::path pipe = dir / "out.fifo";
+  ASSERT_EQ(::mkfifo(pipe.c_str(), 0644), 0);
+  // The read end first, without blocking (so that opening for writing does not wait); the bytes fit the pipe.
+  const int readEnd = ::open(pipe.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(readEnd, 0);
+  {
+    tools::AtomicFile out(pipe.string());
+    out.write("visibility\n1\n");
+    out.commit();
+  }
+  char buffer[64] = {};
+  const ssize_t n = ::read(readEnd, buffer, sizeof buffer);
+  ::close(readEnd);
+  EXPECT_EQ(std::string(buffer, size_t(std::max<ssize_t>(n, 0))), "visibility\n1\n");
+  struct stat st {};
+  ASSERT_EQ(::stat(pipe.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISFIFO(st.st_mode)) << "the pipe was replaced";
+  EXPECT_EQ(entries(dir), 1u);  // no temporary beside it
 }
 
 TEST(AtomicFile, ADirectoryAsTheTargetIsAnOutputErrorAtOnce) {

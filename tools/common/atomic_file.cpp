@@ -82,6 +82,13 @@ AtomicFile::AtomicFile(const std::string& path) : path_(path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw Error(ErrorCategory::OutputFailed, path + ": is a directory, not a file that can be written");
+  struct stat target {};
+  if (::stat(path.c_str(), &target) == 0 && !S_ISREG(target.st_mode)) {
+    fd_ = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path + ": cannot be written: " + std::strerror(errno));
+    direct_ = true;
+    return;
+  }
   // An anonymous file in the target's folder: nothing with a name exists until commit(), so even SIGKILL
   // leaves no trace. File systems without O_TMPFILE get a named temporary, removed on errors and signals.
   fd_ = ::open(folderOf(path).c_str(), O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
@@ -153,6 +160,11 @@ void AtomicFile::commit() {
 
 void AtomicFile::prepare() {
   if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, path_ + ": commit after the file was closed");
+  if (direct_) {  // a device or a pipe: written already, nothing to flush or name
+    ::close(fd_);
+    fd_ = -1;
+    return;
+  }
   auto fail = [&](const std::string& what) {
     const std::string reason = std::strerror(errno);
     discard();
@@ -184,6 +196,7 @@ void AtomicFile::prepare() {
 }
 
 void AtomicFile::publish() {
+  if (direct_ && fd_ < 0) return;
   if (!exists_ || fd_ >= 0) throw Error(ErrorCategory::OutputFailed, path_ + ": publish before prepare");
   if (std::rename(temp_.c_str(), path_.c_str()) != 0) {
     const std::string reason = std::strerror(errno);

@@ -5,7 +5,9 @@
 // the target takes its place, removed when the object is destroyed (an error unwinding) and, on Ctrl-C or
 // SIGTERM, by a signal handler before the process dies with that signal.
 // Creating the object checks that the target can be written (not a directory, its folder writable), so a
-// tool can open all its outputs before the work and fail at once.
+// tool can open all its outputs before the work and fail at once. A target that exists and is not a regular
+// file (/dev/null, /dev/stdout, a named pipe) is written directly: there is nothing to keep whole, and renaming
+// over it would replace the device or pipe with a file.
 #include <initializer_list>
 #include <string>
 #include <string_view>
@@ -38,6 +40,7 @@ private:
   int fd_ = -1;
   bool exists_ = false;  // the temporary is on disk
   int slot_ = -1;  // where the signal handler finds the temporary's name (-1: not registered)
+  bool direct_ = false;  // the target is a device or a pipe, written in place
 };
 
 // Commits several outputs of one run together: all are flushed and named first, then all renamed into place,
