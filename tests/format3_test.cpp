@@ -7,6 +7,7 @@
 //   CPVS_UPDATE_GOLDEN=1 ./format3_test --gtest_filter='*Golden*'
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -17,6 +18,7 @@
 #include "libcpvs/bake/baked_from_file.h"
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/runtime/cpvs_file.h"
+#include "libcpvs/runtime/file_pool.h"
 #include "support/cpvs_files.h"
 #include "support/test_support.h"
 
@@ -236,6 +238,46 @@ TEST(Format3, MalformedPoolsBehindValidChecksumsAreRejected) {
               sectionOf(f, kNode).bytes[level16 + 2] = 0xFF;
             }).find("is not a node of the level below"),
             std::string::npos);
+}
+
+TEST(Format3, ConvertingOnOpenIsBounded) {
+  // A pool named by many views converts into as many copies: the reader bounds them (convertedBytesAllowed), so
+  // that a small crafted file cannot take unbounded memory or time. Here the golden file's pool with a bound of
+  // a few bytes, through the reader's own pool step.
+  const auto file = orThrow(CpvsFile::open(goldenPath()));
+  const std::span<const uint8_t> bytes = file->bytes();
+  FilePoolSections sections;
+  for (const CpvsFile::SectionInfo& s : file->sections()) {
+    const std::span<const uint8_t> at = bytes.subspan(s.offset, s.size);
+    if (s.type == "POOL") sections.records = at, sections.recordSize = s.elementSize;
+    if (s.type == "NODE") sections.nodes = at;
+    if (s.type == "HOTT") sections.hot = {reinterpret_cast<const uint32_t*>(at.data()), at.size() / 4};
+    if (s.type == "LEAF") sections.leaves = {reinterpret_cast<const uint64_t*>(at.data()), at.size() / 8};
+  }
+  auto convert = [&](uint64_t bound) {
+    std::vector<CpvsFile::View> views;
+    for (const CpvsFile::LightEntry& light : file->lights())
+      for (const CpvsFile::View& view : light.views) views.push_back(view);
+    std::vector<CpvsFile::View*> pointers;
+    for (CpvsFile::View& view : views) {  // the root as the record holds it: its offset in its own level
+      if (view.bytes.rootCode == ChildCode::Ref)
+        view.bytes.root -= file->poolLevels()[std::countr_zero(view.view.resolution) - 3].offset;
+      pointers.push_back(&view);
+    }
+    sections.maxConvertedBytes = bound;
+    std::vector<CpvsFile::PoolLevel> levels;
+    std::vector<std::unique_ptr<ShadowDag>> converted;
+    return readFilePool(sections, pointers, levels, converted, "bounded.cpvs");
+  };
+  EXPECT_TRUE(convert(UINT64_MAX));
+  const Outcome bounded = convert(16);
+  ASSERT_FALSE(bounded);
+  EXPECT_EQ(bounded.category(), ErrorCategory::InvalidInput);
+  EXPECT_NE(bounded.message().find("bounded.cpvs: its views' DAGs would take more than"), std::string::npos)
+      << bounded.message();
+  EXPECT_NE(bounded.message().find("view 0 passed it"), std::string::npos) << bounded.message();
+  EXPECT_GE(convertedBytesAllowed(file->fileSize()), 64 * file->fileSize());
+  EXPECT_EQ(convertedBytesAllowed(UINT64_MAX), UINT64_MAX);
 }
 
 TEST(Format3, RandomDamageBehindValidChecksumsNeverBreaksAWalk) {

@@ -711,6 +711,7 @@ uint64_t readPool(const Reader& r, const FileLayout& f, std::span<CpvsFile::View
   sections.hot = {reinterpret_cast<const uint32_t*>(data + hottS.offset), size_t(hottS.size / 4)};
   sections.leaves = {reinterpret_cast<const uint64_t*>(data + leafS.offset), size_t(leafS.size / 8)};
   sections.strict = f.strict;
+  sections.maxConvertedBytes = convertedBytesAllowed(r.size());
   if (Outcome o = readFilePool(sections, views, levels, converted, r.name()); !o) throw ReadFailure{o.message()};
   return sections.leaves.size();
 }

@@ -222,13 +222,21 @@ Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const>
   }
   const PoolIndex index(levels, levelViews);
   Conversion scratch(index.nodes(), s.leaves.size());
-  for (CpvsFile::View* v : views) {
+  uint64_t convertedBytes = 0;
+  for (size_t vi = 0; vi < views.size(); ++vi) {
+    CpvsFile::View* v = views[vi];
     ByteDagView walk = base;
     walk.resolution = v->bytes.resolution;
     walk.rootCode = v->bytes.rootCode;
     walk.root = walk.rootCode == ChildCode::Ref ? levels[std::countr_zero(walk.resolution) - 3].offset + v->bytes.root : 0;
     Result<ShadowDag> dag = scratch.storedForm(walk, index);
     if (!dag) return invalid(name, "a view's DAG has no 2.0 form: " + dag.outcome().message());
+    convertedBytes += dag.value().bytes();
+    if (convertedBytes > s.maxConvertedBytes)
+      return invalid(name, "its views' DAGs would take more than " + std::to_string(s.maxConvertedBytes >> 20) +
+                               " MiB once converted on open (64 times the file and 256 MiB): this reader converts a "
+                               "3.0 file's views into the 2.0 form its walks read; view " +
+                               std::to_string(vi) + " passed it");
     converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
     v->bytes = walk;
     v->dag = converted.back()->view();

@@ -20,12 +20,21 @@ struct FilePoolSections {
   std::span<const uint32_t> hot;     // HOTT
   std::span<const uint64_t> leaves;  // LEAF
   bool strict = true;                // an x.0 file: reserved fields are zero
+  // The most the views' converted DAGs may take together. Views share the pool, so a small file can name a DAG
+  // many times over; its copies are bounded so that no file can make an open take unbounded memory or time.
+  uint64_t maxConvertedBytes = UINT64_MAX;
 };
+// What CpvsFile gives maxConvertedBytes for a file of `fileBytes`: 64 times the file, and 256 MiB more. The
+// benchmark bakes convert to 1.5-1.9 times their size (docs/format3.md).
+inline uint64_t convertedBytesAllowed(uint64_t fileBytes) {
+  return fileBytes > (UINT64_MAX - (uint64_t(256) << 20)) / 64 ? UINT64_MAX : 64 * fileBytes + (uint64_t(256) << 20);
+}
 
 // Reads the pool into `levels`, validates it with the roots the views hold (View::bytes: its root code,
 // resolution and root offset in its level, as read from the VIEW record), then completes each view: View::bytes
 // walks the pool, View::dag its converted copy (owned by `converted`), View::nodesPerLevel its own counts. Fails
-// (InvalidInput) with "<name>: <what is wrong>" naming the pool level, node, hot entry or view.
+// (InvalidInput) with "<name>: <what is wrong>" naming the pool level, node, hot entry or view, or saying that the
+// converted DAGs would pass maxConvertedBytes.
 Outcome readFilePool(const FilePoolSections& sections, std::span<CpvsFile::View* const> views,
                      std::vector<CpvsFile::PoolLevel>& levels, std::vector<std::unique_ptr<ShadowDag>>& converted,
                      const std::string& name);
