@@ -104,17 +104,21 @@ def main():
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--points", type=int, default=200000)
+    ap.add_argument("--lookups-only", action="store_true",
+                    help="bake nothing: query and open the files a previous run left in --out (after a change to "
+                         "the reader or the walks, which leaves the files' bytes as they were)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     results = []
     for name, (scene, resolution, lights) in cases(a).items():
         runs = {2: [], 3: []}
-        for r in range(a.rounds):
+        for r in range(0 if a.lookups_only else a.rounds):
             for version in ((2, 3) if r % 2 == 0 else (3, 2)):
                 path = os.path.join(a.out, "%s_v%d.cpvs" % (name, version))
                 runs[version].append(bake(a, scene, resolution, lights, version, path))
         points = os.path.join(a.out, name + "_points.csv")
-        tool(a, "cpvs-sample", scene, "-o", points, "--count", str(a.points))
+        if not (a.lookups_only and os.path.exists(points)):
+            tool(a, "cpvs-sample", scene, "-o", points, "--count", str(a.points))
         one = os.path.join(a.out, name + "_one.csv")
         with open(points) as f, open(one, "w") as g:
             g.write(f.readline())
@@ -132,11 +136,19 @@ def main():
                 sys.stderr.write("format3.py: %s: the 2.0 and 3.0 files answer differently (K = %d)\n" % (name, k))
                 sys.exit(2)
             row["lookups_per_s_k%d" % k] = {str(v): rates[v] for v in rates}
-        row["open_and_one_point"] = {str(v): open_seconds(a, os.path.join(a.out, "%s_v%d.cpvs" % (name, v)), one)
-                                     for v in (2, 3)}
+        row["open_and_one_point"] = {}
+        for r in range(a.rounds):  # alternating, the best kept
+            for v in ((2, 3) if r % 2 == 0 else (3, 2)):
+                run = open_seconds(a, os.path.join(a.out, "%s_v%d.cpvs" % (name, v)), one)
+                best = row["open_and_one_point"].get(str(v))
+                if best is None or run["wall_s"] < best["wall_s"]:
+                    row["open_and_one_point"][str(v)] = run
+        if a.lookups_only:
+            row["file_bytes"] = {str(v): os.path.getsize(os.path.join(a.out, "%s_v%d.cpvs" % (name, v))) for v in (2, 3)}
         results.append(row)
         print(json.dumps(row, indent=1), flush=True)
     doc = {"commit": head_commit(), "machine": machine_info(), "threads": a.threads, "rounds": a.rounds,
+           "load_average_end": load_average(),
            "command": "python3 benchmarks/format3.py " + " ".join(sys.argv[1:]), "cases": results}
     os.makedirs(os.path.dirname(a.doc), exist_ok=True)
     with open(a.doc, "w") as f:
@@ -146,6 +158,14 @@ def main():
           "open + 1 point 2.0 / 3.0 (s) | lookups/s K=1 2.0 / 3.0 | K=9 2.0 / 3.0 |")
     print("|---|---|---|---|---|---|---|---|---|")
     for row in results:
+        if a.lookups_only:
+            o = row["open_and_one_point"]
+            print("| %s | %d | %d | %.3f | - | - | %.2f / %.2f | %.3g / %.3g | %.3g / %.3g |" % (
+                row["case"], row["file_bytes"]["2"], row["file_bytes"]["3"],
+                row["file_bytes"]["3"] / row["file_bytes"]["2"], o["2"]["wall_s"], o["3"]["wall_s"],
+                row["lookups_per_s_k1"]["2"], row["lookups_per_s_k1"]["3"],
+                row["lookups_per_s_k9"]["2"], row["lookups_per_s_k9"]["3"]))
+            continue
         b2, b3 = row["bakes"]["2"], row["bakes"]["3"]
         best = lambda runs, key: min(r[key] for r in runs)
         o = row["open_and_one_point"]

@@ -185,15 +185,7 @@ TEST(Format, WritingIsDeterministic) {
   again.settingsJson = file->settingsJson();
   for (const auto& l : file->lights()) {
     BakedLight bl{l.light, {}};
-    for (const auto& v : l.views) {
-      ShadowDag dag;
-      dag.resolution = v.dag.resolution;
-      dag.rootCode = v.dag.rootCode;
-      dag.nodes.assign(v.dag.nodes.begin(), v.dag.nodes.end());
-      dag.leaves.assign(v.dag.leaves.begin(), v.dag.leaves.end());
-      dag.nodesPerLevel = v.nodesPerLevel;
-      bl.views.push_back({v.view, dag});
-    }
+    for (const auto& v : l.views) bl.views.push_back({v.view, orThrow(file->ownDag(v))});
     again.lights.push_back(bl);
   }
   EXPECT_EQ(writeCpvs(again), a);

@@ -374,7 +374,7 @@ TEST_F(CpvsInfo, AFormat3FileShowsItsPool) {
       uint64_t nodes = 0;
       for (uint64_t c : v.nodesPerLevel) nodes += c;
       const uint64_t bytes = v.nodeBytes + v.dag.leaves.size() * 8;
-      EXPECT_EQ(pooled->lights()[li].views[vi].nodesPerLevel, v.nodesPerLevel);
+      EXPECT_EQ(orThrow(pooled->ownDag(pooled->lights()[li].views[vi])).nodesPerLevel, v.nodesPerLevel);
       if (v.dag.rootCode == ChildCode::Ref) {
         EXPECT_NE(r.output.find(" = " + std::to_string(nodes) + " nodes, unique leaves " +
                                 std::to_string(v.dag.leaves.size()) + ", in the pool (as a 2.0 DAG: " +

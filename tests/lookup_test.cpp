@@ -28,6 +28,8 @@ namespace {
 
 using test::syntheticDepth;
 using test::wideReferenceDag;
+using test::identityView;
+using test::sun;
 
 // ---- synthetic DAGs -------------------------------------------------------------------------------------
 
@@ -46,29 +48,6 @@ uint32_t referenceShadowed(const DagView& dag, int32_t x, int32_t y, uint32_t z,
       count += dag.shadowed(uint32_t(tx), uint32_t(ty), z) ? 1 : 0;
     }
   return count;
-}
-
-// An orthographic view whose grid is world space itself: u = x, v = y, s = -z (the light travels along -Z).
-LightView identityView(uint32_t n) {
-  LightView view;
-  view.projection = Projection::Orthographic;
-  view.mapping = DepthMapping::Linear;
-  view.resolution = n;
-  view.xMin = 0;
-  view.xMax = n;
-  view.yMin = 0;
-  view.yMax = n;
-  view.near = 0;
-  view.far = n;
-  return view;
-}
-
-Light sun() {
-  Light light;
-  light.name = "sun";
-  light.type = LightType::Directional;
-  light.direction = {0, 0, -1};
-  return light;
 }
 
 TEST(Pcf, OneTraversalEqualsKSquaredLookups) {

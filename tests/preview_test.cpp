@@ -53,14 +53,14 @@ std::vector<Baked*>& keptBakes() {
   return *kept;
 }
 
-Baked* bake(const std::string& name, Scene scene, uint32_t resolution) {
+Baked* bake(const std::string& name, Scene scene, uint32_t resolution, uint16_t formatMajor = 2) {
   auto* b = keptBakes().emplace_back(new Baked);
   b->name = name;
   b->scene = std::move(scene);
   BakeSettings settings;
   settings.resolution = resolution;
   settings.threads = 2;
-  const std::string bytes = writeCpvs(bakeScene(b->scene, settings));
+  const std::string bytes = writeCpvs(bakeScene(b->scene, settings), formatMajor);
   b->file = orThrow(CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, name));
   std::vector<LightShadow> lights;
   for (const CpvsFile::LightEntry& e : b->file->lights()) lights.push_back(orThrow(lightShadowOf(e)));
@@ -94,7 +94,8 @@ Baked& subpass() {
   return *b;
 }
 
-// A generated city (cpvs-scenegen city-spots: 9 spot lights) with a sun and a point light added.
+// A generated city (cpvs-scenegen city-spots: 9 spot lights) with a sun and a point light added, as a 3.0 file:
+// its views read one pool, which the GPU records hold once (gpu_scene.cpp).
 Baked& city() {
   static Baked* b = [] {
     const std::string path = test::tempDir() + "/preview_city.glb";
@@ -106,7 +107,7 @@ Baked& city() {
     scene.lights.back().intensity = 0.01f;
     scene.lights.push_back(test::pointLight("point", {-60, 50, 40}, 300));
     scene.lights.back().intensity = 1500.0f;
-    return bake("city", std::move(scene), 256);
+    return bake("city", std::move(scene), 256, 3);
   }();
   return *b;
 }
@@ -267,6 +268,13 @@ TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
   street.eye = street.target + glm::dvec3(90, 45, 70);
   checkGpuEqualsCpu(b, street, 9);
   checkGpuEqualsCpu(b, defaultCamera(sceneBounds(b.scene), 1.5), 3);
+  // The 3.0 file's pool is in the GPU's node buffer once, not once per view.
+  std::span<const uint16_t> pool;
+  for (const CpvsFile::LightEntry& light : b.file->lights())
+    for (const CpvsFile::View& view : light.views)
+      if (!view.dag.sharedNodes.empty()) pool = view.dag.sharedNodes;
+  ASSERT_FALSE(pool.empty());
+  EXPECT_EQ(packGpuScene(b.renderer->lights()).nodes.size(), (pool.size() + 1) / 2);
 }
 
 // ---- light lists ----------------------------------------------------------------------------------------

@@ -98,7 +98,9 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
   nlohmann::json settings = nlohmann::json::parse(file.settingsJson(), nullptr, false);
   if (!settings.is_object() || settings.value("cache_key", std::string()) != hex64(key) || file.lights().size() != 1)
     return reject(path + ": not a cache entry for key " + hex64(key));
-  BakedLight baked = bakedLightOf(file.lights()[0]);
+  Result<BakedLight> read = bakedLightOf(file, file.lights()[0]);
+  if (!read) return reject(read.outcome().message());
+  BakedLight baked = std::move(read).value();
   baked.light = light;
   return baked;
 }

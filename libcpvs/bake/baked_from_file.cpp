@@ -10,21 +10,13 @@
 
 namespace cpvs {
 
-BakedLight bakedLightOf(const CpvsFile::LightEntry& entry) {
+Result<BakedLight> bakedLightOf(const CpvsFile& file, const CpvsFile::LightEntry& entry) {
   BakedLight baked;
   baked.light = entry.light;
   for (const CpvsFile::View& v : entry.views) {
-    BakedView view{v.view, {}};
-    view.dag.resolution = v.view.resolution;
-    view.dag.rootCode = v.dag.rootCode;
-    view.dag.nodes.assign(v.dag.nodes.begin(), v.dag.nodes.end());
-    view.dag.leaves.assign(v.dag.leaves.begin(), v.dag.leaves.end());
-    view.dag.nodesPerLevel = v.nodesPerLevel;
-    // Where each level starts: level l + 1 where the references of level l count from (DagView::childBase).
-    const uint32_t log2 = uint32_t(std::countr_zero(v.view.resolution));
-    for (size_t l = 0; l < v.nodesPerLevel.size(); ++l)
-      view.dag.levelOffsets.push_back(l == 0 ? 0 : v.dag.childBase[log2 - l + 1]);
-    baked.views.push_back(std::move(view));
+    Result<ShadowDag> dag = file.ownDag(v);
+    if (!dag) return dag.outcome();
+    baked.views.push_back({v.view, std::move(dag).value()});
   }
   return baked;
 }

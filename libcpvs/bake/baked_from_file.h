@@ -7,8 +7,9 @@
 
 namespace cpvs {
 
-// Copies the light's record and every view's mapping and DAG (nodes, leaves, nodes per level).
-BakedLight bakedLightOf(const CpvsFile::LightEntry& entry);
+// Copies the light's record and every view's mapping and DAG (nodes, leaves, nodes per level: CpvsFile::ownDag,
+// which takes a 3.x view's own nodes out of the pool). Fails as ownDag does.
+Result<BakedLight> bakedLightOf(const CpvsFile& file, const CpvsFile::LightEntry& entry);
 
 }  // namespace cpvs
 

@@ -99,7 +99,7 @@ CpvsContent mergeParts(const std::vector<NamedPart>& parts) {
   CpvsContent content;
   content.settingsJson = common->dump();
   for (const auto& [index, where] : owner)
-    content.lights.push_back(bakedLightOf(parts[where.first].file->lights()[where.second]));
+    content.lights.push_back(orThrow(bakedLightOf(*parts[where.first].file, parts[where.first].file->lights()[where.second])));
   return content;
 }
 

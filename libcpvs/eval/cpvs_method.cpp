@@ -21,7 +21,7 @@ CpvsMethod CpvsMethod::fromFile(const CpvsFile::LightEntry& entry, int topGridLe
 
 uint64_t CpvsMethod::bytes() const {
   uint64_t bytes = 0;
-  for (const DagView& dag : shadow_.dags()) bytes += dag.nodes.size() * sizeof(uint16_t) + dag.leaves.size() * sizeof(uint64_t);
+  for (const DagView& dag : shadow_.dags()) bytes += dag.bytes();
   return bytes;
 }
 

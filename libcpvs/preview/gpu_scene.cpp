@@ -62,17 +62,34 @@ void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vecto
     if (dags) {
       const DagView& dag = (*dags)[v];
       empty = empty || dag.resolution < 8;  // a DAG without a grid answers lit everywhere
-      const uint64_t nodeBase = uint64_t(r.nodes.size()) * 2, leafBase = r.leaves.size();
-      if (nodeBase + dag.nodes.size() > UINT32_MAX || leafBase + dag.leaves.size() > UINT32_MAX)
+      // A DAG of its own is appended; one that reads a shared pool points into the pool, appended once.
+      const bool shared = !dag.sharedNodes.empty();
+      const std::span<const uint16_t> nodes = shared ? dag.sharedNodes : dag.nodes;
+      auto placed = [](std::vector<GpuSceneRecords::SharedArray>& known, const void* data) -> const uint64_t* {
+        for (const GpuSceneRecords::SharedArray& a : known)
+          if (a.data == data) return &a.base;
+        return nullptr;
+      };
+      const uint64_t* nodesAt = shared ? placed(r.sharedNodes, nodes.data()) : nullptr;
+      const uint64_t* leavesAt = shared ? placed(r.sharedLeaves, dag.leaves.data()) : nullptr;
+      const uint64_t nodeBase = nodesAt ? *nodesAt : uint64_t(r.nodes.size()) * 2;
+      const uint64_t leafBase = leavesAt ? *leavesAt : r.leaves.size();
+      if (nodeBase + nodes.size() > UINT32_MAX || leafBase + dag.leaves.size() > UINT32_MAX)
         throw Error(ErrorCategory::RuntimeFailure, "light '" + light.name + "': the DAGs exceed 2^32 units for the GPU");
-      view[kViewNodeBase] = uint32_t(nodeBase);
+      view[kViewNodeBase] = uint32_t(nodeBase + uint64_t(dag.nodes.data() - nodes.data()));
       view[kViewLeafBase] = uint32_t(leafBase);
       view[kViewRootCode] = uint32_t(dag.rootCode);
       view[kViewResolution] = dag.resolution;
       for (uint32_t l = 0; l < kMaxDagLevels; ++l) view[kViewChildBase + l] = dag.childBase[l];
-      for (size_t u = 0; u < dag.nodes.size(); u += 2)
-        r.nodes.push_back(uint32_t(dag.nodes[u]) | (u + 1 < dag.nodes.size() ? uint32_t(dag.nodes[u + 1]) << 16 : 0u));
-      r.leaves.insert(r.leaves.end(), dag.leaves.begin(), dag.leaves.end());
+      if (!nodesAt) {
+        for (size_t u = 0; u < nodes.size(); u += 2)
+          r.nodes.push_back(uint32_t(nodes[u]) | (u + 1 < nodes.size() ? uint32_t(nodes[u + 1]) << 16 : 0u));
+        if (shared) r.sharedNodes.push_back({nodes.data(), nodeBase});
+      }
+      if (!leavesAt) {
+        r.leaves.insert(r.leaves.end(), dag.leaves.begin(), dag.leaves.end());
+        if (shared) r.sharedLeaves.push_back({dag.leaves.data(), leafBase});
+      }
     }
     view[kViewFlags] = (m.orthographic ? kFlagOrthographic : 0) | (m.linear ? kFlagLinear : 0) | (empty ? kFlagEmpty : 0);
     r.viewWords.insert(r.viewWords.end(), view.begin(), view.end());

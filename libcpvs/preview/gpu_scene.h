@@ -14,8 +14,15 @@ struct GpuSceneRecords {
   std::vector<uint32_t> lightWords; // CPVS_LIGHT_WORDS per light
   std::vector<double> viewReals;    // CPVS_MAP_REALS per view
   std::vector<uint32_t> viewWords;  // CPVS_VIEW_WORDS per view
-  std::vector<uint32_t> nodes;      // u16 units, two per uint (each view starts on a whole uint)
+  std::vector<uint32_t> nodes;      // u16 units, two per uint (each DAG starts on a whole uint)
   std::vector<uint64_t> leaves;
+  // The shared arrays already in `nodes` and `leaves` (a 3.x file's pool, DagView::sharedNodes), each once: where
+  // each starts there.
+  struct SharedArray {
+    const void* data;
+    uint64_t base;
+  };
+  std::vector<SharedArray> sharedNodes, sharedLeaves;
   size_t lightCount() const;
   size_t bytes() const;
 };

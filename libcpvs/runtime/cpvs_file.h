@@ -20,6 +20,8 @@
 
 namespace cpvs {
 
+class FilePool;
+
 // A validated, read-only .cpvs in memory (mapped, owned or borrowed). Everything is checked at open time,
 // in time linear in the file size: after open() succeeds, DagView traversal of any voxel of any view stays
 // inside the buffers and terminates.
@@ -27,13 +29,14 @@ class CpvsFile {
 public:
   struct View {
     LightView view;
-    // The DAG in the stored form of 2.0: spans into the view's NODE and LEAF sections (1.x and 3.x: a copy
-    // converted on open, which the file object owns).
+    // The DAG in the stored form of 2.0: spans into the view's NODE and LEAF sections (1.x: a copy converted on
+    // open; 3.x: the file's node pool converted once on open, shared with the other views, DagView::sharedNodes).
+    // The file object owns what was converted.
     DagView dag;
     // The DAG where the file holds it, read in place: the view's own sections (2.x, 1.x: the converted copy) or
     // the file's node pool (3.x).
     ByteDagView bytes;
-    std::vector<uint64_t> nodesPerLevel;  // one count per level, root level first
+    std::vector<uint64_t> nodesPerLevel;  // one count per level, root level first (3.x: zeros; ownDag counts)
     uint64_t nodeBytes = 0;               // size of the view's NODE section in the file (3.x: 0, it has none)
   };
   // One level of a 3.x file's node pool (formats/cpvs/format.md, "POOL").
@@ -76,8 +79,13 @@ public:
   uint64_t fileSize() const { return size_; }
   std::span<const uint8_t> bytes() const { return {data_, size_t(size_)}; }
   // 3.x: the node pool's levels, ascending edge, and its leaves (empty and 0 in 1.x and 2.x files).
-  const std::vector<PoolLevel>& poolLevels() const { return poolLevels_; }
-  uint64_t poolLeaves() const { return poolLeaves_; }
+  const std::vector<PoolLevel>& poolLevels() const;
+  uint64_t poolLeaves() const;
+  // A view's DAG by itself in the stored form of 2.0, with its node counts: a copy of a 1.x or 2.x view's; a
+  // 3.x view's nodes and leaves converted out of the pool, as a 2.0 file would store them. For reports, merges
+  // and caches; walks read View::dag. Safe from several threads. Fails (InvalidInput) only for a 3.x file whose
+  // views would convert to more than 64 times the file and 256 MiB, all calls together.
+  Result<ShadowDag> ownDag(const View& view) const;
 
 private:
   CpvsFile() = default;
@@ -95,9 +103,8 @@ private:
   std::vector<LightEntry> lights_;
   std::string settingsJson_;
   std::vector<SectionInfo> sections_;
-  std::vector<std::unique_ptr<ShadowDag>> converted_;  // 1.x and 3.x DAGs in the stored form of format 2
-  std::vector<PoolLevel> poolLevels_;
-  uint64_t poolLeaves_ = 0;
+  std::vector<std::unique_ptr<ShadowDag>> converted_;  // 1.x DAGs in the stored form of format 2
+  std::unique_ptr<FilePool> pool_;                     // 3.x
 };
 
 // Validates one view's DAG in the stored form exactly as open() validates a view of a file (every node fits,

@@ -332,7 +332,7 @@ struct FileLayout {
   uint16_t major = 0, minor = 0;
   bool strict = true;    // x.0: reserved fields are zero (later minors may give them meaning)
   bool format1 = false;  // 32-bit node words, converted on open
-  bool pooled = false;   // 3.x: one node pool per file (views converted on open, for now)
+  bool pooled = false;   // 3.x: one node pool per file (converted once on open, shared by the views)
   std::string dotZero;   // "major.0", for messages
   uint64_t tableOffset = 0, tableSize = 0;
   std::vector<Entry> entries;
@@ -697,9 +697,8 @@ CpvsFile::LightEntry readLight(const Reader& r, const FileLayout& f, uint64_t li
   return entry;
 }
 
-// Step 6 (3.x): the node pool, with every view's root; returns its leaf count.
-uint64_t readPool(const Reader& r, const FileLayout& f, std::span<CpvsFile::View* const> views,
-                  std::vector<CpvsFile::PoolLevel>& levels, std::vector<std::unique_ptr<ShadowDag>>& converted) {
+// Step 6 (3.x): the node pool, with every view's root.
+std::unique_ptr<FilePool> readPool(const Reader& r, const FileLayout& f, std::span<CpvsFile::View* const> views) {
   const Entry &poolS = f.entries[f.pool], &hottS = f.entries[f.hott], &nodeS = f.entries[f.node],
               &leafS = f.entries[f.leaf];
   const uint8_t* data = r.data();
@@ -712,8 +711,9 @@ uint64_t readPool(const Reader& r, const FileLayout& f, std::span<CpvsFile::View
   sections.leaves = {reinterpret_cast<const uint64_t*>(data + leafS.offset), size_t(leafS.size / 8)};
   sections.strict = f.strict;
   sections.maxConvertedBytes = convertedBytesAllowed(r.size());
-  if (Outcome o = readFilePool(sections, views, levels, converted, r.name()); !o) throw ReadFailure{o.message()};
-  return sections.leaves.size();
+  Result<std::unique_ptr<FilePool>> pool = FilePool::read(sections, views, r.name());
+  if (!pool) throw ReadFailure{pool.outcome().message()};
+  return std::move(pool).value();
 }
 
 }  // namespace
@@ -742,8 +742,30 @@ void CpvsFile::parse(const std::string& name) {
     std::vector<View*> views;
     for (LightEntry& light : lights_)
       for (View& view : light.views) views.push_back(&view);
-    poolLeaves_ = readPool(r, f, views, poolLevels_, converted_);
+    pool_ = readPool(r, f, views);
   }
+}
+
+const std::vector<CpvsFile::PoolLevel>& CpvsFile::poolLevels() const {
+  static const std::vector<PoolLevel> kNone;
+  return pool_ ? pool_->levels() : kNone;
+}
+
+uint64_t CpvsFile::poolLeaves() const { return pool_ ? pool_->leaves() : 0; }
+
+Result<ShadowDag> CpvsFile::ownDag(const View& view) const {
+  if (pool_) return pool_->ownDag(view.bytes);
+  ShadowDag dag;
+  dag.resolution = view.dag.resolution;
+  dag.rootCode = view.dag.rootCode;
+  dag.nodes.assign(view.dag.nodes.begin(), view.dag.nodes.end());
+  dag.leaves.assign(view.dag.leaves.begin(), view.dag.leaves.end());
+  dag.nodesPerLevel = view.nodesPerLevel;
+  // Where each level starts: level l + 1 where the references of level l count from (DagView::childBase).
+  const uint32_t log2 = dag.resolution >= 8 ? uint32_t(std::countr_zero(dag.resolution)) : 0;
+  for (size_t l = 0; l < view.nodesPerLevel.size(); ++l)
+    dag.levelOffsets.push_back(l == 0 ? 0 : view.dag.childBase[log2 - l + 1]);
+  return dag;
 }
 
 }  // namespace cpvs

@@ -1,5 +1,6 @@
 #include "libcpvs/runtime/file_pool.h"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 
@@ -130,12 +131,16 @@ private:
 // each once, in the order the baker writes (NodeOrder::MostReferencedFirst), for the walks that read DagView.
 // Which pool nodes a view has met is kept per pool node with the view's stamp, so nothing is cleared between
 // views and every lookup is an array read.
-class Conversion {
+class ViewConversion {
 public:
-  Conversion(uint64_t nodes, uint64_t leaves) : nodeStamp_(nodes, 0), nodeId_(nodes), leafStamp_(leaves, 0), leafId_(leaves) {}
+  ViewConversion(uint64_t nodes, uint64_t leaves) : nodeStamp_(nodes, 0), nodeId_(nodes), leafStamp_(leaves, 0), leafId_(leaves) {}
 
   Result<ShadowDag> storedForm(const ByteDagView& walk, const PoolIndex& index) {
-    if (walk.rootCode != ChildCode::Ref) return encodeDag(walk.resolution, walk.rootCode, {}, {}, {});
+    if (walk.rootCode != ChildCode::Ref) {  // no nodes: a count of 0 on each level, as a 2.0 file holds
+      Result<ShadowDag> dag = encodeDag(walk.resolution, walk.rootCode, {}, {}, {});
+      if (dag) dag.value().nodesPerLevel.assign(DagView{walk.resolution, walk.rootCode, {}, {}}.levels(), 0);
+      return dag;
+    }
     ++stamp_;
     const uint32_t levels = DagView{walk.resolution, walk.rootCode, {}, {}}.levels();
     const unsigned top = unsigned(std::countr_zero(walk.resolution));
@@ -190,13 +195,83 @@ private:
   std::vector<uint32_t> nodeStamp_, nodeId_, leafStamp_, leafId_;
 };
 
+// Bytes a node of a pool level takes: its header and its references in the level's widths.
+inline uint64_t nodeBytes(uint32_t header, const CpvsFile::PoolLevel& l) {
+  const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
+  return 2 + uint64_t(l.shortBytes) * popcount32(refs) + uint64_t(l.longBytes - l.shortBytes) * popcount32(wide);
+}
+
+// The whole pool in the stored form of 2.0, once: levels converted from edge 8 up (a node's units depend on
+// its references' values, the units of its children), each level's nodes in pool order, then the levels' order
+// turned around in place (the whole array reversed, then each level) so that they run from the largest edge down
+// as in a 2.0 DAG, without a second copy. levelStart[log2 edge]: where that level starts in the units;
+// unitOf[ordinal]: the node's first unit in its level.
+Outcome poolUnits(const ByteDagView& pool, std::span<const CpvsFile::PoolLevel> levels, const PoolIndex& index,
+                  std::vector<uint16_t>& units, uint64_t (&levelStart)[kMaxDagLevels], std::vector<uint32_t>& unitOf,
+                  const std::string& name) {
+  unitOf.assign(index.nodes(), 0);
+  units.clear();
+  uint64_t poolBytes = 0;
+  for (const CpvsFile::PoolLevel& l : levels) poolBytes += l.bytes;
+  // The benchmark bakes take 0.6 units per pool byte (the 165 spots: 33.6 M units for 55.3 MB): room for a
+  // little more, so that the array rarely grows (a copy) and its unused tail is never touched.
+  units.reserve(poolBytes / 2 + poolBytes / 4);
+  std::vector<uint64_t> ascendingStart(levels.size() + 1, 0);
+  uint64_t ordinal = 0;
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const CpvsFile::PoolLevel& l = levels[i];
+    const unsigned log2Edge = unsigned(std::countr_zero(l.edge));
+    const uint64_t first = units.size();
+    for (uint64_t at = l.offset; at < l.offset + l.bytes; at += nodeBytes(pool.headerAt(at), l)) {
+      if (units.size() - first > UINT32_MAX)
+        return invalid(name, "pool level " + std::to_string(i) + " takes more than 2^32 units as 2.0 nodes");
+      const uint32_t header = pool.headerAt(at);
+      unitOf[ordinal++] = uint32_t(units.size() - first);
+      const size_t headerAt = units.size();
+      units.push_back(0);
+      uint32_t stored = 0;
+      for (unsigned c = 0; c < 8; ++c) {
+        const uint32_t code = childCodeOf(header, c);
+        if (code != uint32_t(ChildCode::Ref)) {
+          stored |= code << (2 * c);
+          continue;
+        }
+        const uint64_t child = pool.childAt(at, header, c, log2Edge);  // a leaf index below the leaf parents
+        const uint32_t target = i == 0 ? uint32_t(child) : unitOf[index.ordinal(i - 1, child)];
+        stored |= storeReference(target, [&](uint16_t unit) { units.push_back(unit); }) << (2 * c);
+      }
+      units[headerAt] = uint16_t(stored);
+    }
+    ascendingStart[i + 1] = units.size();
+  }
+  // DagView's level starts are 32-bit.
+  if (units.size() > UINT32_MAX)
+    return invalid(name, "its pool takes " + std::to_string(units.size()) + " units as 2.0 nodes, more than 2^32");
+  std::reverse(units.begin(), units.end());
+  const uint64_t total = units.size();
+  for (size_t i = 0; i < levels.size(); ++i) {
+    const uint64_t begin = total - ascendingStart[i + 1], end = total - ascendingStart[i];
+    std::reverse(units.begin() + int64_t(begin), units.begin() + int64_t(end));
+    levelStart[std::countr_zero(levels[i].edge)] = begin;
+  }
+  return {};
+}
+
 }  // namespace
 
-Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const> views,
-                     std::vector<CpvsFile::PoolLevel>& levels, std::vector<std::unique_ptr<ShadowDag>>& converted,
-                     const std::string& name) {
+struct FilePool::Conversion {
+  PoolIndex index;
+  ViewConversion views;
+};
+
+FilePool::~FilePool() = default;
+
+Result<std::unique_ptr<FilePool>> FilePool::read(const FilePoolSections& s, std::span<CpvsFile::View* const> views,
+                                                 const std::string& name) {
+  std::unique_ptr<FilePool> pool(new FilePool);
+  std::vector<CpvsFile::PoolLevel>& levels = pool->levels_;
   if (Outcome o = readLevels(s, levels, name); !o) return o;
-  std::vector<PoolLevelView> levelViews;
+  std::vector<PoolLevelView>& levelViews = pool->levelViews_;
   for (const CpvsFile::PoolLevel& l : levels)
     levelViews.push_back({l.edge, l.shortBytes, l.longBytes, s.nodes.subspan(l.offset, l.bytes), {}});
   uint64_t hotAt = 0;
@@ -212,7 +287,7 @@ Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const>
       return invalid(name, "pool level " + std::to_string(i) + " says " + std::to_string(levels[i].nodes) +
                                " nodes, its bytes hold " + std::to_string(counted));
 
-  ByteDagView base;
+  ByteDagView base;  // the pool in place, without a root: each view's walk starts from a copy
   base.bytes = s.nodes;
   base.leaves = s.leaves;
   for (size_t i = 0; i < levels.size(); ++i) {
@@ -220,29 +295,56 @@ Outcome readFilePool(const FilePoolSections& s, std::span<CpvsFile::View* const>
     base.coding[log2] = {i > 0 ? levels[i - 1].offset : 0, levels[i].shortBytes, levels[i].longBytes, 0,
                          levelViews[i].hot};
   }
+  pool->leaves_ = s.leaves;
+  pool->name_ = name;
+  pool->maxConvertedBytes_ = s.maxConvertedBytes;
+
+  uint64_t levelStart[kMaxDagLevels] = {};
   const PoolIndex index(levels, levelViews);
-  Conversion scratch(index.nodes(), s.leaves.size());
-  uint64_t convertedBytes = 0;
-  for (size_t vi = 0; vi < views.size(); ++vi) {
-    CpvsFile::View* v = views[vi];
+  std::vector<uint32_t> unitOf;
+  if (Outcome o = poolUnits(base, levels, index, pool->units_, levelStart, unitOf, name); !o) return o;
+  // What sizes each view's top grid (TopGrid::automaticLevel): its share of the pool.
+  uint64_t referenced = 0;
+  for (const CpvsFile::View* v : views) referenced += v->bytes.rootCode == ChildCode::Ref;
+  const uint64_t share = (s.nodes.size() + s.hot.size_bytes() + s.leaves.size_bytes()) / std::max<uint64_t>(1, referenced);
+  const std::span<const uint16_t> units = pool->units_;
+  for (CpvsFile::View* v : views) {
     ByteDagView walk = base;
     walk.resolution = v->bytes.resolution;
     walk.rootCode = v->bytes.rootCode;
-    walk.root = walk.rootCode == ChildCode::Ref ? levels[std::countr_zero(walk.resolution) - 3].offset + v->bytes.root : 0;
-    Result<ShadowDag> dag = scratch.storedForm(walk, index);
-    if (!dag) return invalid(name, "a view's DAG has no 2.0 form: " + dag.outcome().message());
-    convertedBytes += dag.value().bytes();
-    if (convertedBytes > s.maxConvertedBytes)
-      return invalid(name, "its views' DAGs would take more than " + std::to_string(s.maxConvertedBytes >> 20) +
-                               " MiB once converted on open (64 times the file and 256 MiB): this reader converts a "
-                               "3.0 file's views into the 2.0 form its walks read; view " +
-                               std::to_string(vi) + " passed it");
-    converted.push_back(std::make_unique<ShadowDag>(std::move(dag).value()));
+    DagView dag{walk.resolution, walk.rootCode, {}, {}};
+    if (walk.rootCode == ChildCode::Ref) {
+      // The view's DagView is the units from its root on: every level below the root's starts after it, so its
+      // references, counted from those levels' starts, count from the same places less the root's unit.
+      const unsigned log2 = unsigned(std::countr_zero(walk.resolution));
+      walk.root = levels[log2 - 3].offset + v->bytes.root;
+      const uint64_t rootUnit = levelStart[log2] + unitOf[index.ordinal(log2 - 3, walk.root)];
+      dag.nodes = units.subspan(rootUnit);
+      dag.leaves = s.leaves;
+      for (unsigned k = 4; k <= log2; ++k) dag.childBase[k] = uint32_t(levelStart[k - 1] - rootUnit);
+      dag.sharedNodes = units;
+      dag.sharedBytes = share;
+    }
     v->bytes = walk;
-    v->dag = converted.back()->view();
-    if (!converted.back()->nodesPerLevel.empty()) v->nodesPerLevel = converted.back()->nodesPerLevel;
+    v->dag = dag;
   }
-  return {};
+  return pool;
+}
+
+Result<ShadowDag> FilePool::ownDag(const ByteDagView& view) const {
+  const std::lock_guard lock(mutex_);
+  if (!conversion_) {
+    PoolIndex index(levels_, levelViews_);
+    const uint64_t nodes = index.nodes();
+    conversion_.reset(new Conversion{std::move(index), ViewConversion(nodes, leaves_.size())});
+  }
+  Result<ShadowDag> dag = conversion_->views.storedForm(view, conversion_->index);
+  if (!dag) return invalid(name_, "a view's DAG has no 2.0 form: " + dag.outcome().message());
+  convertedBytes_ += dag.value().bytes();
+  if (convertedBytes_ > maxConvertedBytes_)
+    return invalid(name_, "its views' DAGs would take more than " + std::to_string(maxConvertedBytes_ >> 20) +
+                              " MiB converted one by one (64 times the file and 256 MiB)");
+  return dag;
 }
 
 }  // namespace cpvs

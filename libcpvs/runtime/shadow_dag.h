@@ -37,6 +37,11 @@ struct DagView {
   // childBase[log2(s)]: what a reference from a node of edge s is counted from — the unit where the next
   // level starts, or 0 for leaf parents (s = 8), whose references are leaf indices.
   uint32_t childBase[kMaxDagLevels] = {};
+  // A view of a 3.x file's node pool: the units of the whole pool, in which `nodes` is the tail from the view's
+  // root on (so every walk reads it as a DAG of its own), shared with the file's other views, and the view's
+  // share of the pool's bytes (what sizes its top grid). Empty and 0 for a DAG that has its spans to itself.
+  std::span<const uint16_t> sharedNodes = {};
+  uint64_t sharedBytes = 0;
 
   uint32_t levels() const;  // L + 1
   // Visibility of voxel (x, y, z), all in [0, N): true when shadowed. Assumes a validated DAG.
@@ -46,6 +51,8 @@ struct DagView {
   uint32_t child(uint32_t offset, uint32_t header, unsigned c, uint32_t size) const;
   // Fills childBase from the unit where each level starts (root level first, levels() entries).
   void setLevelStarts(std::span<const uint64_t> levelStarts);
+  // The bytes this DAG stands for: its nodes and leaves, or its share of the pool it reads.
+  uint64_t bytes() const { return sharedNodes.empty() ? nodes.size_bytes() + leaves.size_bytes() : sharedBytes; }
 };
 
 struct ShadowDag {

@@ -163,7 +163,7 @@ TopGrid TopGrid::build(const DagView& dag, uint32_t level) {
 }
 
 uint32_t TopGrid::automaticLevel(const DagView& dag) {
-  const uint64_t dagBytes = uint64_t(dag.nodes.size()) * 2 + uint64_t(dag.leaves.size()) * 8;
+  const uint64_t dagBytes = dag.bytes();
   uint32_t level = kMaxAutomaticTopGridLevels;
   while (level > 0 && (uint64_t(4) << (3 * level)) > dagBytes) --level;
   return level;

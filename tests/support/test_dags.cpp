@@ -70,4 +70,26 @@ ShadowDag wideReferenceDag() {
   return orThrow(encodeDag(16, ChildCode::Ref, levels, counts, std::move(leaves)));
 }
 
+LightView identityView(uint32_t n) {
+  LightView view;
+  view.projection = Projection::Orthographic;
+  view.mapping = DepthMapping::Linear;
+  view.resolution = n;
+  view.xMin = 0;
+  view.xMax = n;
+  view.yMin = 0;
+  view.yMax = n;
+  view.near = 0;
+  view.far = n;
+  return view;
+}
+
+Light sun() {
+  Light light;
+  light.name = "sun";
+  light.type = LightType::Directional;
+  light.direction = {0, 0, -1};
+  return light;
+}
+
 }  // namespace cpvs::test

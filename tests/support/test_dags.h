@@ -4,6 +4,8 @@
 #include <cstdint>
 
 #include "libcpvs/raster/depth_maps.h"
+#include "libcpvs/runtime/light.h"
+#include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs::test {
@@ -18,5 +20,10 @@ DepthRegion syntheticDepth(uint32_t n, uint32_t seed, RegionRect rect = {});
 // homogeneous children and one-unit references; leaf masks from a hash. Baked DAGs of test size are too small
 // to need two-unit references.
 ShadowDag wideReferenceDag();
+
+// An orthographic view whose grid is world space itself: u = x, v = y, s = -z (the light travels along -Z), and
+// the directional light that goes with it: the point (x + 0.5, y + 0.5, -(z + 0.5)) looks up voxel (x, y, z).
+LightView identityView(uint32_t n);
+Light sun();
 
 }  // namespace cpvs::test

@@ -56,13 +56,21 @@ uint64_t sum(const std::vector<uint64_t>& v) {
   return s;
 }
 
-// As stored in the file (a format-1 file's 32-bit node words count at their size there).
-// A view's DAG as stored in its own sections; a view of a 3.x file's pool, as a 2.0 file would store it.
-uint64_t dagBytes(const CpvsFile::View& v) {
-  return (v.nodeBytes ? v.nodeBytes : v.dag.nodes.size() * 2) + v.dag.leaves.size() * 8;
-}
-
 bool pooled(const CpvsFile& file) { return file.majorVersion() >= 3; }
+
+// What a view's DAG holds: as stored in its own sections (a format-1 file's 32-bit node words count at their size
+// there); a view of a 3.x file's pool, as a 2.0 file would store it (CpvsFile::ownDag takes it out of the pool).
+struct ViewDag {
+  std::vector<uint64_t> nodesPerLevel;
+  uint64_t nodeUnits = 0, leaves = 0, bytes = 0;
+};
+ViewDag viewDag(const CpvsFile& file, const CpvsFile::View& v) {
+  if (pooled(file)) {
+    const ShadowDag own = orThrow(file.ownDag(v));
+    return {own.nodesPerLevel, own.nodes.size(), own.leaves.size(), own.bytes()};
+  }
+  return {v.nodesPerLevel, v.dag.nodes.size(), v.dag.leaves.size(), v.nodeBytes + v.dag.leaves.size() * 8};
+}
 
 // The node pool of a 3.x file: NODE (every level and its zero tail), HOTT and LEAF.
 uint64_t poolBytes(const CpvsFile& file) {
@@ -165,19 +173,20 @@ void printText(const std::string& path, const CpvsFile& file) {
           << number(lv.xMax) << "] " << (lv.projection == Projection::Perspective ? "tan y" : "y") << " ["
           << number(lv.yMin) << ", " << number(lv.yMax) << "]" << (lv.empty ? ", empty (nothing reaches it)" : "")
           << "\n";
-      out << "      DAG: root " << codeName(v.dag.rootCode) << ", " << v.nodesPerLevel.size()
+      const ViewDag dag = viewDag(file, v);
+      out << "      DAG: root " << codeName(v.dag.rootCode) << ", " << dag.nodesPerLevel.size()
           << " levels; nodes per level (root first):";
-      for (uint64_t c : v.nodesPerLevel) out << " " << c;
+      for (uint64_t c : dag.nodesPerLevel) out << " " << c;
       const bool words = file.majorVersion() == 1;  // format 1: 32-bit node words in the file
       if (pooled(file))
-        out << " = " << sum(v.nodesPerLevel) << " nodes, unique leaves " << v.dag.leaves.size()
-            << ", in the pool (as a 2.0 DAG: " << dagBytes(v) << " bytes)\n";
+        out << " = " << sum(dag.nodesPerLevel) << " nodes, unique leaves " << dag.leaves
+            << ", in the pool (as a 2.0 DAG: " << dag.bytes << " bytes)\n";
       else
-        out << " = " << sum(v.nodesPerLevel) << " nodes in " << v.nodeBytes / (words ? 4 : 2)
-            << (words ? " words (" : " units (") << v.nodeBytes << " bytes); unique leaves " << v.dag.leaves.size()
-            << " (" << v.dag.leaves.size() * 8 << " bytes); " << dagBytes(v) << " bytes\n";
+        out << " = " << sum(dag.nodesPerLevel) << " nodes in " << v.nodeBytes / (words ? 4 : 2)
+            << (words ? " words (" : " units (") << v.nodeBytes << " bytes); unique leaves " << dag.leaves
+            << " (" << dag.leaves * 8 << " bytes); " << dag.bytes << " bytes\n";
       ++viewCount;
-      dagTotal += dagBytes(v);
+      dagTotal += dag.bytes;
     }
   }
 
@@ -222,6 +231,7 @@ void printJson(const std::string& path, const CpvsFile& file) {
     ordered_json views = ordered_json::array();
     for (const CpvsFile::View& v : light.views) {
       const LightView& lv = v.view;
+      const ViewDag dag = viewDag(file, v);
       ordered_json matrix = ordered_json::array();
       for (int c = 0; c < 4; ++c)
         for (int r = 0; r < 4; ++r) matrix.push_back(lv.viewFromWorld[c][r]);
@@ -239,16 +249,16 @@ void printJson(const std::string& path, const CpvsFile& file) {
                        {"viewFromWorld", matrix},
                        {"empty", lv.empty},
                        {"rootCode", codeName(v.dag.rootCode)},
-                       {"levels", v.nodesPerLevel.size()},
-                       {"nodesPerLevel", v.nodesPerLevel},
-                       {"nodes", sum(v.nodesPerLevel)},
-                       {"nodeUnits", v.dag.nodes.size()},
+                       {"levels", dag.nodesPerLevel.size()},
+                       {"nodesPerLevel", dag.nodesPerLevel},
+                       {"nodes", sum(dag.nodesPerLevel)},
+                       {"nodeUnits", dag.nodeUnits},
                        {"nodeBytes", v.nodeBytes},
-                       {"uniqueLeaves", v.dag.leaves.size()},
+                       {"uniqueLeaves", dag.leaves},
                        {"inPool", pooled(file)},
-                       {"bytes", dagBytes(v)}});
+                       {"bytes", dag.bytes}});
       ++viewCount;
-      dagTotal += dagBytes(v);
+      dagTotal += dag.bytes;
     }
     entry["views"] = views;
     lights.push_back(entry);
