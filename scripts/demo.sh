@@ -39,7 +39,7 @@ echo "== Querying 20000 surface points, checked against Embree ray tracing =="
   --reference "$scene" --report "$out/query-report.json"
 
 echo
-echo "== A preview of the bake (cpvs-view: 9x9 PCF walked in a compute shader; llvmpipe on a machine without a GPU) =="
+echo "== A preview of the bake (cpvs-view: 9x9 PCF, walked on the GPU where there is one, else by the CPU runtime) =="
 "$bin/cpvs-view" "$scene" "$out/subpass.cpvs" --up 0,-1,0 --size 1280x720 -o "$out/preview.png" --compare \
   --report "$out/view-report.json"
 

@@ -733,11 +733,13 @@ TEST(PreviewCamera, TheDefaultCameraLooksFromTheSideTheStrongestLightLights) {
   Light sun;  // travels toward -X and down: lights the +X side
   sun.direction = glm::normalize(glm::dvec3(-1, -1, 0));
   sun.intensity = 2.0f;
-  // Toward the light (+X), turned 45 degrees counter-clockwise seen from above (toward -Z).
+  // Toward the light (+X), turned 90 degrees counter-clockwise seen from above: -Z, across the light.
   const glm::dvec3 side = litSide(std::vector<Light>{sun}, box, up);
-  EXPECT_NEAR(side.x, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(side.x, 0.0, 1e-12);
   EXPECT_NEAR(side.y, 0.0, 1e-12);
-  EXPECT_NEAR(side.z, -std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(side.z, -1.0, 1e-12);
+  EXPECT_EQ(strongestLight(std::vector<Light>{sun}, box), std::optional<size_t>(0));
+  EXPECT_EQ(strongestLight({}, box), std::nullopt);
   const PreviewCamera camera = defaultCamera(box, 1.5, up, 0.8, side);
   EXPECT_GT(glm::dot(camera.eye - box.center(), side), 0.0);
   EXPECT_GT(glm::dot(camera.eye - box.center(), up), 0.0);
@@ -752,18 +754,65 @@ TEST(PreviewCamera, TheDefaultCameraLooksFromTheSideTheStrongestLightLights) {
   point.position = box.center() + glm::dvec3(0, 0, 1);  // +Z of the centre
   point.intensity = 5.0f;
   const glm::dvec3 pointSide = litSide(std::vector<Light>{sun, point}, box, up);
-  EXPECT_NEAR(pointSide.x, std::sqrt(0.5), 1e-12);  // +Z turned toward +X
-  EXPECT_NEAR(pointSide.z, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(pointSide.x, 1.0, 1e-12);  // +Z turned to +X
+  EXPECT_NEAR(pointSide.z, 0.0, 1e-12);
+  EXPECT_EQ(strongestLight(std::vector<Light>{sun, point}, box), std::optional<size_t>(1));
   // ... but not beyond its range, nor a spot whose cone misses the centre.
   point.range = 0.5;
-  EXPECT_NEAR(litSide(std::vector<Light>{sun, point}, box, up).z, -std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, point}, box, up).z, -1.0, 1e-12);
   Light spot = point;
   spot.type = LightType::Spot;
   spot.range = 100;
   spot.direction = glm::dvec3(0, 0, 1);  // away from the centre
-  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).z, -std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).z, -1.0, 1e-12);
   spot.direction = glm::dvec3(0, 0, -1);  // at it
-  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).z, std::sqrt(0.5), 1e-12);
+  EXPECT_NEAR(litSide(std::vector<Light>{sun, spot}, box, up).x, 1.0, 1e-12);
+}
+
+TEST(PreviewCamera, TheDefaultViewShowsTheStrongestLightsShadows) {
+  // The shipped Subpass scene under the demo's sun (and a spot), seen as cpvs-view sees it by default: across
+  // the strongest light, from above. Between 15 and 50 % of the geometry's pixels lie in that light's shadow
+  // and at most 30 % are near black (the fill keeps the shade readable). From the light's own side (the
+  // default before) only about a tenth of the geometry shows shadow.
+  Baked& b = subpass();
+  REQUIRE_RENDERER(b);
+  const glm::dvec3 up(0, -1, 0);
+  const Bounds bounds = sceneBounds(b.scene);
+  const std::vector<Light> lights = lightsOf(b);
+  const std::optional<size_t> strongest = strongestLight(lights, bounds);
+  ASSERT_TRUE(strongest);
+  EXPECT_EQ(lights[*strongest].type, LightType::Directional);
+  FrameSettings settings;
+  settings.width = 480;
+  settings.height = 270;
+  settings.shadows = ShadowMode::Cpu;
+  auto coverage = [&](const glm::dvec3& side) {
+    const PreviewCamera camera = defaultCamera(bounds, 480.0 / 270.0, up, PreviewCamera{}.yfov, side);
+    const Frame f = b.renderer->render(camera, settings);
+    const Fill fill{Fill{}.strength, up};
+    const ExposedFrame exposed = autoExposed(f, f.radiance, fill);
+    return shadowCoverage(f, uint32_t(*strongest), toneMapped(f, f.radiance, exposed.exposure, exposed.fill));
+  };
+  const ShadowCoverage chosen = coverage(litSide(lights, bounds, up));
+  std::printf("[ coverage ] Subpass: %.1f %% in the sun's shadow, %.1f %% near black, of %zu pixels\n",
+              100 * chosen.inShadow, 100 * chosen.nearBlack, chosen.geometryPixels);
+  EXPECT_GT(chosen.geometryPixels, size_t(480 * 270 / 10));
+  EXPECT_GE(chosen.inShadow, 0.15);
+  EXPECT_LE(chosen.inShadow, 0.50);
+  EXPECT_LE(chosen.nearBlack, 0.30);
+  // From the light's side the same measure sees less shadow (what the measure is for).
+  const glm::dvec3 toLight = -lights[*strongest].direction;
+  EXPECT_LT(coverage(toLight - glm::dot(toLight, up) * up).inShadow, chosen.inShadow);
+}
+
+TEST(Preview, AutomaticShadowsTakeTheCpuRuntimeOnASoftwareGl) {
+  Baked& b = tiny();
+  REQUIRE_RENDERER(b);
+  const PreviewRenderer::ShadowChoice choice = b.renderer->automaticShadows();
+  if (b.renderer->contextDescription().find("llvmpipe") == std::string::npos)
+    GTEST_SKIP() << "not a software GL: " << b.renderer->contextDescription();
+  EXPECT_EQ(choice.mode, ShadowMode::Cpu);
+  EXPECT_NE(choice.reason.find("llvmpipe"), std::string::npos) << choice.reason;
 }
 
 // ---- against the rays -----------------------------------------------------------------------------------
@@ -814,8 +863,14 @@ TEST(PreviewTool, RendersABakeAndRefusesAnotherScene) {
   std::ifstream report(dir + "/report.json");
   const std::string text((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
   for (const char* key : {"\"gbuffer\"", "\"tile_bounds\"", "\"light_lists\"", "\"shadows\"", "\"shading\"",
-                          "\"mean_lights_per_tile\"", "\"uploaded_bytes\"", "\"matches\": true", "\"ambient\": 0.15"})
+                          "\"mean_lights_per_tile\"", "\"uploaded_bytes\"", "\"matches\": true", "\"ambient\": 0.15",
+                          "\"shadow_coverage\"", "\"in_shadow\"", "\"near_black\""})
     EXPECT_NE(text.find(key), std::string::npos) << key << " missing from the report:\n" << text;
+  // No --shadows: auto, which takes the CPU runtime on llvmpipe and says so in one line and in the report.
+  EXPECT_NE(view.output.find("cpvs-view: shadows cpu (auto: "), std::string::npos) << view.output;
+  EXPECT_NE(text.find("\"shadows\": \"cpu\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"shadows_auto\": \"OSMesa"), std::string::npos) << text;
+  EXPECT_NE(view.output.find("of the geometry's pixels in the shadow of '"), std::string::npos) << view.output;
 
   // Another scene: refused with exit code 2, naming both files; nothing written.
   const std::string other = sourcePath("data/scenes/TorusKnot/torusknot.gltf");

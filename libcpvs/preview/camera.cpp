@@ -21,23 +21,31 @@ PreviewCamera cameraFromScene(const Camera& camera) {
   return c;
 }
 
-glm::dvec3 litSide(std::span<const Light> lights, const Bounds& bounds, const glm::dvec3& up) {
-  const glm::dvec3 u = glm::normalize(up), centre = bounds.center();
+std::optional<size_t> strongestLight(std::span<const Light> lights, const Bounds& bounds) {
+  const glm::dvec3 centre = bounds.center();
   double strongest = 0;
-  glm::dvec3 toLight(0.0);
-  for (const Light& light : lights) {
-    const double illuminance = strengthAt(light, centre);
-    const glm::dvec3 toward = towardLight(light, centre);
-    if (std::isfinite(illuminance) && illuminance > strongest && glm::length(toward) > 0) {
+  std::optional<size_t> found;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    const double illuminance = strengthAt(lights[i], centre);
+    if (std::isfinite(illuminance) && illuminance > strongest && glm::length(towardLight(lights[i], centre)) > 0) {
       strongest = illuminance;
-      toLight = glm::normalize(toward);
+      found = i;
     }
   }
+  return found;
+}
+
+glm::dvec3 litSide(std::span<const Light> lights, const Bounds& bounds, const glm::dvec3& up) {
+  const glm::dvec3 u = glm::normalize(up);
+  const std::optional<size_t> strongest = strongestLight(lights, bounds);
+  if (!strongest) return kDefaultSide;
+  const glm::dvec3 toLight = glm::normalize(towardLight(lights[*strongest], bounds.center()));
   const glm::dvec3 across = toLight - glm::dot(toLight, u) * u;
-  if (strongest <= 0 || glm::length(across) < std::sin(glm::radians(20.0))) return kDefaultSide;
-  // Turned 45 degrees about up (Rodrigues' formula for a vector perpendicular to the axis).
+  if (glm::length(across) < std::sin(glm::radians(20.0))) return kDefaultSide;
+  // Turned about up (Rodrigues' formula for a vector perpendicular to the axis).
   const glm::dvec3 a = glm::normalize(across);
-  return std::cos(M_PI / 4) * a + std::sin(M_PI / 4) * glm::cross(u, a);
+  const double turn = glm::radians(kLitSideTurnDegrees);
+  return std::cos(turn) * a + std::sin(turn) * glm::cross(u, a);
 }
 
 PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec3& up, double yfov,
@@ -45,12 +53,12 @@ PreviewCamera defaultCamera(const Bounds& bounds, double aspect, const glm::dvec
   PreviewCamera c;
   c.up = glm::normalize(up);
   c.yfov = yfov;
-  // A direction from the scene toward the eye: `towardEye` in the plane perpendicular to up, raised by half its
-  // length.
+  // A direction from the scene toward the eye: `towardEye` in the plane perpendicular to up, raised by
+  // kDefaultCameraRise times its length.
   glm::dvec3 side = towardEye - glm::dot(towardEye, c.up) * c.up;
   if (glm::length(side) < 1e-6) side = kDefaultSide - glm::dot(kDefaultSide, c.up) * c.up;
   if (glm::length(side) < 1e-6) side = glm::dvec3(1.0, 1.0, 0.0) - glm::dot(glm::dvec3(1.0, 1.0, 0.0), c.up) * c.up;
-  const glm::dvec3 back = glm::normalize(glm::normalize(side) + 0.5 * c.up);
+  const glm::dvec3 back = glm::normalize(glm::normalize(side) + kDefaultCameraRise * c.up);
   const glm::dvec3 right = glm::normalize(glm::cross(c.up, back)), cameraUp = glm::cross(back, right);
   // With the orientation fixed, a corner p (coordinates x, y, z along right, cameraUp, back) is in view of an
   // eye e when |x - e.x| <= tanX (e.z - z) and |y - e.y| <= tanY (e.z - z): linear in e. Each pair of planes

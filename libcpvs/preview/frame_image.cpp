@@ -195,6 +195,26 @@ RgbImage withOverlay(const Frame& frame, const RgbImage& image, Overlay overlay)
   return out;
 }
 
+ShadowCoverage shadowCoverage(const Frame& frame, uint32_t light, const RgbImage& image) {
+  ShadowCoverage c;
+  size_t shadowed = 0, dark = 0;
+  for (uint32_t y = 0; y < frame.height; ++y)
+    for (uint32_t x = 0; x < frame.width; ++x) {
+      if (frame.positions[frame.pixel(x, y)].w == 0.0f) continue;
+      ++c.geometryPixels;
+      const size_t tile = frame.tileOf(x, y);
+      for (uint32_t slot = 0; slot < frame.lists.offsets[tile + 1] - frame.lists.offsets[tile]; ++slot)
+        if (frame.lists.lights[frame.lists.offsets[tile] + slot] == light)
+          shadowed += frame.visibility[frame.pairIndex(x, y, slot)] < 0.5f;
+      const uint8_t* rgb = image.at(x, frame.height - 1 - y);
+      dark += 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2] < kNearBlack * 255.0;
+    }
+  const double pixels = double(std::max<size_t>(1, c.geometryPixels));
+  c.inShadow = double(shadowed) / pixels;
+  c.nearBlack = double(dark) / pixels;
+  return c;
+}
+
 LightListStats lightListStats(const Frame& frame, size_t lightCount) {
   LightListStats s;
   std::vector<uint32_t> coveredPixels(frame.lists.tiles(), 0);

@@ -61,6 +61,17 @@ ExrImage linearImage(const Frame& frame, const std::vector<glm::vec4>& radiance,
 // frame's rayVisibility.
 RgbImage withOverlay(const Frame& frame, const RgbImage& image, Overlay overlay);
 
+// Whether a frame shows a light's shadows: of its geometry pixels, the share in the light's shadow (the light
+// listed in the pixel's tile and the pixel's visibility of it below 1/2) and the share near black in the
+// tone-mapped image (luma, Rec. 709 weights over the sRGB values, below kNearBlack of white). docs/viewer.md, "The default camera".
+inline constexpr double kNearBlack = 0.08;
+struct ShadowCoverage {
+  size_t geometryPixels = 0;
+  double inShadow = 0, nearBlack = 0;  // fractions of geometryPixels
+};
+// `image`: toneMapped's (row 0 the top).
+ShadowCoverage shadowCoverage(const Frame& frame, uint32_t light, const RgbImage& image);
+
 struct LightListStats {
   size_t coveredTiles = 0;
   double meanLightsPerTile = 0;  // over covered tiles

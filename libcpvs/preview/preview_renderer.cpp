@@ -273,6 +273,20 @@ size_t PreviewRenderer::sceneTriangles() const { return state_->resources->trian
 size_t PreviewRenderer::staticUploadBytes() const { return state_->resources->staticBytes; }
 size_t PreviewRenderer::shadowDataBytes() const { return state_->resources->shadowBytes; }
 
+PreviewRenderer::ShadowChoice PreviewRenderer::automaticShadows() const {
+  const RendererResources& r = *state_->resources;
+  const std::string& gl = r.context->description();
+  for (const char* software : {"llvmpipe", "softpipe", "swrast", "Software Rasterizer", "SwiftShader"})
+    if (gl.find(software) != std::string::npos)
+      return {ShadowMode::Cpu, gl + " rasterises on the CPU: the CPU runtime's lookups are faster than a compute "
+                                    "shader there (--shadows gpu walks the DAGs on it anyway)"};
+  if (r.dagBufferBytes > r.maxStorageBlock)
+    return {ShadowMode::Cpu, "the DAGs need a " + std::to_string(r.dagBufferBytes >> 20) + " MiB storage buffer, " + gl +
+                                 " allows " + std::to_string(r.maxStorageBlock >> 20) + " MiB"};
+  return {ShadowMode::Gpu, gl + " holds the DAGs (" + std::to_string(r.dagBufferBytes >> 20) + " MiB of " +
+                               std::to_string(r.maxStorageBlock >> 20) + " MiB a storage buffer)"};
+}
+
 Frame PreviewRenderer::render(const PreviewCamera& camera, const FrameSettings& settings) {
   std::unique_ptr<ShadowPass>& technique = state_->techniques[settings.shadows];
   if (!technique) {

@@ -49,6 +49,15 @@ public:
   size_t staticUploadBytes() const;
   // Of those, the lights' shadow data: their records, views and DAGs (what the shadow lookups read).
   size_t shadowDataBytes() const;
+  // cpvs-view's --shadows auto: the GPU walk (Gpu) on a GL that runs on a GPU and whose storage buffers hold the
+  // DAGs, else the CPU runtime's lookups (Cpu), with why in words. On a software GL (Mesa's llvmpipe, as OSMesa
+  // and EGL give without a GPU) the compute shader's walk takes many times the CPU lookups' time
+  // (docs/viewer.md, "Which shadows by default").
+  struct ShadowChoice {
+    ShadowMode mode = ShadowMode::Gpu;
+    std::string reason;
+  };
+  ShadowChoice automaticShadows() const;
 
 private:
   void checkFrame(const PreviewCamera& camera, const FrameSettings& settings) const;

@@ -199,6 +199,7 @@ void RendererResources::uploadLights() {
   viewWords = gl::createStorageBuffer(c, records.viewWords.data(), records.viewWords.size() * 4);
   staticBytes += records.bytes() - (records.nodes.size() * 4 + records.leaves.size() * 8);
   shadowBytes = records.bytes();
+  dagBufferBytes = std::max(records.nodes.size() * 4, records.leaves.size() * 8);
 }
 
 void RendererResources::uploadDags() {

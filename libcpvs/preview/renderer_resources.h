@@ -88,6 +88,7 @@ public:
   Bounds bounds;  // the scene's, for the clip planes and the voxel grid (computed once)
   size_t triangles = 0, staticBytes = 0, shadowBytes = 0, textureBytes = 0;
   size_t maxStorageBlock = 0;  // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
+  size_t dagBufferBytes = 0;   // the larger of the GPU walk's two DAG buffers (nodes, leaves)
 
   GLuint gbufferProgram = 0, boundsProgram = 0, countProgram = 0, fillProgram = 0, prefixProgram = 0,
          shadingProgram = 0;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -39,7 +40,7 @@ using json = nlohmann::ordered_json;
 
 struct Options {
   std::string scene, file, output, cameraName, eye, target, up, report, path, frames, size = "1920x1080";
-  std::string shadows = "gpu", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
+  std::string shadows = "auto", overlay = "none", backend = "osmesa", casterCulling = "none", maskVariant = "frag";
   uint32_t shadowMapSize = 512, minShadowMapSize = 16, clusters = 10, rays = 1, compareRays = 1;
   double fov = 0, exposure = 0, exposureScale = 0, ambient = Fill{}.strength;
   int pcf = 9, orbit = 0;
@@ -143,7 +144,8 @@ FrameSettings frameSettingsOf(const Options& o) {
   tools::forFlag("--size", [&] { parseSize(o.size, settings.width, settings.height); });
   settings.pcfKernel = o.pcf;
   if (const Outcome k = checkPcfKernel(o.pcf); !k) throw Error(ErrorCategory::InvalidArgument, "--pcf: " + k.message());
-  settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
+  // "auto" is chosen once the renderer knows its GL (PreviewRenderer::automaticShadows).
+  if (o.shadows != "auto") settings.shadows = tools::forFlag("--shadows", [&] { return parseShadowMode(o.shadows); });
   settings.shadowMaps.casterCulling = tools::forFlag("--caster-culling", [&] { return parseCasterCulling(o.casterCulling); });
   settings.shadowMaps.maskVariant = tools::forFlag("--mask-variant", [&] { return parseReceiverMaskVariant(o.maskVariant); });
   if (o.shadowMapSize < 8 || o.shadowMapSize > 8192)
@@ -252,8 +254,9 @@ void addOptions(CLI::App& app, Options& o) {
   app.add_option("--fov", o.fov, "Vertical field of view in degrees (default 45.8, or the glTF camera's)");
   app.add_option("--size", o.size, "Image size WIDTHxHEIGHT (default 1920x1080)");
   app.add_option("--pcf", o.pcf, "PCF kernel K (odd, 1..255; default 9, the paper's 9x9)");
-  app.add_option("--shadows", o.shadows, "gpu (CPVS walked in a compute shader; default), cpu (the CPU runtime's batch "
-                                         "lookups), raytraced (Embree shadow rays), none, or a per-frame technique "
+  app.add_option("--shadows", o.shadows, "auto (default: gpu where the GL runs on a GPU and holds the DAGs, else cpu; "
+                                         "said on stderr and in the report), gpu (CPVS walked in a compute shader), "
+                                         "cpu (the CPU runtime's batch lookups), raytraced (Embree shadow rays), none, or a per-frame technique "
                                          "CPVS replaces: shadowmap (a map per light view, drawn every frame) or "
                                          "lightcluster (a cube map per cluster of lights) or manypsm (ManyPSMs: every "
                                          "light view's map in one go by a level-by-level BVH traversal into an atlas, "
@@ -303,7 +306,7 @@ int run(int argc, char** argv) {
   addOptions(app, o);
   if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
 
-  const FrameSettings settings = frameSettingsOf(o);
+  FrameSettings settings = frameSettingsOf(o);
   const Overlay overlay = tools::forFlag("--overlay", [&] { return parseOverlay(o.overlay); });
   const RasterBackend backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   const bool animated = !o.path.empty() || o.orbit > 0;
@@ -339,6 +342,8 @@ int run(int argc, char** argv) {
   }
 
   const PreviewCamera camera = chooseCamera(o, scene, lightModels, double(settings.width) / settings.height);
+  // The light whose shadows the report measures (the one the default camera is placed by).
+  const std::optional<size_t> strongest = strongestLight(lightModels, sceneBounds(scene));
   const Fill fill{o.ambient, glm::normalize(upOf(o))};
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
@@ -351,6 +356,14 @@ int run(int argc, char** argv) {
   }
 
   PreviewRenderer renderer(scene, std::move(lights), backend, o.threads);
+  std::string automatic;  // why --shadows auto chose what it chose
+  if (o.shadows == "auto") {
+    const PreviewRenderer::ShadowChoice choice = renderer.automaticShadows();
+    settings.shadows = choice.mode;
+    automatic = choice.reason;
+    if (!o.quiet)
+      std::fprintf(stderr, "cpvs-view: shadows %s (auto: %s)\n", shadowModeName(choice.mode), choice.reason.c_str());
+  }
   if (o.window) {
     tools::WindowOptions window;
     window.title = "cpvs-view " + std::filesystem::path(o.scene).filename().string();
@@ -363,7 +376,7 @@ int run(int argc, char** argv) {
     return 0;
   }
   renderer.warmUp(settings);
-  ViewReport report(o.scene, o.file, renderer, settings, overlay, o.ambient, check);
+  ViewReport report(o.scene, o.file, renderer, settings, overlay, o.ambient, check, automatic);
   ExposedFrame exposed{o.exposureScale, fill};
   for (size_t i = 0; i < cameras.size(); ++i) {
     const Frame frame = renderer.render(cameras[i], settings);
@@ -371,8 +384,16 @@ int run(int argc, char** argv) {
       exposed = autoExposed(frame, frame.radiance, fill, o.exposure);
     const std::string image = animated ? framePath(o.frames, i) : o.output;
     writeImage(image, frame, frame.radiance, exposed.exposure, exposed.fill, overlay);
-    report.addFrame(image, cameras[i], frame, exposed.exposure);
+    std::optional<ViewReport::Coverage> coverage;
+    if (strongest)
+      coverage = ViewReport::Coverage{lightModels[*strongest].name,
+                                      shadowCoverage(frame, uint32_t(*strongest),
+                                                     toneMapped(frame, frame.radiance, exposed.exposure, exposed.fill))};
+    report.addFrame(image, cameras[i], frame, exposed.exposure, coverage);
     if (!o.quiet) printFrameLine(image, frame, settings, renderer.lights().size(), report);
+    if (!o.quiet && coverage)
+      std::fprintf(stderr, "cpvs-view: %.1f%% of the geometry's pixels in the shadow of '%s', %.1f%% near black\n",
+                   100.0 * coverage->figures.inShadow, coverage->light.c_str(), 100.0 * coverage->figures.nearBlack);
   }
   if (reportFile) {
     reportFile->write(report.text());

@@ -59,11 +59,13 @@ json shadowMapsJson(const ShadowMapFrame& maps, const ShadowMapSettings& setting
 }  // namespace
 
 ViewReport::ViewReport(const std::string& scene, const std::string& file, const PreviewRenderer& renderer,
-                       const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check)
+                       const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check,
+                       const std::string& automaticShadows)
     : renderer_(renderer), settings_(settings) {
   report_ = {{"tool", "cpvs-view"}, {"tool_version", kVersion}, {"scene", scene}, {"cpvs", file},
              {"context", renderer.contextDescription()}, {"size", {settings.width, settings.height}},
              {"pcf", settings.pcfKernel}, {"shadows", shadowModeName(settings.shadows)},
+             {"shadows_auto", automaticShadows.empty() ? json(nullptr) : json(automaticShadows)},
              {"rays_per_pair", settings.shadows == ShadowMode::RayTraced ? json(settings.raysPerSide * settings.raysPerSide) : json(nullptr)},
              {"overlay", overlayName(overlay)}, {"ambient", ambient}, {"lights", renderer.lights().size()},
              {"clusters", settings.shadows == ShadowMode::LightCluster ? json(settings.shadowMaps.clusters) : json(nullptr)},
@@ -71,7 +73,8 @@ ViewReport::ViewReport(const std::string& scene, const std::string& file, const 
              {"baked_from", {{"checked", check.checked}, {"matches", check.matches}, {"reason", check.reason}}}};
 }
 
-void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera, const Frame& frame, double exposure) {
+void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera, const Frame& frame, double exposure,
+                          const std::optional<Coverage>& coverage) {
   lastLists_ = lightListStats(frame, renderer_.lights().size());
   const LightListStats& lists = lastLists_;
   json entry = {{"image", image}, {"camera", cameraJson(camera)}, {"passes_ms", passesJson(frame)},
@@ -82,6 +85,11 @@ void ViewReport::addFrame(const std::string& image, const PreviewCamera& camera,
                 {"uploaded_bytes", {{"once", renderer_.staticUploadBytes()},
                                     {"this_frame", frame.uploadedBytes - renderer_.staticUploadBytes()}}},
                 {"exposure", exposure}};
+  if (coverage)
+    entry["shadow_coverage"] = {{"light", coverage->light},
+                                {"geometry_pixels", coverage->figures.geometryPixels},
+                                {"in_shadow", coverage->figures.inShadow},
+                                {"near_black", coverage->figures.nearBlack}};
   const ShadowMode mode = settings_.shadows;
   if (mode == ShadowMode::ShadowMap || mode == ShadowMode::LightCluster || mode == ShadowMode::ManyPsm)
     entry["shadow_maps"] = shadowMapsJson(frame.shadowMaps, settings_.shadowMaps, mode);

@@ -4,6 +4,7 @@
 // mean and largest time of every pass (docs/viewer.md lists the fields).
 #include <cstddef>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -20,9 +21,16 @@ namespace cpvs::tools {
 class ViewReport {
 public:
   ViewReport(const std::string& scene, const std::string& file, const PreviewRenderer& renderer,
-             const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check);
-  // Adds a frame; returns its light-list figures and (with --compare) its error against the rays.
-  void addFrame(const std::string& image, const PreviewCamera& camera, const Frame& frame, double exposure);
+             const FrameSettings& settings, Overlay overlay, double ambient, const BakedFromCheck& check,
+             const std::string& automaticShadows = {});
+  // Adds a frame; returns its light-list figures and (with --compare) its error against the rays. `coverage`:
+  // how much of it lies in the strongest light's shadow (frame_image.h), when a light reaches the scene.
+  struct Coverage {
+    std::string light;
+    ShadowCoverage figures;
+  };
+  void addFrame(const std::string& image, const PreviewCamera& camera, const Frame& frame, double exposure,
+                const std::optional<Coverage>& coverage = std::nullopt);
   // The last frame's figures, for the summary line on stderr.
   const LightListStats& lastLists() const { return lastLists_; }
   const RayErrors& lastErrors() const { return lastErrors_; }
