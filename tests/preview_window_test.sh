@@ -25,51 +25,21 @@ if [ $rc -eq 5 ] && grep -q "without GLFW" "$work/window.log"; then exit 77; fi
 [ $rc -eq 0 ] || { echo "cpvs-view --window exited with $rc"; exit 1; }
 "$bin/cpvs-view" "$scene" "$work/tiny.cpvs" --size 320x200 --exposure-scale 0.3 -q -o "$work/headless.png"
 # The window shows what the headless path writes, pixel for pixel.
-cat > "$work/same_pixels.py" <<'PY'
-import sys, zlib, struct
-def pixels(path):
-    data = open(path, 'rb').read()
-    assert data[:8] == b'\x89PNG\r\n\x1a\n', path
-    pos, idat, w, h = 8, b'', 0, 0
-    while pos < len(data):
-        n, kind = struct.unpack('>I4s', data[pos:pos + 8]); body = data[pos + 8:pos + 8 + n]; pos += 12 + n
-        if kind == b'IHDR': w, h = struct.unpack('>II', body[:8]); assert body[8] == 8 and body[9] == 2, 'RGB8 expected'
-        if kind == b'IDAT': idat += body
-    raw, rows, prev = zlib.decompress(idat), [], bytearray(w * 3)
-    for y in range(h):
-        f, line = raw[y * (w * 3 + 1)], bytearray(raw[y * (w * 3 + 1) + 1:(y + 1) * (w * 3 + 1)])
-        for i in range(len(line)):
-            a = line[i - 3] if i >= 3 else 0; b = prev[i]; c = prev[i - 3] if i >= 3 else 0
-            if f == 1: line[i] = (line[i] + a) & 255
-            elif f == 2: line[i] = (line[i] + b) & 255
-            elif f == 3: line[i] = (line[i] + (a + b) // 2) & 255
-            elif f == 4:
-                p = a + b - c; pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
-                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(bytes(line)); prev = line
-    return w, h, b''.join(rows)
+cat > "$work/same_pixels.py" <<PY
+import sys
+sys.path.insert(0, "$source/tests/support")
+from png_pixels import differing, pixels
 wa, ha, a = pixels(sys.argv[1]); wb, hb, b = pixels(sys.argv[2])
 allowed = int(sys.argv[3]) if len(sys.argv) > 3 else 0  # differing pixels allowed
 assert (wa, ha) == (wb, hb) == (320, 200), ((wa, ha), (wb, hb))
-differing = sum(1 for i in range(0, len(a), 3) if max(abs(a[i + c] - b[i + c]) for c in range(3)) > 2)
 lit = sum(1 for i in range(0, len(a), 3) if max(a[i:i + 3]) > 40)
-print("window vs headless: %d of %d pixels differ, %d bright pixels" % (differing, wa * ha, lit))
-sys.exit(0 if differing <= allowed and lit > 1000 else 1)
+print("window vs headless: %d of %d pixels differ, %d bright pixels" % (differing(a, b), wa * ha, lit))
+sys.exit(0 if differing(a, b) <= allowed and lit > 1000 else 1)
 PY
 python3 "$work/same_pixels.py" "$work/window.png" "$work/headless.png"
 
 command -v xdotool > /dev/null || { echo "xdotool not installed: the keys are not tested"; exit 0; }
-# Waits (30 s at most) until cpvs-view's window is mapped and takes the focus; prints its id. The window exists
-# before it is mapped, and focusing it then fails (BadMatch): slow builds (sanitizers) showed that.
-focus="$work/focus_window.sh"
-cat > "$focus" <<'SH'
-for i in $(seq 300); do
-  id=$(xdotool search --onlyvisible --name cpvs-view 2> /dev/null | head -1)
-  if [ -n "$id" ] && timeout 5 xdotool windowfocus --sync "$id" 2> /dev/null; then echo "$id"; exit 0; fi
-  sleep 0.1
-done
-exit 1
-SH
+focus="$source/tests/support/focus_window.sh"
 (cd "$work" && rm -f cpvs-view-0.png && xvfb-run -a -s "-screen 0 800x600x24" "${window_env[@]}" bash -c '
   "$0" "$1" "$2" --window --size 320x200 --exposure-scale 0.3 & pid=$!
   id=$(bash "$3") || { echo "the window did not appear"; kill $pid; exit 1; }

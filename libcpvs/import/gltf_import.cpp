@@ -101,6 +101,7 @@ std::vector<std::string> lines(const std::string& text) {
 
 Scene GltfImporter::run() {
   scene_.source = path_;
+  scene_.files.insert(scene_.files.begin(), path_);
   load();
   checkRequiredExtensions();
   parseLights();
@@ -186,6 +187,7 @@ void GltfImporter::load() {
   }
   // A buffer refused by the file rules: say why, rather than tinygltf's "file not found".
   if (!access.refusal.empty()) fail("buffer " + gltf::shortenDataUris(access.refusal));
+  for (const std::string& file : access.read) scene_.files.push_back(file);
   // tinygltf reports some problems in `errors` and still returns true; those are errors too.
   const std::vector<std::string> errorLines = lines(errors);
   if (!ok || !errorLines.empty()) {

@@ -175,6 +175,7 @@ bool readWholeFile(std::vector<unsigned char>* out, std::string* error, const st
     if (error) *error += "'" + path + "': cannot read all " + std::to_string(out->size()) + " bytes\n";
     return false;
   }
+  access.read.push_back(path);
   return true;
 }
 

@@ -14,6 +14,7 @@
 #include <set>
 #include <span>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -49,6 +50,7 @@ struct FileAccess {
   bool allImages = false;
   std::set<std::string> imageNames;
   std::string refusal;
+  std::vector<std::string> read;  // the files read, in order (what a watch of the scene must watch)
 };
 // tinygltf::FsCallbacks members; user data is a FileAccess*.
 bool fileExists(const std::string& path, void* access);

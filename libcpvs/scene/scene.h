@@ -81,6 +81,7 @@ struct Camera {
 
 struct Scene {
   std::string source;  // file it came from, for messages
+  std::vector<std::string> files;  // every file the import read: `source` first, then external buffers and images
   std::vector<Mesh> meshes;
   std::vector<Instance> instances;
   std::vector<Light> lights;

@@ -18,6 +18,7 @@
 #include "tools/common/atomic_file.h"
 #include "tools/common/bake_options.h"
 #include "tools/common/cli.h"
+#include "tools/common/file_watch.h"
 #include "tools/common/input_kind.h"
 #include "tools/common/ground_json.h"
 #include "tools/common/progress.h"
@@ -38,6 +39,7 @@ struct Options {
   std::string lightList;
   std::string shard;
   std::string cache;
+  bool watch = false;
   tools::LightOptions lights;
   ImportOptions import;
 };
@@ -143,46 +145,9 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
           {"lights", lights}};
 }
 
-int run(int argc, char** argv) {
-  Options o;
-  CLI::App app{"cpvs-bake: bake Compact Precomputed Voxelized Shadows for every light of a glTF scene.\n"
-               "Lights come from the scene (KHR_lights_punctual) unless given with --sun/--spot/--point."};
-  tools::addStandardFlags(app, "cpvs-bake");
-  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required()->type_name("SCENE");
-  app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
-  o.shape.addTo(app);
-  o.lights.addTo(app);
-  tools::addImportOptions(app, o.import);
-  app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
-  app.add_option("--backend", o.backend, "Depth rendering: cpu (default: the CPU rasteriser), osmesa (OpenGL on llvmpipe, no GPU or display) or egl (OpenGL on a GPU)")
-      ->capture_default_str();
-  app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
-  app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
-  app.add_option("--lights", o.lightList,
-                 "Bake only these lights: indices, inclusive index ranges and names, e.g. 0-11,20,Lantern (the file is "
-                 "then a part for cpvs-merge)")
-      ->type_name("LIST");
-  app.add_option("--shard", o.shard,
-                 "Bake shard I of N (0-based) of the lights: a deterministic, cost-balanced subset; cpvs-merge joins "
-                 "the N parts into the file one run writes")
-      ->type_name("I/N");
-  app.add_option("--cache", o.cache,
-                 "Folder of finished light bakes keyed by what each depends on: unchanged lights are read back, not "
-                 "baked (same bytes as a clean bake)")
-      ->type_name("DIR");
-  app.add_flag("-q,--quiet", o.quiet,
-               "No progress (a bar on a terminal, else one line per finished light) and no warnings");
-  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
-  if (o.output.empty() && o.dumpDepth.empty())
-    throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
-  if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");
-  BakeSettings settings;
-  o.shape.applyTo(settings);
-  settings.threads = o.threads;
-  settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
-  if (!o.shard.empty()) settings.shard = tools::forFlag("--shard", [&] { return parseShard(o.shard); });
-  settings.cacheFolder = o.cache;
-
+// One bake of the scene with the options: outputs opened first (a path that cannot be written fails before the
+// work), written atomically once everything is done. Returns the files the import read (what --watch watches).
+std::vector<std::string> bakeOnce(const Options& o, BakeSettings settings, const std::string& usage) {
   // Every output is opened before the work: a path that cannot be written fails now, not after the bake.
   std::optional<tools::AtomicFile> cpvsFile, reportFile;
   if (!o.output.empty()) cpvsFile.emplace(o.output);
@@ -193,7 +158,7 @@ int run(int argc, char** argv) {
     if (ec) throw Error(ErrorCategory::OutputFailed, o.dumpDepth + ": cannot create folder: " + ec.message());
   }
   const Stopwatch total;
-  tools::expectScene(o.scene, tools::positionalUsage(app) + " -o OUT.cpvs");
+  tools::expectScene(o.scene, usage);
   Scene scene = importGltf(o.scene, o.import);
   const double loadMs = total.ms();
   o.lights.applyTo(scene);
@@ -256,6 +221,83 @@ int run(int argc, char** argv) {
     if (!o.output.empty()) std::fprintf(stderr, " -> %s (%llu bytes)", o.output.c_str(), (unsigned long long)fileBytes);
     std::fprintf(stderr, "\n");
   }
+  return scene.files;
+}
+
+// --watch: bakes, then again whenever the scene or a file it read changes (tools/common/file_watch.h), until
+// Ctrl-C. A bake that fails says why and leaves the previous output as it was (every output is atomic).
+[[noreturn]] void watchAndBake(const Options& o, const BakeSettings& settings, const std::string& usage) {
+  std::vector<std::string> files{o.scene};
+  for (;;) {
+    const tools::FileStamps before = tools::stampsOf(files);
+    try {
+      files = bakeOnce(o, settings, usage);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "cpvs-bake: error: %s\n", e.what());
+      if (!o.output.empty())
+        std::fprintf(stderr, "cpvs-bake: %s stays as it was\n", o.output.c_str());
+    }
+    // A save during the bake counts: the files are compared with what they were when it started (unless the
+    // scene now reads other files).
+    const tools::FileStamps since = files.size() == before.size() ? before : tools::stampsOf(files);
+    if (!o.quiet && tools::stampsOf(files) == since)
+      std::fprintf(stderr, "cpvs-bake: watching %s%s for changes (Ctrl-C stops)\n", o.scene.c_str(),
+                   files.size() > 1 ? (" and the " + std::to_string(files.size() - 1) + " file(s) it reads").c_str() : "");
+    tools::waitForChange(files, since);
+    if (!o.quiet) std::fprintf(stderr, "cpvs-bake: %s changed: baking again\n", o.scene.c_str());
+  }
+}
+
+int run(int argc, char** argv) {
+  Options o;
+  CLI::App app{"cpvs-bake: bake Compact Precomputed Voxelized Shadows for every light of a glTF scene.\n"
+               "Lights come from the scene (KHR_lights_punctual) unless given with --sun/--spot/--point."};
+  tools::addStandardFlags(app, "cpvs-bake");
+  app.add_option("scene", o.scene, "Input scene (.gltf or .glb)")->required()->type_name("SCENE");
+  app.add_option("-o,--output", o.output, "Output .cpvs file (written atomically)");
+  o.shape.addTo(app);
+  o.lights.addTo(app);
+  tools::addImportOptions(app, o.import);
+  app.add_option("-j,--threads", o.threads, "Worker threads (output bytes do not depend on it)")->capture_default_str();
+  app.add_option("--backend", o.backend, "Depth rendering: cpu (default: the CPU rasteriser), osmesa (OpenGL on llvmpipe, no GPU or display) or egl (OpenGL on a GPU)")
+      ->capture_default_str();
+  app.add_option("--report", o.report, "Write a JSON report (timings per phase, nodes, bytes)");
+  app.add_option("--dump-depth", o.dumpDepth, "Write enter/exit depth maps (EXR, slice units) into this folder");
+  app.add_option("--lights", o.lightList,
+                 "Bake only these lights: indices, inclusive index ranges and names, e.g. 0-11,20,Lantern (the file is "
+                 "then a part for cpvs-merge)")
+      ->type_name("LIST");
+  app.add_option("--shard", o.shard,
+                 "Bake shard I of N (0-based) of the lights: a deterministic, cost-balanced subset; cpvs-merge joins "
+                 "the N parts into the file one run writes")
+      ->type_name("I/N");
+  app.add_option("--cache", o.cache,
+                 "Folder of finished light bakes keyed by what each depends on: unchanged lights are read back, not "
+                 "baked (same bytes as a clean bake)")
+      ->type_name("DIR");
+  app.add_flag("--watch", o.watch,
+               "After the bake, bake again whenever the scene (or a buffer or image it reads) is saved, until Ctrl-C; "
+               "a save that fails to bake says why and leaves the output as it was (with --cache, lights the edit "
+               "does not reach are read back)");
+  app.add_flag("-q,--quiet", o.quiet,
+               "No progress (a bar on a terminal, else one line per finished light) and no warnings");
+  if (const auto done = tools::parseCommandLine(app, argc, argv)) return *done;
+  if (o.output.empty() && o.dumpDepth.empty())
+    throw Error(ErrorCategory::InvalidArgument, "nothing to do: give -o OUT.cpvs (and/or --dump-depth DIR)");
+  if (o.threads < 1 || o.threads > 256) throw Error(ErrorCategory::InvalidArgument, "--threads must be in 1..256");
+  BakeSettings settings;
+  o.shape.applyTo(settings);
+  settings.threads = o.threads;
+  settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
+  if (!o.shard.empty()) settings.shard = tools::forFlag("--shard", [&] { return parseShard(o.shard); });
+  settings.cacheFolder = o.cache;
+
+  const std::string usage = tools::positionalUsage(app) + " -o OUT.cpvs";
+  if (!o.watch) {
+    bakeOnce(o, settings, usage);
+    return 0;
+  }
+  watchAndBake(o, settings, usage);
   return 0;
 }
 

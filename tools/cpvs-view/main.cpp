@@ -242,6 +242,46 @@ void printFrameLine(const std::string& image, const Frame& frame, const FrameSet
                  report.lastErrors().wrongPixelPercent(), report.lastErrors().rmse);
 }
 
+// What a view renders: the scene, the file baked from it (checked against it), the file's lights, and the
+// renderer over them (members in that order: the renderer reads the others and goes first).
+struct LoadedView {
+  Scene scene;
+  std::unique_ptr<CpvsFile> file;
+  BakedFromCheck check;
+  std::vector<Light> lightModels;
+  std::unique_ptr<PreviewRenderer> renderer;
+};
+
+// Reads the scene and the file as they are on disk (again for each reload of --window). Throws Error naming
+// the file and the problem; warnings on stderr unless --quiet.
+std::shared_ptr<LoadedView> loadView(const Options& o, RasterBackend backend) {
+  auto view = std::make_shared<LoadedView>();
+  Scene& scene = view->scene;
+  scene = importGltf(o.scene, o.import);
+  if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
+  if (!o.quiet)
+    for (const std::string& w : scene.warnings) std::fprintf(stderr, "cpvs-view: warning: %s\n", w.c_str());
+  view->file = orThrow(CpvsFile::open(o.file));
+  const BakedFromCheck check = checkBakedFrom(scene, *view->file);
+  view->check = check;
+  if (check.checked && !check.matches && !o.noSceneCheck)
+    throw Error(ErrorCategory::InvalidInput,
+                o.file + " was not baked from " + o.scene + ": the file records input hash " + hex64(check.recordedHash) +
+                    ", the scene with the file's lights and settings gives " + hex64(check.sceneHash) +
+                    " (the same --exclude-mesh options as the bake? else rebake, or pass --no-scene-check to "
+                    "render anyway)");
+  if (!check.checked && !o.quiet)
+    std::fprintf(stderr, "cpvs-view: warning: cannot check that %s was baked from %s: %s\n", o.file.c_str(),
+                 o.scene.c_str(), check.reason.c_str());
+  std::vector<LightShadow> lights;
+  for (const CpvsFile::LightEntry& entry : view->file->lights()) {
+    lights.push_back(orThrow(lightShadowOf(entry)));
+    view->lightModels.push_back(lights.back().light());
+  }
+  view->renderer = std::make_unique<PreviewRenderer>(scene, std::move(lights), backend, o.threads);
+  return view;
+}
+
 void addOptions(CLI::App& app, Options& o) {
   tools::addStandardFlags(app, "cpvs-view");
   app.add_option("scene", o.scene, "The glTF scene the file was baked from (.gltf / .glb)")->required()->type_name("SCENE");
@@ -319,27 +359,17 @@ int run(int argc, char** argv) {
   tools::expectScene(o.scene, tools::positionalUsage(app));
   tools::expectCpvs(o.file, tools::positionalUsage(app));
   o.import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
-  Scene scene = importGltf(o.scene, o.import);
-  if (!o.excludedMeshes.empty()) tools::forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
-  if (!o.quiet)
-    for (const std::string& w : scene.warnings) std::fprintf(stderr, "cpvs-view: warning: %s\n", w.c_str());
-  const std::unique_ptr<CpvsFile> file = orThrow(CpvsFile::open(o.file));
-  const BakedFromCheck check = checkBakedFrom(scene, *file);
-  if (check.checked && !check.matches && !o.noSceneCheck)
-    throw Error(ErrorCategory::InvalidInput,
-                o.file + " was not baked from " + o.scene + ": the file records input hash " + hex64(check.recordedHash) +
-                    ", the scene with the file's lights and settings gives " + hex64(check.sceneHash) +
-                    " (the same --exclude-mesh options as the bake? else rebake, or pass --no-scene-check to "
-                    "render anyway)");
-  if (!check.checked && !o.quiet)
-    std::fprintf(stderr, "cpvs-view: warning: cannot check that %s was baked from %s: %s\n", o.file.c_str(),
-                 o.scene.c_str(), check.reason.c_str());
-  std::vector<LightShadow> lights;
-  std::vector<Light> lightModels;
-  for (const CpvsFile::LightEntry& entry : file->lights()) {
-    lights.push_back(orThrow(lightShadowOf(entry)));
-    lightModels.push_back(lights.back().light());
+  if (animated) {
+    std::error_code error;
+    std::filesystem::create_directories(o.frames, error);
+    if (error || !std::filesystem::is_directory(o.frames))
+      throw Error(ErrorCategory::OutputFailed, o.frames + ": cannot create the frames folder (" + error.message() + ")");
   }
+  const std::shared_ptr<LoadedView> loaded = loadView(o, backend);
+  const Scene& scene = loaded->scene;
+  const std::vector<Light>& lightModels = loaded->lightModels;
+  const BakedFromCheck& check = loaded->check;
+  PreviewRenderer& renderer = *loaded->renderer;
 
   const PreviewCamera camera = chooseCamera(o, scene, lightModels, double(settings.width) / settings.height);
   // The light whose shadows the report measures (the one the default camera is placed by).
@@ -348,14 +378,7 @@ int run(int argc, char** argv) {
   std::vector<PreviewCamera> cameras = {camera};
   if (!o.path.empty()) cameras = readPath(o.path, camera);
   if (o.orbit > 0) cameras = orbit(camera, o.orbit);
-  if (animated) {
-    std::error_code error;
-    std::filesystem::create_directories(o.frames, error);
-    if (error || !std::filesystem::is_directory(o.frames))
-      throw Error(ErrorCategory::OutputFailed, o.frames + ": cannot create the frames folder (" + error.message() + ")");
-  }
 
-  PreviewRenderer renderer(scene, std::move(lights), backend, o.threads);
   std::string automatic;  // why --shadows auto chose what it chose
   if (o.shadows == "auto") {
     const PreviewRenderer::ShadowChoice choice = renderer.automaticShadows();
@@ -372,7 +395,16 @@ int run(int argc, char** argv) {
     window.exposureScale = o.exposureScale;
     window.screenshot = o.screenshot;
     window.fill = fill;
-    tools::runPreviewWindow(renderer, camera, settings, window);
+    // The live loop: a change to the scene or the file reads both again (with cpvs-bake --watch beside it,
+    // an edit is in the window a re-bake later).
+    auto sourceOf = [&](std::shared_ptr<LoadedView> view) {
+      std::vector<std::string> files = view->scene.files;
+      files.push_back(o.file);
+      PreviewRenderer* renderer = view->renderer.get();
+      return tools::WindowSource{std::move(view), renderer, std::move(files)};
+    };
+    window.reload = [&] { return sourceOf(loadView(o, backend)); };
+    tools::runPreviewWindow(sourceOf(loaded), camera, settings, window);
     return 0;
   }
   renderer.warmUp(settings);

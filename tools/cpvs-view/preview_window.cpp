@@ -11,6 +11,7 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/preview/frame_image.h"
 #include "tools/common/atomic_file.h"
+#include "tools/common/file_watch.h"
 
 #ifdef CPVS_HAVE_GLFW
 #include <GL/glcorearb.h>
@@ -29,7 +30,7 @@ const char* previewWindowKeys() {
 
 bool previewWindowBuilt() { return false; }
 
-void runPreviewWindow(PreviewRenderer&, PreviewCamera, FrameSettings, const WindowOptions&) {
+void runPreviewWindow(WindowSource, PreviewCamera, FrameSettings, const WindowOptions&) {
   throw Error(ErrorCategory::NotSupported, "this cpvs-view was built without GLFW (libglfw3-dev): no --window");
 }
 
@@ -198,8 +199,7 @@ void writeWindowPixels(const DisplayGl& gl, int fw, int fh, const std::string& p
 
 }  // namespace
 
-void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSettings settings,
-                      const WindowOptions& options) {
+void runPreviewWindow(WindowSource source, PreviewCamera camera, FrameSettings settings, const WindowOptions& options) {
   if (!glfwInit()) throw Error(ErrorCategory::NotSupported, "cannot open a window: no display (GLFW could not start)");
   struct Terminate {
     ~Terminate() { glfwTerminate(); }
@@ -215,7 +215,7 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
   state.camera = camera;
   state.settings = settings;
   state.overlay = options.overlay;
-  state.lightCount = renderer.lights().size();
+  state.lightCount = source.renderer->lights().size();
   state.off.assign(state.lightCount, false);
   glfwSetWindowUserPointer(window, &state);
   glfwSetKeyCallback(window, onKey);
@@ -230,8 +230,31 @@ void runPreviewWindow(PreviewRenderer& renderer, PreviewCamera camera, FrameSett
   gl.GenFramebuffers(1, &framebuffer);
   std::optional<ExposedFrame> exposed;
   bool shot = false;
+  FileStamps shown = stampsOf(source.files), seen = shown;  // what the frame shows; what the last poll saw
   while (!glfwWindowShouldClose(window)) {
+    if (options.reload) {
+      const FileStamps now = stampsOf(source.files);
+      if (now != shown && now == seen) {  // changed, and held still since the last poll
+        shown = now;
+        glfwMakeContextCurrent(nullptr);
+        try {
+          WindowSource next = options.reload();
+          source = std::move(next);  // the old renderer, scene and file go
+          shown = seen = stampsOf(source.files);
+          state.lightCount = source.renderer->lights().size();
+          state.off.resize(state.lightCount, false);
+          state.selectedLight = state.lightCount ? std::min<uint32_t>(state.selectedLight, uint32_t(state.lightCount - 1)) : 0;
+          state.dirty = true;
+          std::fprintf(stderr, "cpvs-view: reloaded %s\n", source.files.empty() ? "" : source.files.front().c_str());
+        } catch (const Error& e) {
+          std::fprintf(stderr, "cpvs-view: cannot reload (the window keeps what it shows): %s\n", e.what());
+        }
+        glfwMakeContextCurrent(window);
+      }
+      seen = now;
+    }
     if (state.dirty) {
+      PreviewRenderer& renderer = *source.renderer;
       state.dirty = false;
       // The renderer's context (OSMesa or EGL) is current only inside render(); the window's is made current
       // again afterwards, released first so that the GL dispatch really switches back.
