@@ -505,6 +505,12 @@ TEST(BakeTool, ExitCodesAndMessages) {
             int(tools::ExitCode::Usage));
   EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --undefined maybe --sun 0,-1,0").exitCode,
             int(tools::ExitCode::Usage));
+  const auto unbounded = runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --cache-max-size 1G --sun 0,-1,0");
+  EXPECT_EQ(unbounded.exitCode, int(tools::ExitCode::Usage));
+  EXPECT_NE(unbounded.output.find("--cache-max-size needs --cache DIR"), std::string::npos) << unbounded.output;
+  EXPECT_EQ(runTool(bake + scenePath() + " -o " + dir + "/a.cpvs --cache " + dir + "/c --cache-max-size 12Q --sun 0,-1,0")
+                .exitCode,
+            int(tools::ExitCode::Usage));
   const auto missing = runTool(bake + dir + "/missing.gltf -o " + dir + "/a.cpvs --sun 0,-1,0");
   EXPECT_EQ(missing.exitCode, int(tools::ExitCode::InputInvalid));
   EXPECT_NE(missing.output.find("missing.gltf"), std::string::npos) << missing.output;

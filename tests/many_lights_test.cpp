@@ -3,14 +3,16 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <map>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/bake_cache.h"
 #include "libcpvs/bake/cone_crop.h"
 #include "libcpvs/bake/light_subsets.h"
 #include "libcpvs/bake/merge_parts.h"
@@ -189,6 +191,57 @@ TEST(ManyLights, CacheRebakesOnlyTheLightsAChangeReaches) {
   size_t damaged = 0;
   for (const std::string& w : fourth.warnings) damaged += w.find("bake cache entry ignored") != std::string::npos;
   EXPECT_GT(damaged, 0u);
+}
+
+TEST(ManyLights, ABoundedCacheKeepsTheMostRecentlyUsedEntries) {
+  Scene scene = streetScene();
+  const std::string folder = tempDir() + "/bounded_cache";
+  std::filesystem::remove_all(folder);
+  BakeSettings settings = smallSettings();
+  settings.cacheFolder = folder;
+  BakeReport first;
+  SKIP_WITHOUT_OSMESA(bakeBytes(scene, settings, &first));
+  std::map<std::string, uint64_t> sizes;  // every light's entry
+  uint64_t total = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    total += sizes[entry.path().filename().string()] = entry.file_size();
+  ASSERT_EQ(sizes.size(), first.lights.size());
+  EXPECT_EQ(first.cacheEntriesRemoved, 0u);
+  // A file that is not an entry is never counted nor removed.
+  { std::ofstream(folder + "/notes.txt") << "kept"; }
+  // Move light 1 and bake again: its new entry joins, the other lights' entries are used (found) again, the
+  // moved light's old one is not. Bounded to what the entries this bake used take, the folder loses exactly
+  // that old entry, the least recently used.
+  scene.lights[1].position.x += 1.5;
+  BakeReport second;
+  const std::string bytes = bakeBytes(scene, settings, &second);
+  BakeSettings clean = smallSettings();
+  EXPECT_EQ(bytes, bakeBytes(scene, clean));
+  std::map<std::string, uint64_t> now;
+  uint64_t nowTotal = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    if (entry.path().extension() == ".cpvs") nowTotal += now[entry.path().filename().string()] = entry.file_size();
+  ASSERT_EQ(now.size(), first.lights.size() + 1);
+  EXPECT_EQ(second.lights[1].cache, LightReport::Cache::Miss);
+  const BakeCache::Trimmed trimmed = BakeCache(folder).trim(nowTotal - 1);
+  EXPECT_EQ(trimmed.removed, 1u);
+  std::set<std::string> left;
+  uint64_t leftBytes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder))
+    if (entry.path().extension() == ".cpvs") left.insert(entry.path().filename().string()), leftBytes += entry.file_size();
+  EXPECT_EQ(left.size(), first.lights.size());
+  EXPECT_EQ(leftBytes, trimmed.bytesLeft);
+  EXPECT_TRUE(std::filesystem::exists(folder + "/notes.txt"));
+  // Every light of this bake is still there: a third bake of the same scene takes all from the cache.
+  BakeReport third;
+  EXPECT_EQ(bakeBytes(scene, settings, &third), bytes);
+  for (const LightReport& l : third.lights) EXPECT_EQ(l.cache, LightReport::Cache::Hit) << l.name;
+  // A bound below one entry leaves nothing.
+  settings.cacheMaxBytes = 1;
+  BakeReport fourth;
+  bakeBytes(scene, settings, &fourth);
+  EXPECT_EQ(fourth.cacheBytes, 0u);
+  EXPECT_EQ(fourth.cacheEntriesRemoved, first.lights.size());
 }
 
 TEST(ManyLights, WarnsAboutALightThatReachesNothingAndTinyRanges) {

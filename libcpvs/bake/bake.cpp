@@ -594,6 +594,11 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     handOverFinished();
   });
   rep.renderer = run.rendererDescription;
+  if (cache && settings.cacheMaxBytes > 0) {
+    const BakeCache::Trimmed trimmed = cache->trim(settings.cacheMaxBytes);
+    rep.cacheEntriesRemoved = trimmed.removed;
+    rep.cacheBytes = trimmed.bytesLeft;
+  }
   if (writer) {
     const Stopwatch write;
     const uint64_t size = writer->finish();

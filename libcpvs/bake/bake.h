@@ -60,6 +60,9 @@ struct BakeSettings {
   ShardSpec shard;               // then only this cost-balanced shard of them (libcpvs/bake/light_subsets.h)
   // A folder of finished light bakes (libcpvs/bake/bake_cache.h); empty: no cache.
   std::string cacheFolder;
+  // The most the cache folder may hold after the bake: its least recently used entries past it are removed
+  // (BakeCache::trim). 0: no bound.
+  uint64_t cacheMaxBytes = 0;
 };
 
 struct ViewReport {
@@ -110,6 +113,9 @@ struct BakeReport {
   double writeMs = 0;                     // bakeSceneTo: time spent writing the file
   double setupMs = 0;                     // the once-per-bake work over the whole scene: flattening, the input
                                           // hash, the triangle index, every asked light's views and the selection
+  // With a cache bounded by cacheMaxBytes: the entries removed after the bake and the bytes the folder's
+  // entries take then.
+  uint64_t cacheEntriesRemoved = 0, cacheBytes = 0;
 };
 
 struct BakeCallbacks {

@@ -1,6 +1,7 @@
 #include "libcpvs/bake/bake_cache.h"
 
 #include <cstdio>
+#include <algorithm>
 #include <filesystem>
 #include <system_error>
 
@@ -102,6 +103,7 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
   if (!read) return reject(read.outcome().message());
   BakedLight baked = std::move(read).value();
   baked.light = light;
+  std::filesystem::last_write_time(path, std::filesystem::file_time_type::clock::now(), ec);  // used now (trim)
   return baked;
 }
 
@@ -127,6 +129,43 @@ void BakeCache::store(uint64_t key, const BakedLight& baked) const {
     ::unlink(temp.c_str());
     throw Error(ErrorCategory::OutputFailed, path + ": cannot write the bake cache entry");
   }
+}
+
+BakeCache::Trimmed BakeCache::trim(uint64_t maxBytes) const {
+  struct Entry {
+    std::filesystem::file_time_type used;
+    std::string name;
+    uint64_t bytes;
+  };
+  std::vector<Entry> entries;
+  uint64_t total = 0;
+  std::error_code ec;
+  for (const auto& item : std::filesystem::directory_iterator(folder_, ec)) {
+    const std::string name = item.path().filename().string();
+    // An entry: 16 hex digits and ".cpvs" (temporaries start with ".entry-"; other files are not ours).
+    if (name.size() != 21 || name.substr(16) != ".cpvs" ||
+        name.find_first_not_of("0123456789abcdef") != 16 || !item.is_regular_file(ec))
+      continue;
+    const uint64_t bytes = item.file_size(ec);
+    const auto used = item.last_write_time(ec);
+    if (ec) continue;  // removed by another bake meanwhile
+    entries.push_back({used, name, bytes});
+    total += bytes;
+  }
+  // Oldest use first; ties by name, so that every bake removes the same ones.
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.used != b.used ? a.used < b.used : a.name < b.name;
+  });
+  Trimmed trimmed;
+  for (const Entry& e : entries) {
+    if (total <= maxBytes) break;
+    if (std::filesystem::remove(std::filesystem::path(folder_) / e.name, ec) || !ec) {
+      total -= e.bytes;  // removed here, or by another bake sharing the folder
+      trimmed.removed += 1;
+    }
+  }
+  trimmed.bytesLeft = total;
+  return trimmed;
 }
 
 }  // namespace cpvs

@@ -34,6 +34,16 @@ public:
 
   std::string pathOf(uint64_t key) const;
 
+  // Keeps the folder's entries within `maxBytes`: the least recently used go first (an entry is used when it is
+  // stored or found: find() and store() set its modification time). Only entries are counted and removed (files
+  // named as pathOf names them), never anything else in the folder. A bake sharing the folder that has an entry
+  // open keeps reading it (removal unlinks; the mapping stays), and one about to open it finds it missing and
+  // bakes the light. Returns the entries removed and the bytes left.
+  struct Trimmed {
+    uint64_t removed = 0, bytesLeft = 0;
+  };
+  Trimmed trim(uint64_t maxBytes) const;
+
 private:
   std::string folder_;
 };

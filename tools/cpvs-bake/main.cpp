@@ -38,7 +38,7 @@ struct Options {
   bool quiet = false;
   std::string lightList;
   std::string shard;
-  std::string cache;
+  std::string cache, cacheMaxSize;
   bool watch = false;
   tools::LightOptions lights;
   ImportOptions import;
@@ -142,6 +142,11 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
           {"setup_ms", report.setupMs},
           {"peak_rss_bytes", peakRssBytes()},
           {"file_bytes", fileBytes},
+          {"cache", settings.cacheFolder.empty() ? nlohmann::json(nullptr)
+                                                 : nlohmann::json{{"folder", settings.cacheFolder},
+                                                                  {"max_bytes", settings.cacheMaxBytes},
+                                                                  {"entries_removed", report.cacheEntriesRemoved},
+                                                                  {"bytes", report.cacheBytes}}},
           {"lights", lights}};
 }
 
@@ -217,6 +222,9 @@ std::vector<std::string> bakeOnce(const Options& o, BakeSettings settings, const
     std::fprintf(stderr, "cpvs-bake: %zu light(s)", report.lights.size());
     if (report.lights.size() != report.sceneLights) std::fprintf(stderr, " of %zu", report.sceneLights);
     if (!settings.cacheFolder.empty()) std::fprintf(stderr, " (%zu from the cache)", hits);
+    if (report.cacheEntriesRemoved > 0)
+      std::fprintf(stderr, " (%llu least recently used cache entries removed: %s)",
+                   (unsigned long long)report.cacheEntriesRemoved, o.cacheMaxSize.c_str());
     std::fprintf(stderr, ", %zu view(s) at %u^3 in %.2f s", views, settings.resolution, totalMs / 1000.0);
     if (!o.output.empty()) std::fprintf(stderr, " -> %s (%llu bytes)", o.output.c_str(), (unsigned long long)fileBytes);
     std::fprintf(stderr, "\n");
@@ -275,6 +283,10 @@ int run(int argc, char** argv) {
                  "Folder of finished light bakes keyed by what each depends on: unchanged lights are read back, not "
                  "baked (same bytes as a clean bake)")
       ->type_name("DIR");
+  app.add_option("--cache-max-size", o.cacheMaxSize,
+                 "With --cache: after the bake, remove the least recently used entries until the folder's entries "
+                 "take at most SIZE (1M to 4096T: 500M, 20G)")
+      ->type_name("SIZE");
   app.add_flag("--watch", o.watch,
                "After the bake, bake again whenever the scene (or a buffer or image it reads) is saved, until Ctrl-C; "
                "a save that fails to bake says why and leaves the output as it was (with --cache, lights the edit "
@@ -291,6 +303,11 @@ int run(int argc, char** argv) {
   settings.backend = tools::forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
   if (!o.shard.empty()) settings.shard = tools::forFlag("--shard", [&] { return parseShard(o.shard); });
   settings.cacheFolder = o.cache;
+  if (!o.cacheMaxSize.empty()) {
+    if (o.cache.empty()) throw Error(ErrorCategory::InvalidArgument, "--cache-max-size needs --cache DIR");
+    settings.cacheMaxBytes = tools::forFlag("--cache-max-size", [&] { return tools::parseByteSize(o.cacheMaxSize); });
+    if (settings.cacheMaxBytes == 0) throw Error(ErrorCategory::InvalidArgument, "--cache-max-size: a size above 0");
+  }
 
   const std::string usage = tools::positionalUsage(app) + " -o OUT.cpvs";
   if (!o.watch) {
