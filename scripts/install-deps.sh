@@ -12,6 +12,7 @@ packages=(
   assimp-testmodels clang libclang-rt-14-dev
   slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
   libglfw3-dev xvfb xauth xdotool # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
+  glslang-tools spirv-tools # the runtime's GLSL compiled to SPIR-V and validated (docs/runtime.md, "Vulkan")
 )
 
 missing=()

@@ -41,7 +41,8 @@
 #define CPVS_LIGHT_WORDS 12u     // per light
 
 #define CPVS_VIEW_FLAGS 0u       // CPVS_FLAG_*
-#define CPVS_VIEW_NODE_BASE 1u   // first u16 unit of the view's nodes in the shared node buffer (even)
+#define CPVS_VIEW_NODE_BASE 1u   // the u16 unit of the view's root in the shared node buffer (a 3.x view's
+                                 // lies inside its file's pool, which the buffer holds once)
 #define CPVS_VIEW_LEAF_BASE 2u   // first leaf of the view's leaves in the shared leaf buffer
 #define CPVS_VIEW_ROOT_CODE 3u
 #define CPVS_VIEW_RESOLUTION 4u
