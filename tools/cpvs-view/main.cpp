@@ -333,7 +333,8 @@ void addOptions(CLI::App& app, Options& o) {
   tools::addImportOptions(app, o.import);
   app.add_flag("--no-scene-check", o.noSceneCheck, "Render even when the file's input hash says it was baked from another scene");
   app.add_flag("--window", o.window, std::string("Show the frames in a window (GLFW; needs a display) instead of writing "
-                                                 "them.\n") + tools::previewWindowKeys());
+                                                 "them; it reloads the scene and the file when they change (beside "
+                                                 "cpvs-bake --watch: the live loop).\n") + tools::previewWindowKeys());
   app.add_option("--screenshot", o.screenshot, "With --window: write the window's pixels (PNG) after the first frame and close");
   app.add_flag("-q,--quiet", o.quiet, "No summary on stderr");
 }
