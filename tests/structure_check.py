@@ -46,10 +46,22 @@ def strip(text):
     return "".join(out)
 
 
+def without_preprocessor(code):
+    """The code with its preprocessor lines (and their continuations) blanked, newlines kept: an #if's
+    parentheses would otherwise make the declaration after it look like a function's header."""
+    lines, continued = code.split("\n"), False
+    for k, line in enumerate(lines):
+        directive = continued or line.lstrip().startswith("#")
+        continued = directive and line.rstrip().endswith("\\")
+        if directive:
+            lines[k] = ""
+    return "\n".join(lines)
+
+
 def functions(text):
     """(name, first line, line count) of every outermost function body: a '{' whose header, the text since the
     previous ';', '{' or '}', ends in ')' (plus qualifiers, an initialiser list or a trailing return type)."""
-    code = strip(text)
+    code = without_preprocessor(strip(text))
     found, stack, start = [], [], 0
     for i, c in enumerate(code):
         if c == "{":

@@ -2,7 +2,7 @@
 // tiles that are not uniform (keys in double, compares, selects) take about 5 % off a 64k sun's CPU time
 // (docs/depth-maps.md, "What uniform tiles gain"). createCpuDepthRenderer uses it only on CPUs that have AVX2.
 // Every header the passes include comes first, outside the target, so that nothing they define is compiled
-// for AVX2 (isa_target.h).
+// for AVX2 (portability.h).
 #if defined(__x86_64__) && defined(__GNUC__)
 
 #include <algorithm>
@@ -25,7 +25,7 @@
 #include "libcpvs/raster/raster_triangle.h"
 #include "libcpvs/raster/slice_table.h"
 #include "libcpvs/raster/uniform_tiles.h"
-#include "libcpvs/runtime/isa_target.h"
+#include "libcpvs/runtime/portability.h"
 
 CPVS_TARGET_BEGIN_AVX2
 #define CPVS_RASTER_NAMESPACE avx2

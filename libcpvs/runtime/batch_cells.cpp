@@ -6,15 +6,16 @@
 #include <string>
 
 #include "libcpvs/runtime/lane_loop.h"
+#include "libcpvs/runtime/portability.h"
 
 namespace cpvs {
 
 namespace {
 
 CellIsa detectCellIsa() {
-#if defined(__x86_64__) && defined(__GNUC__)
-  if (__builtin_cpu_supports("avx512f")) return CellIsa::Avx512;
-  if (__builtin_cpu_supports("avx2")) return CellIsa::Avx2;
+#if CPVS_X86_VECTOR_PATHS
+  if (portable::cpuHasAvx512f()) return CellIsa::Avx512;
+  if (portable::cpuHasAvx2()) return CellIsa::Avx2;
 #endif
   return CellIsa::Scalar;
 }
@@ -66,7 +67,7 @@ void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
 }  // namespace
 
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa) {
-#if defined(__x86_64__) && defined(__GNUC__)
+#if CPVS_X86_VECTOR_PATHS
   const CellIsa best = bestCellIsa();
   if (isa == CellIsa::Avx512 && best == CellIsa::Avx512) return detail::mapCellsAvx512(in, out);
   if (isa >= CellIsa::Avx2 && best >= CellIsa::Avx2) return detail::mapCellsAvx2(in, out);

@@ -3,7 +3,7 @@
 // points at a time with AVX-512 or four with AVX2 where the CPU has them, one at a time otherwise. Every path
 // runs cell_lanes.h, so they give the same cells bit for bit (batch_cells_test pins them together).
 //
-// Same rule as view_mapping.h: standard headers only (included under CPVS_TARGET_BEGIN_AVX2 (isa_target.h)).
+// Same rule as view_mapping.h: standard headers only (included under CPVS_TARGET_BEGIN_AVX2 (portability.h)).
 #include <cstddef>
 #include <cstdint>
 #include <optional>

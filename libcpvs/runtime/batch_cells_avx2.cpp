@@ -2,7 +2,9 @@
 // AVX2 (by CPVS_TARGET_BEGIN_AVX2 below, after the standard headers, so that nothing they define is); mapCells calls it
 // only on CPUs that have AVX2. No FMA: the target is plain "avx2", and -ffp-contract=off keeps every multiply
 // and add separate, as in the scalar path.
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "libcpvs/runtime/portability.h"
+
+#if CPVS_X86_VECTOR_PATHS
 
 #include <cmath>
 #include <cstddef>
@@ -12,7 +14,6 @@
 
 #include <immintrin.h>
 
-#include "libcpvs/runtime/isa_target.h"
 
 CPVS_TARGET_BEGIN_AVX2
 

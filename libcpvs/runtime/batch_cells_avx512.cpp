@@ -3,14 +3,14 @@
 // very operations of the scalar path). Eight lanes take half the instructions per point of four, which lets
 // the out-of-order core overlap more points' long chains (a perspective view's divisions, square roots and
 // log); on CPUs that split 512-bit operations in two the arithmetic itself costs the same.
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "libcpvs/runtime/portability.h"
+
+#if CPVS_X86_VECTOR_PATHS
 
 // GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() (`__m512d __Y = __Y;`) as the unused merge operand,
 // which -Wmaybe-uninitialized reports wherever they are inlined (a known false positive of GCC 12.0-12.2):
 // silence that one warning for this file only.
-#if !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
+CPVS_IGNORE_MAYBE_UNINITIALIZED
 
 #include <cmath>
 #include <cstddef>
@@ -20,7 +20,6 @@
 
 #include <immintrin.h>
 
-#include "libcpvs/runtime/isa_target.h"
 
 CPVS_TARGET_BEGIN_AVX512F
 

@@ -51,12 +51,12 @@ constexpr uint32_t kNoView = ~0u;
 // Kernels up to this size cover at most 2 x 2 tiles: LightShadow::countCornerTiles.
 constexpr int kCornerTileKernel = 9;
 
-inline void prefetch(const void* p) { __builtin_prefetch(p, 0, 3); }
+inline void prefetch(const void* p) { portable::prefetchRead(p); }
 // A node is at most 17 units (34 bytes: a header and 8 wide references) and may straddle two cache lines:
 // fetch its first and its last possible byte.
 inline void prefetchNode(const uint16_t* node) {
-  __builtin_prefetch(node, 0, 3);
-  __builtin_prefetch(reinterpret_cast<const char*>(node) + 33, 0, 3);
+  portable::prefetchRead(node);
+  portable::prefetchRead(reinterpret_cast<const char*>(node) + 33);
 }
 
 inline uint32_t area(const Footprint& f, uint32_t ox, uint32_t oy, uint32_t size) {

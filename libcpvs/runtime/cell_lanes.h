@@ -4,11 +4,13 @@
 // batch on four (batch_cells_avx2.cpp), with the same operations in the same order. Each outcome is computed
 // for every lane and selected at the end, so the unpredictable ones (front or back face) cost no branch.
 //
-// Same rule as view_mapping.h: standard headers only (included under CPVS_TARGET_BEGIN_AVX2 (isa_target.h) there).
+// Same rule as view_mapping.h: standard headers and portability.h only (included under CPVS_TARGET_BEGIN_AVX2
+// (portability.h) there).
 #include <cmath>
 #include <cstdint>
 #include <limits>
 
+#include "libcpvs/runtime/portability.h"
 #include "libcpvs/runtime/view_mapping.h"
 
 namespace cpvs {
@@ -114,11 +116,8 @@ template <class Real, class Mask>
   return (x - x) == Real(0.0);  // inf - inf and NaN - NaN are NaN
 }
 
-// The lane masks are combined with & on purpose (no branches); for Mask = bool clang would suggest &&.
-#if defined(__clang__)
-#pragma clang diagnostic push
-#pragma clang diagnostic ignored "-Wbitwise-instead-of-logical"
-#endif
+// The lane masks are combined with & on purpose (no branches).
+CPVS_BITWISE_LOGIC_BEGIN
 template <class Real, class Mask, class Shape = AnyShape>
 [[gnu::always_inline]] inline CellVerdict<Real, Mask> cellVerdict(const ViewMapping& c, const CellSettings& settings,
                                                                   const SpotInfluence* spot, Real px, Real py,
@@ -143,8 +142,6 @@ template <class Real, class Mask, class Shape = AnyShape>
   verdict.z = laneSelect(verdict.voxel, clampedSlice(cell.qs, c.resolution - 1.0), Real(0.0));
   return verdict;
 }
-#if defined(__clang__)
-#pragma clang diagnostic pop
-#endif
+CPVS_BITWISE_LOGIC_END
 
 }  // namespace cpvs

@@ -17,6 +17,7 @@
 #include "libcpvs/runtime/light_view.h"
 #include "libcpvs/runtime/light.h"
 #include "libcpvs/runtime/outcome.h"
+#include "libcpvs/runtime/portability.h"
 
 namespace cpvs {
 
@@ -97,7 +98,7 @@ private:
 
   const uint8_t* data_ = nullptr;
   uint64_t size_ = 0;
-  void* mapping_ = nullptr;        // mmap'd region, or null
+  portable::ReadOnlyFile mapped_;  // open(): the file mapped (portability.h)
   std::vector<uint64_t> owned_;    // when built from bytes (uint64_t: 8-byte aligned for the leaf masks)
   uint16_t major_ = 0, minor_ = 0;
   std::vector<LightEntry> lights_;

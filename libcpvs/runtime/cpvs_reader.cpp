@@ -1,4 +1,4 @@
-// Reads and validates the .cpvs container, version 1.x (formats/cpvs/format.md). The input is untrusted: every count
+// Reads and validates the .cpvs container, versions 1.x to 3.x (formats/cpvs/format.md). The input is untrusted: every count
 // is checked against the file size before it sizes anything, every offset before it is followed, and every
 // DAG is validated level by level so that traversal stays in bounds and terminates. Linear in the file size.
 #include <algorithm>
@@ -8,11 +8,6 @@
 #include <cstdio>
 #include <cstring>
 #include <initializer_list>
-
-#include <fcntl.h>
-#include <sys/mman.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <xxhash.h>
 
@@ -222,9 +217,7 @@ Result<ShadowDag> convertFormat1Dag(uint32_t resolution, ChildCode rootCode, std
 
 }  // namespace
 
-CpvsFile::~CpvsFile() {
-  if (mapping_) ::munmap(mapping_, size_t(size_));
-}
+CpvsFile::~CpvsFile() = default;
 
 namespace {
 
@@ -275,32 +268,11 @@ Result<std::unique_ptr<CpvsFile>> CpvsFile::fromBorrowedBytes(std::span<const ui
 }
 
 std::unique_ptr<CpvsFile> CpvsFile::openOrThrow(const std::string& path) {
-  // O_NONBLOCK: opening a FIFO must not wait for a writer (fstat below refuses anything but a regular file).
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-  if (fd < 0) throw ReadFailure{path + ": cannot open: " + std::strerror(errno)};
-  struct stat st {};
-  if (::fstat(fd, &st) != 0) {
-    const int e = errno;
-    ::close(fd);
-    throw ReadFailure{path + ": cannot stat: " + std::strerror(e)};
-  }
-  if (!S_ISREG(st.st_mode)) {
-    ::close(fd);
-    throw ReadFailure{path + ": not a regular file"};
-  }
   std::unique_ptr<CpvsFile> file(new CpvsFile());
-  file->size_ = uint64_t(st.st_size);
-  if (file->size_ > 0) {
-    void* m = ::mmap(nullptr, size_t(file->size_), PROT_READ, MAP_PRIVATE, fd, 0);
-    if (m == MAP_FAILED) {
-      const int e = errno;
-      ::close(fd);
-      throw ReadFailure{path + ": cannot map: " + std::strerror(e)};
-    }
-    file->mapping_ = m;
-    file->data_ = static_cast<const uint8_t*>(m);
-  }
-  ::close(fd);
+  std::string error;
+  if (!file->mapped_.open(path, error)) throw ReadFailure{path + ": " + error};
+  file->data_ = file->mapped_.data();
+  file->size_ = file->mapped_.size();
   file->parse(path);
   return file;
 }

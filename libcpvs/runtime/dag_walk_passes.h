@@ -116,7 +116,7 @@ void descend(const WalkDag& dag, const WalkSet& w, size_t active, uint32_t start
     results.homogeneous(andNot(m, s.isRef), lanes, l.out, s.code);
     l.offset = s.ref;  // a leaf index from here on
     const size_t next = storeWalks(w, kept, s.isRef, l);
-    for (size_t j = kept; j < next; ++j) __builtin_prefetch(dag.leaves + w.offset[j], 0, 3);
+    for (size_t j = kept; j < next; ++j) portable::prefetchRead(dag.leaves + w.offset[j]);
     kept = next;
   }
   // Leaves.

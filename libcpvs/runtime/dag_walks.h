@@ -12,12 +12,13 @@
 // time even with the DAG in L2; sixteen lanes made unfiltered lookups 1.5-2.0x faster (docs/lookups.md).
 //
 // Same rule as view_mapping.h: standard headers only (dag_walks_avx512.cpp includes it before its
-// CPVS_TARGET_BEGIN_* (isa_target.h)).
+// CPVS_TARGET_BEGIN_* (portability.h)).
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/portability.h"
 
 namespace cpvs {
 
@@ -93,8 +94,8 @@ bool vectorWalksAvailable();
 inline void prefetchWalkNodes(const uint16_t* nodes, const uint32_t* offsets, size_t begin, size_t end) {
   for (size_t i = begin; i < end; ++i) {
     const char* node = reinterpret_cast<const char*>(nodes + offsets[i]);
-    __builtin_prefetch(node, 0, 3);
-    __builtin_prefetch(node + 33, 0, 3);
+    portable::prefetchRead(node);
+    portable::prefetchRead(node + 33);
   }
 }
 

@@ -4,7 +4,9 @@
 // end, gather the references of the others, pack them for the next pass and prefetch their nodes, read one
 // pass later. What AVX2 lacks is done another way: masks are vectors of all-ones lanes; the packing is a
 // permutation from a table (no compress); the results are stored lane by lane (no scatter).
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "libcpvs/runtime/portability.h"
+
+#if CPVS_X86_VECTOR_PATHS
 
 #include <algorithm>
 #include <array>
@@ -15,7 +17,6 @@
 
 #include <immintrin.h>
 
-#include "libcpvs/runtime/isa_target.h"
 
 #include "libcpvs/runtime/dag_walks.h"
 

@@ -2,13 +2,13 @@
 // descendGroup in batch_lookup.cpp: gather the nodes' headers, decode the child's code, write the results of
 // the walks that end (scatters), gather the references of the others, compress-store them for the next pass
 // and prefetch their nodes, read one pass later.
-#if defined(__x86_64__) && defined(__GNUC__)
+#include "libcpvs/runtime/portability.h"
+
+#if CPVS_X86_VECTOR_PATHS
 
 // GCC 12's AVX-512 intrinsics pass _mm512_undefined_*() as the unused merge operand, which
 // -Wmaybe-uninitialized reports wherever they are inlined (as in batch_cells_avx512.cpp).
-#if !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
+CPVS_IGNORE_MAYBE_UNINITIALIZED
 
 #include <algorithm>
 #include <bit>
@@ -18,7 +18,6 @@
 
 #include <immintrin.h>
 
-#include "libcpvs/runtime/isa_target.h"
 
 #include "libcpvs/runtime/dag_walks.h"
 

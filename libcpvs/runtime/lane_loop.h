@@ -1,7 +1,7 @@
 #pragma once
 // mapCells' loop over a batch in groups of the lane width, for every path (batch_cells.cpp's scalar lanes,
 // lanes_x86.h's vector ones). Same rule as view_mapping.h: standard headers only, and in an unnamed namespace,
-// since the vector kernels include it under their CPVS_TARGET_BEGIN_* (isa_target.h).
+// since the vector kernels include it under their CPVS_TARGET_BEGIN_* (portability.h).
 #include <bit>
 #include <cstddef>
 #include <cstdint>

@@ -1,7 +1,7 @@
 #pragma once
 // What the x86 batch kernels (batch_cells_avx2.cpp, batch_cells_avx512.cpp) share besides lane_loop.h: loading
 // four points as coordinate vectors, and spreading lane masks to bytes. Included only by those files,
-// after their CPVS_TARGET_BEGIN_* (isa_target.h), and all in an unnamed namespace: each file compiles its own copy for its
+// after their CPVS_TARGET_BEGIN_* (portability.h), and all in an unnamed namespace: each file compiles its own copy for its
 // own instruction set, and no copy can stand in for another at link time.
 #include <immintrin.h>
 

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "libcpvs/runtime/outcome.h"
+#include "libcpvs/runtime/portability.h"
 
 namespace cpvs {
 
@@ -68,14 +69,9 @@ struct ShadowDag {
 };
 
 // Population counts without the POPCNT instruction: the build targets baseline x86-64, where
-// __builtin_popcount is a libgcc call. Every walk and every validation of a loaded file counts bits per node.
-// GCC turns these into one POPCNT where the target has it: the hot walks are compiled twice
-// (CPVS_POPCNT_CLONES), and the loader picks the POPCNT copy on the CPUs that have it (nearly all x86-64).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__POPCNT__)
-#define CPVS_POPCNT_CLONES __attribute__((target_clones("popcnt", "default")))
-#else
-#define CPVS_POPCNT_CLONES
-#endif
+// __builtin_popcount is a libgcc call. Every walk and every validation of a loaded file counts bits per node;
+// GCC turns these into one POPCNT where the target has it, and the hot walks are compiled twice for that
+// (CPVS_POPCNT_CLONES, portability.h).
 inline uint32_t popcount32(uint32_t v) {
   v = v - ((v >> 1) & 0x55555555u);
   v = (v & 0x33333333u) + ((v >> 2) & 0x33333333u);

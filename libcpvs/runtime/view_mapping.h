@@ -11,7 +11,7 @@
 // and a vector libm's rounds differently).
 //
 // This header must include nothing but the C/C++ standard headers below: the AVX2 translation unit includes
-// it under CPVS_TARGET_BEGIN_AVX2 (isa_target.h), and the scalar helpers are `static` so that no copy compiled for
+// it under CPVS_TARGET_BEGIN_AVX2 (portability.h), and the scalar helpers are `static` so that no copy compiled for
 // AVX2 can stand in for a scalar one at link time.
 #include <bit>
 #include <cmath>
