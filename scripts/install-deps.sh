@@ -13,6 +13,7 @@ packages=(
   slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
   libglfw3-dev xvfb xauth xdotool # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
   glslang-tools spirv-tools # the runtime's GLSL compiled to SPIR-V and validated (docs/runtime.md, "Vulkan")
+  g++-mingw-w64-x86-64-posix wine64 # the runtime cross-compiled for Windows and run under Wine (docs/runtime.md)
 )
 
 missing=()
