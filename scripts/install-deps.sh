@@ -13,7 +13,8 @@ packages=(
   slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
   libglfw3-dev xvfb xauth xdotool # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
   glslang-tools spirv-tools # the runtime's GLSL compiled to SPIR-V and validated (docs/runtime.md, "Vulkan")
-  g++-mingw-w64-x86-64-posix wine64 # the runtime cross-compiled for Windows and run under Wine (docs/runtime.md)
+  g++-mingw-w64-x86-64-posix wine64 g++-aarch64-linux-gnu qemu-user # the runtime cross-compiled for Windows
+                                                                      # and ARM64, run under Wine and qemu
 )
 
 missing=()

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# The runtime where engines ship it: its files (libcpvs/runtime/runtime_sources.cmake) and the example program
+# cross-compiled (-Wall -Wextra -Werror, static, xxHash inlined) for Windows by MinGW-w64 and run under Wine,
+# or for ARM64 by GCC's aarch64 cross compiler and run under qemu-user, answering exactly as the native Linux
+# GCC build of the same example: a real bake in format 2.0 and its 3.0 twin, unfiltered and with 9x9 PCF, and
+# the golden files of formats/cpvs/golden (1.0, 2.0, 3.0). Windows writes text with CRLF line ends: the only
+# difference allowed. Skips (77) without the cross compiler or the emulator (scripts/install-deps.sh installs
+# them).
+# Usage: runtime_cross_test.sh windows|arm64 SOURCE_DIR BINARY_DIR WORK_DIR
+set -euo pipefail
+target=$1 src=$2 bin=$3/bin work=$4
+case "$target" in
+  windows)
+    cxx=$(command -v x86_64-w64-mingw32-g++-posix || true)
+    runner=$(command -v wine64 || ls /usr/lib/wine/wine64 2> /dev/null || true)
+    program=cpvs-lookup-example.exe
+    export WINEPREFIX="$work/wine" WINEDEBUG=-all;;
+  arm64)
+    cxx=$(command -v aarch64-linux-gnu-g++ || true)
+    runner=$(command -v qemu-aarch64 || true)
+    program=cpvs-lookup-example;;
+  *) echo "usage: runtime_cross_test.sh windows|arm64 SOURCE_DIR BINARY_DIR WORK_DIR"; exit 2;;
+esac
+[ -n "$cxx" ] || { echo "no cross compiler for $target"; exit 77; }
+[ -n "$runner" ] || { echo "no emulator for $target (wine64, qemu-user)"; exit 77; }
+rm -rf "$work" && mkdir -p "$work/include"
+# GLM and xxHash are header-only here: their headers alone, not the host's system headers.
+ln -s /usr/include/glm "$work/include/glm"
+ln -s /usr/include/xxhash.h "$work/include/xxhash.h"
+sources=$(python3 - "$src/libcpvs/runtime/runtime_sources.cmake" <<'PY'
+import os, re, sys
+text = open(sys.argv[1]).read()
+names = re.search(r"set\(_cpvs_runtime_files([^)]*)\)", text).group(1).split()
+print(" ".join(os.path.join(os.path.dirname(sys.argv[1]), n + ".cpp") for n in names))
+PY
+)
+"$cxx" -std=c++20 -O2 -Wall -Wextra -Werror -ffp-contract=off -fno-math-errno -DXXH_INLINE_ALL -I"$src" \
+  -isystem "$work/include" -static -o "$work/$program" "$src/examples/lookup/main.cpp" $sources
+answers() {  # FILE.cpvs POINTS K OUT: the cross build's answers (CRLF made LF) and the native build's
+  "$runner" "$work/$program" "$1" --pcf "$3" < "$2" 2> "$work/runner.log" | tr -d '\r' > "$4.$target"
+  "$bin/cpvs-lookup-example" "$1" --pcf "$3" < "$2" > "$4.native"
+  [ -s "$4.native" ] || { echo "no answers for $1"; exit 1; }
+  cmp "$4.$target" "$4.native" || { echo "the $target build answers $1 (K = $3) otherwise"; cat "$work/runner.log"; exit 1; }
+}
+scene="$src/data/scenes/TorusKnot/torusknot.gltf"
+lights=(--sun 0.3,-1,0.2 --spot 10,60,-30,-0.15,-0.85,0.5,0.6,200)
+"$bin/cpvs-bake" "$scene" -r 512 "${lights[@]}" -o "$work/tk2.cpvs" --quiet
+"$bin/cpvs-bake" "$scene" -r 512 "${lights[@]}" -o "$work/tk3.cpvs" --quiet --format-version 3
+"$bin/cpvs-sample" "$scene" -o "$work/points.csv" --count 4000 > /dev/null
+"$bin/cpvs-sample" "$src/data/scenes/Tiny/tiny.gltf" -o "$work/tiny-points.csv" --count 2000 > /dev/null
+checked=0
+for k in 1 9; do
+  for v in 2 3; do answers "$work/tk$v.cpvs" "$work/points.csv" $k "$work/tk$v-$k"; checked=$((checked + 4000)); done
+  grep -q "=0" "$work/tk2-$k.native" && grep -q "=1" "$work/tk2-$k.native"  # the comparison means something
+  for g in "$src"/formats/cpvs/golden/tiny_v*.cpvs; do
+    answers "$g" "$work/tiny-points.csv" $k "$work/$(basename "$g" .cpvs)-$k"; checked=$((checked + 2000))
+  done
+done
+echo "$target runtime ($(basename "$cxx") under $(basename "$runner")): $checked answers as the native build's"
