@@ -2,10 +2,10 @@
 # The runtime where engines ship it: its files (libcpvs/runtime/runtime_sources.cmake) and the example program
 # cross-compiled (-Wall -Wextra -Werror, static, xxHash inlined) for Windows by MinGW-w64 and run under Wine,
 # or for ARM64 by GCC's aarch64 cross compiler and run under qemu-user, answering exactly as the native Linux
-# GCC build of the same example: a real bake in format 2.0 and its 3.0 twin, unfiltered and with 9x9 PCF, and
-# the golden files of formats/cpvs/golden (1.0, 2.0, 3.0). Windows writes text with CRLF line ends: the only
-# difference allowed. Skips (77) without the cross compiler or the emulator (scripts/install-deps.sh installs
-# them).
+# GCC build of the same example: two real bakes (TorusKnot under a sun and a spot; the generated city with 165
+# spot lights at 1k) in format 2.0 and 3.0, unfiltered and with 9x9 PCF, and the golden files of
+# formats/cpvs/golden (1.0, 2.0, 3.0). Windows writes text with CRLF line ends: the only difference allowed.
+# Skips (77) without the cross compiler or the emulator (scripts/install-deps.sh installs them).
 # Usage: runtime_cross_test.sh windows|arm64 SOURCE_DIR BINARY_DIR WORK_DIR
 set -euo pipefail
 target=$1 src=$2 bin=$3/bin work=$4
@@ -48,9 +48,17 @@ lights=(--sun 0.3,-1,0.2 --spot 10,60,-30,-0.15,-0.85,0.5,0.6,200)
 "$bin/cpvs-bake" "$scene" -r 512 "${lights[@]}" -o "$work/tk3.cpvs" --quiet --format-version 3
 "$bin/cpvs-sample" "$scene" -o "$work/points.csv" --count 4000 > /dev/null
 "$bin/cpvs-sample" "$src/data/scenes/Tiny/tiny.gltf" -o "$work/tiny-points.csv" --count 2000 > /dev/null
+# The many-light benchmark level: 165 spot lights at 1k, both formats (3.0: every view reads one pool).
+"$bin/cpvs-scenegen" city-spots --lights 165 -o "$work/spots165.glb" > /dev/null
+"$bin/cpvs-bake" "$work/spots165.glb" -r 1k -o "$work/spots2.cpvs" --quiet
+"$bin/cpvs-bake" "$work/spots165.glb" -r 1k -o "$work/spots3.cpvs" --quiet --format-version 3
+"$bin/cpvs-sample" "$work/spots165.glb" -o "$work/spots-points.csv" --count 2000 > /dev/null
 checked=0
 for k in 1 9; do
   for v in 2 3; do answers "$work/tk$v.cpvs" "$work/points.csv" $k "$work/tk$v-$k"; checked=$((checked + 4000)); done
+  for v in 2 3; do
+    answers "$work/spots$v.cpvs" "$work/spots-points.csv" $k "$work/spots$v-$k"; checked=$((checked + 2000 * 165))
+  done
   grep -q "=0" "$work/tk2-$k.native" && grep -q "=1" "$work/tk2-$k.native"  # the comparison means something
   for g in "$src"/formats/cpvs/golden/tiny_v*.cpvs; do
     answers "$g" "$work/tiny-points.csv" $k "$work/$(basename "$g" .cpvs)-$k"; checked=$((checked + 2000))
