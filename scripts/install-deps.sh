@@ -12,7 +12,8 @@ packages=(
   assimp-testmodels clang libclang-rt-14-dev
   slurmctld slurmd slurm-client munge # the one-node cluster of scripts/slurm-local.sh (docs/pipelines.md)
   libglfw3-dev xvfb xauth xdotool # cpvs-view --window, and its test under a virtual X server (docs/viewer.md)
-  glslang-tools spirv-tools # the runtime's GLSL compiled to SPIR-V and validated (docs/runtime.md, "Vulkan")
+  glslang-tools spirv-tools libvulkan-dev mesa-vulkan-drivers # the runtime's GLSL as SPIR-V, validated and run on
+                                                               # Vulkan (lavapipe without a GPU; docs/runtime.md)
   g++-mingw-w64-x86-64-posix wine64 g++-aarch64-linux-gnu qemu-user # the runtime cross-compiled for Windows
                                                                       # and ARM64, run under Wine and qemu
 )
