@@ -339,14 +339,7 @@ TEST(Format3, RandomDamageBehindValidChecksumsNeverBreaksAWalk) {
   std::mt19937 rng(2026);
   int opened = 0, rejected = 0;
   for (int iteration = 0; iteration < 1500; ++iteration) {
-    RawFile raw = original;
-    const int edits = 1 + int(rng() % 3);
-    for (int k = 0; k < edits; ++k) {
-      RawSection& s = raw.sections[3 + rng() % (raw.sections.size() - 3)];  // VIEW, POOL, HOTT, NODE, LEAF
-      if (s.bytes.empty()) continue;
-      uint8_t& byte = s.bytes[rng() % s.bytes.size()];
-      byte = rng() % 2 ? uint8_t(rng()) : uint8_t(byte ^ (1u << (rng() % 8)));
-    }
+    const RawFile raw = randomlyDamaged(original, 3, rng);  // VIEW, POOL, HOTT, NODE, LEAF
     std::unique_ptr<CpvsFile> file;
     try {
       file = orThrow(CpvsFile::fromBytes(pack(raw), "fuzz"));

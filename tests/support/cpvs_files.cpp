@@ -220,4 +220,16 @@ RawSection& sectionOf(RawFile& f, uint32_t type) {
   throw std::runtime_error("no such section");
 }
 
+RawFile randomlyDamaged(const RawFile& original, size_t firstSection, std::mt19937& rng) {
+  RawFile raw = original;
+  const int edits = 1 + int(rng() % 3);
+  for (int k = 0; k < edits; ++k) {
+    RawSection& s = raw.sections[firstSection + rng() % (raw.sections.size() - firstSection)];
+    if (s.bytes.empty()) continue;
+    uint8_t& byte = s.bytes[rng() % s.bytes.size()];
+    byte = rng() % 2 ? uint8_t(rng()) : uint8_t(byte ^ (1u << (rng() % 8)));
+  }
+  return raw;
+}
+
 }  // namespace cpvs::test::cpvsfiles

@@ -3,6 +3,7 @@
 // content from synthetic depth maps, and the raw container, unpacked into sections and packed again with valid
 // checksums, so that a test can damage a record or a DAG behind checksums that still match.
 #include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -41,5 +42,8 @@ RawFile unpack(const Bytes& b);
 // Sections first (64-byte aligned), the table last: a layout the writer does not use but the spec allows.
 Bytes pack(const RawFile& f);
 RawSection& sectionOf(RawFile& f, uint32_t type);
+// `original` with 1 to 3 random bytes of its sections [firstSection, end) changed (a byte replaced, or one bit
+// flipped), drawn from `rng`: pack() makes the checksums valid again, so only the structure checks can catch it.
+RawFile randomlyDamaged(const RawFile& original, size_t firstSection, std::mt19937& rng);
 
 }  // namespace cpvs::test::cpvsfiles
