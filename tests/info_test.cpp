@@ -385,6 +385,9 @@ TEST_F(CpvsInfo, AFormat3FileShowsItsPool) {
       viewsAs2 += bytes;
     }
   uint64_t poolBytes = 3 + pooled->poolLeaves() * 8;
+  // The reader's in-memory form: one array of 2.0 units that every view's DagView is a tail of.
+  const uint64_t sharedUnits = pooled->lights()[0].views[0].dag.sharedNodes.size_bytes();
+  EXPECT_GT(sharedUnits, 0u);
   for (const auto& level : pooled->poolLevels()) {
     poolNodes += level.nodes;
     poolBytes += level.bytes + 4 * level.hotEntries;
@@ -392,7 +395,7 @@ TEST_F(CpvsInfo, AFormat3FileShowsItsPool) {
   EXPECT_NE(r.output.find("pool: " + std::to_string(pooled->poolLevels().size()) + " levels, " +
                           std::to_string(poolNodes) + " nodes, " + std::to_string(pooled->poolLeaves()) + " leaves, " +
                           std::to_string(poolBytes) + " bytes (its views as 2.0 DAGs: " + std::to_string(viewsAs2) +
-                          " bytes)\n"),
+                          " bytes; read as one array of 2.0 node units: " + std::to_string(sharedUnits) + " bytes)\n"),
             std::string::npos)
       << r.output;
   EXPECT_NE(r.output.find("  edge 8: "), std::string::npos) << r.output;
@@ -403,6 +406,7 @@ TEST_F(CpvsInfo, AFormat3FileShowsItsPool) {
   ASSERT_TRUE(j["pool"].is_object());
   EXPECT_EQ(j["pool"]["bytes"], poolBytes);
   EXPECT_EQ(j["pool"]["viewsAs2Bytes"], viewsAs2);
+  EXPECT_EQ(j["pool"]["sharedUnitBytes"], sharedUnits);
   EXPECT_EQ(j["pool"]["levels"].size(), pooled->poolLevels().size());
   EXPECT_EQ(j["pool"]["levels"][0]["edge"], 8);
   EXPECT_EQ(j["lights"][0]["views"][0]["inPool"], true);

@@ -72,13 +72,16 @@ Outcome readLevels(const FilePoolSections& s, std::vector<CpvsFile::PoolLevel>& 
 }
 
 // The nodes of each level, counted over its bytes (validatePool has checked that they tile it).
+// Bytes a node of a pool level takes: its header and its references in the level's widths.
+inline uint64_t nodeBytes(uint32_t header, const CpvsFile::PoolLevel& l) {
+  const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
+  return 2 + uint64_t(l.shortBytes) * popcount32(refs) + uint64_t(l.longBytes - l.shortBytes) * popcount32(wide);
+}
+
 uint64_t countNodes(std::span<const uint8_t> bytes, const CpvsFile::PoolLevel& l) {
   uint64_t nodes = 0;
-  for (uint64_t at = 0; at < bytes.size(); ++nodes) {
-    const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
-    const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
-    at += 2 + uint64_t(l.shortBytes) * popcount32(refs) + uint64_t(l.longBytes - l.shortBytes) * popcount32(wide);
-  }
+  for (uint64_t at = 0; at < bytes.size(); ++nodes)
+    at += nodeBytes(uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8, l);
   return nodes;
 }
 
@@ -93,12 +96,9 @@ public:
       level.firstOrdinal = nodes_;
       level.starts.assign((views[l].bytes.size() + 63) / 64, 0);
       const std::span<const uint8_t> bytes = views[l].bytes;
-      for (uint64_t at = 0; at < bytes.size();) {  // as countNodes
+      for (uint64_t at = 0; at < bytes.size();) {  // node by node, as countNodes
         level.starts[at / 64] |= uint64_t(1) << (at % 64);
-        const uint32_t header = uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8;
-        const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
-        at += 2 + uint64_t(levels[l].shortBytes) * popcount32(refs) +
-              uint64_t(levels[l].longBytes - levels[l].shortBytes) * popcount32(wide);
+        at += nodeBytes(uint32_t(bytes[at]) | uint32_t(bytes[at + 1]) << 8, levels[l]);
       }
       level.before.resize(level.starts.size());
       uint64_t count = 0;
@@ -195,12 +195,6 @@ private:
   std::vector<uint32_t> nodeStamp_, nodeId_, leafStamp_, leafId_;
 };
 
-// Bytes a node of a pool level takes: its header and its references in the level's widths.
-inline uint64_t nodeBytes(uint32_t header, const CpvsFile::PoolLevel& l) {
-  const uint32_t refs = header & 0xAAAAu, wide = refs & (header << 1);
-  return 2 + uint64_t(l.shortBytes) * popcount32(refs) + uint64_t(l.longBytes - l.shortBytes) * popcount32(wide);
-}
-
 // The whole pool in the stored form of 2.0, once: levels converted from edge 8 up (a node's units depend on
 // its references' values, the units of its children), each level's nodes in pool order, then the levels' order
 // turned around in place (the whole array reversed, then each level) so that they run from the largest edge down
@@ -213,8 +207,8 @@ Outcome poolUnits(const ByteDagView& pool, std::span<const CpvsFile::PoolLevel> 
   units.clear();
   uint64_t poolBytes = 0;
   for (const CpvsFile::PoolLevel& l : levels) poolBytes += l.bytes;
-  // The benchmark bakes take 0.6 units per pool byte (the 165 spots: 33.6 M units for 55.3 MB): room for a
-  // little more, so that the array rarely grows (a copy) and its unused tail is never touched.
+  // The benchmark bakes take 0.6 units per pool byte (the 165 spots: 33.6 M units for 55.3 MB, cpvs-info): room
+  // for a little more, so that the array rarely grows (a copy) and its unused tail is never touched.
   units.reserve(poolBytes / 2 + poolBytes / 4);
   std::vector<uint64_t> ascendingStart(levels.size() + 1, 0);
   uint64_t ordinal = 0;
@@ -306,7 +300,8 @@ Result<std::unique_ptr<FilePool>> FilePool::read(const FilePoolSections& s, std:
   // What sizes each view's top grid (TopGrid::automaticLevel): its share of the pool.
   uint64_t referenced = 0;
   for (const CpvsFile::View* v : views) referenced += v->bytes.rootCode == ChildCode::Ref;
-  const uint64_t share = (s.nodes.size() + s.hot.size_bytes() + s.leaves.size_bytes()) / std::max<uint64_t>(1, referenced);
+  const uint64_t poolBytes = s.nodes.size() + s.hot.size_bytes() + s.leaves.size_bytes();
+  const uint64_t share = poolBytes / std::max<uint64_t>(1, referenced);
   const std::span<const uint16_t> units = pool->units_;
   for (CpvsFile::View* v : views) {
     ByteDagView walk = base;

@@ -86,11 +86,21 @@ std::string versionsText() {
          std::to_string(kCpvsNewestMajor);
 }
 
+// What the reader holds of a 3.x pool in memory: the one array of 2.0 node units every view reads
+// (DagView::sharedNodes), in bytes.
+uint64_t sharedUnitBytes(const CpvsFile& file) {
+  for (const CpvsFile::LightEntry& light : file.lights())
+    for (const CpvsFile::View& v : light.views)
+      if (!v.dag.sharedNodes.empty()) return v.dag.sharedNodes.size_bytes();
+  return 0;
+}
+
 void printPool(std::ostream& out, const CpvsFile& file, uint64_t viewsAs2) {
   uint64_t nodes = 0;
   for (const CpvsFile::PoolLevel& l : file.poolLevels()) nodes += l.nodes;
   out << "pool: " << file.poolLevels().size() << " levels, " << nodes << " nodes, " << file.poolLeaves()
-      << " leaves, " << poolBytes(file) << " bytes (its views as 2.0 DAGs: " << viewsAs2 << " bytes)\n";
+      << " leaves, " << poolBytes(file) << " bytes (its views as 2.0 DAGs: " << viewsAs2
+      << " bytes; read as one array of 2.0 node units: " << sharedUnitBytes(file) << " bytes)\n";
   for (const CpvsFile::PoolLevel& l : file.poolLevels()) {
     out << "  edge " << l.edge << ": " << l.nodes << " nodes in " << l.bytes << " bytes, references of "
         << unsigned(l.shortBytes) << " or " << unsigned(l.longBytes) << " bytes";
@@ -110,7 +120,8 @@ ordered_json poolJson(const CpvsFile& file, uint64_t viewsAs2) {
                       {"bytes", l.bytes},
                       {"nodes", l.nodes},
                       {"hotEntries", l.hotEntries}});
-  return {{"levels", levels}, {"leaves", file.poolLeaves()}, {"bytes", poolBytes(file)}, {"viewsAs2Bytes", viewsAs2}};
+  return {{"levels", levels}, {"leaves", file.poolLeaves()}, {"bytes", poolBytes(file)}, {"viewsAs2Bytes", viewsAs2},
+          {"sharedUnitBytes", sharedUnitBytes(file)}};
 }
 
 // The BAKE block is JSON text by convention; a file from another writer may hold anything (it is checksummed,

@@ -240,7 +240,7 @@ void runPreviewWindow(WindowSource source, PreviewCamera camera, FrameSettings s
         try {
           WindowSource next = options.reload();
           source = std::move(next);  // the old renderer, scene and file go
-          shown = seen = stampsOf(source.files);
+          shown = stampsOf(source.files);  // the files it now reads
           state.lightCount = source.renderer->lights().size();
           state.off.resize(state.lightCount, false);
           state.selectedLight = state.lightCount ? std::min<uint32_t>(state.selectedLight, uint32_t(state.lightCount - 1)) : 0;
