@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -110,6 +111,18 @@ public:
     vkGetDeviceQueue(device_, family_, 0, &queue_);
     makePipeline();
   }
+
+  ~VulkanLookup() {
+    if (device_) {
+      vkDestroyPipeline(device_, pipeline_, nullptr);
+      vkDestroyPipelineLayout(device_, layout_, nullptr);
+      vkDestroyDescriptorSetLayout(device_, setLayout_, nullptr);
+      vkDestroyDevice(device_, nullptr);
+    }
+    if (instance_) vkDestroyInstance(instance_, nullptr);
+  }
+  VulkanLookup(const VulkanLookup&) = delete;
+  VulkanLookup& operator=(const VulkanLookup&) = delete;
 
   // The shader's answer for every point, light `light`, kernel K.
   std::vector<float> run(const GpuSceneRecords& r, const std::vector<SurfacePoint>& points, uint32_t light, int k) {
@@ -256,7 +269,7 @@ private:
 };
 
 TEST(VulkanLookup, AnswersAsTheCpuRuntime) {
-  static VulkanLookup* vulkan = new VulkanLookup;  // never destroyed: the driver tears down at exit
+  const auto vulkan = std::make_unique<VulkanLookup>();
   if (!vulkan->unavailable.empty()) GTEST_SKIP() << vulkan->unavailable;
   Scene scene = importGltf(test::sourcePath("data/scenes/TorusKnot/torusknot.gltf"));
   scene.lights = {test::sunLight("sun", {0.3, -1.0, 0.2}), test::spotLight("spot", {5, 60, 0}, {0, -1, 0}, 0.6, 150),
