@@ -266,6 +266,7 @@ struct BakeRun {
   const std::vector<std::vector<LightView>>& allViews;
   const BakeCallbacks& callbacks;
   std::optional<BakeCache>& cache;
+  std::vector<uint64_t> maskHashes;  // per alpha mask of the world, for the cache's region keys
   std::vector<std::unique_ptr<DepthRenderer>> renderers;  // per lane, opened on first use
   std::mutex mutex;                                       // callbacks, progress, the renderer's description
   std::string rendererDescription;
@@ -283,6 +284,8 @@ struct LightOutcome {
   BakedLight baked;
   LightReport report;
   std::vector<std::string> warnings;
+  uint64_t cacheKey = 0;                 // with a cache: the light's entry
+  std::vector<uint64_t> supersededKeys;  // light entries the views' previous region packs were stored with
 };
 
 // Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
@@ -327,17 +330,15 @@ DepthRenderer& laneRenderer(BakeRun& run, unsigned lane) {
 // One region's enter and exit slices: free where the spot's cone leaves it all out, else rendered (and, for
 // lossy bakes, the next surfaces found).
 std::shared_ptr<DepthRegion> renderRegion(DepthRenderer& renderer, const BakeSettings& settings, const ConeCrop& crop,
-                                          const LightView& view, const ViewGeometry& geometry,
-                                          const RegionRect& rect, const std::vector<uint32_t>& candidates,
-                                          bool summarizeTiles, ViewReport& vr) {
+                                          const LightView& view, const ViewGeometry& regionGeometry,
+                                          const RegionRect& rect, bool outsideCone, bool summarizeTiles, ViewReport& vr) {
   RenderStats stats;
   std::shared_ptr<DepthRegion> depth;
-  if (crop.regionOutside(view, rect)) {
+  if (outsideCone) {
     depth = std::make_shared<DepthRegion>(ConeCrop::freeRegion(view, rect));
     vr.texelsOutsideCone += depth->enter.size();
   } else {
     const RowSpans inside = crop.inside(view, rect);
-    const ViewGeometry regionGeometry = cullToRegion(geometry, rect, candidates);
     depth = std::make_shared<DepthRegion>(renderer.render(regionGeometry, view, rect, settings.peel, &stats,
                                                           crop.active ? &inside : nullptr, summarizeTiles));
     vr.tiles += uint64_t(rect.width / 8) * (rect.height / 8);
@@ -376,10 +377,66 @@ ShadowDag finishDag(BakeRun& run, DagBuilder& builder, const Light& light, size_
   return dag;
 }
 
+// Region reuse (docs/incremental-bakes.md): with a cache, each region's DAG events are kept under a key of what
+// they depend on, and a region whose key is unchanged since the view frame's last bake is replayed instead of
+// rendered. `previous` holds that bake's regions (by region index), `next` this one's.
+struct RegionReuse {
+  bool active = false;
+  uint64_t frameKey = 0;
+  std::vector<CachedRegion> previous;
+  RegionPack next;
+};
+
+RegionReuse openRegionReuse(BakeRun& run, const Light& light, const LightView& view, uint32_t regionSize,
+                            bool summarizeTiles, size_t regionCount, LightOutcome& out) {
+  RegionReuse reuse;
+  if (!run.cache || run.callbacks.depthRegion) return reuse;  // that caller wants every region's depth
+  reuse.active = true;
+  reuse.frameKey = viewFrameKey(run.settings, light, view, regionSize, summarizeTiles);
+  std::string problem;
+  if (std::optional<RegionPack> found = run.cache->findRegions(reuse.frameKey, &problem)) {
+    if (found->lightKey != out.cacheKey) out.supersededKeys.push_back(found->lightKey);
+    if (found->regions.size() == regionCount) reuse.previous = std::move(found->regions);
+  }
+  if (!problem.empty()) out.warnings.push_back("bake cache regions ignored and baked again: " + problem);
+  reuse.next.lightKey = out.cacheKey;
+  reuse.next.regions.resize(regionCount);
+  return reuse;
+}
+
+// The previous bake's events of region `ri` when its key is `key` and they decode for `builder`; nothing else.
+std::optional<RegionEvents> reusableRegion(RegionReuse& reuse, size_t ri, uint64_t key, const DagBuilder& builder,
+                                           std::vector<std::string>& warnings) {
+  if (ri >= reuse.previous.size()) return std::nullopt;
+  CachedRegion& old = reuse.previous[ri];
+  if (old.key != key || old.record.empty()) {
+    old = {};  // not needed any more
+    return std::nullopt;
+  }
+  try {
+    RegionEvents events = builder.decodeRecord(old.record);
+    reuse.next.regions[ri] = std::move(old);
+    return events;
+  } catch (const Error& e) {
+    warnings.push_back(std::string("bake cache region ignored and baked again: ") + e.what());
+    old = {};
+    return std::nullopt;
+  }
+}
+
+void storeRegions(BakeRun& run, const RegionReuse& reuse, std::vector<std::string>& warnings) {
+  if (!reuse.active) return;
+  try {
+    run.cache->storeRegions(reuse.frameKey, reuse.next);
+  } catch (const Error& e) {  // the bake itself is fine: only later runs lose the regions
+    warnings.push_back(std::string("bake cache regions not stored: ") + e.what());
+  }
+}
+
 // Bakes one view of light `li` on `lane` (its renderer), region after region; masks and DAG of a region run beside
 // the rasterising of the next one.
 ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane, size_t vi, const LightView& view,
-                   const ViewGeometry& geometry, ViewReport& vr) {
+                   const ViewGeometry& geometry, ViewReport& vr, LightOutcome& out) {
   const BakeSettings& settings = run.settings;
   const BakeCallbacks& callbacks = run.callbacks;
   DepthRenderer& renderer = laneRenderer(run, lane);
@@ -392,45 +449,68 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
   const bool summarizeTiles =
       !settings.perTexel && !callbacks.depthRegion && settings.undefinedMode != UndefinedMode::None;
   vr.regions = uint32_t(regions.size());
+  RegionReuse reuse = openRegionReuse(run, light, view, regionSize, summarizeTiles, regions.size(), out);
   // Each region's candidate triangles, from one pass over the view's (not one per region).
   const std::vector<std::vector<uint32_t>> regionTriangles = binToRegions(geometry, view.resolution, regionSize);
   // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
   // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
   BackgroundWork pending;
-  for (size_t ri = 0; ri < regions.size(); ++ri) {
-    const std::shared_ptr<DepthRegion> depth = renderRegion(renderer, settings, crop, view, geometry, regions[ri],
-                                                            regionTriangles[ri], summarizeTiles, vr);
-    if (callbacks.depthRegion) {
-      const std::lock_guard<std::mutex> lock(run.mutex);
-      callbacks.depthRegion(li, vi, view, *depth);
-    }
+  const auto runBeside = [&](auto&& work) {
     pending.wait();
     // The builder is idle here. Its tables only grow, so once what encoding them would need no longer fits,
     // the view cannot finish within the budget: stop now rather than at the end.
     checkMemoryBudget(run, builder.finishExtraBytes(), light, vi, view);
-    auto work = [&, depth]() {
-      Stopwatch masks;
-      const TileChains chains =
-          buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
-      vr.masksMs += masks.ms();
-      vr.tileMasks += chains.start.size();
-      vr.freeVoxelsLit += chains.freeVoxelsLit;
-      vr.voxelsDelayed += chains.voxelsDelayed;
-      Stopwatch dag;
-      builder.addRegion(chains);
-      vr.dagMs += dag.ms();
-    };
     if (settings.threads > 1)
       pending.start(work);
     else
       work();
+  };
+  for (size_t ri = 0; ri < regions.size(); ++ri) {
+    const RegionRect& rect = regions[ri];
+    const bool outsideCone = crop.regionOutside(view, rect);
+    const ViewGeometry regionGeometry = outsideCone ? ViewGeometry{} : cullToRegion(geometry, rect, regionTriangles[ri]);
+    std::optional<RegionEvents> reused;
+    if (reuse.active) {
+      const uint64_t key = regionKey(reuse.frameKey, rect, outsideCone, regionGeometry, run.maskHashes);
+      reused = reusableRegion(reuse, ri, key, builder, out.warnings);
+      if (!reused) reuse.next.regions[ri].key = key;
+    }
+    if (reused) {
+      ++vr.regionsReused;
+      runBeside([&, ri, events = std::make_shared<RegionEvents>(std::move(*reused))]() {
+        Stopwatch dag;
+        builder.replayRegion(regions[ri], *events);
+        vr.dagMs += dag.ms();
+      });
+    } else {
+      const std::shared_ptr<DepthRegion> depth =
+          renderRegion(renderer, settings, crop, view, regionGeometry, rect, outsideCone, summarizeTiles, vr);
+      if (callbacks.depthRegion) {
+        const std::lock_guard<std::mutex> lock(run.mutex);
+        callbacks.depthRegion(li, vi, view, *depth);
+      }
+      runBeside([&, ri, depth]() {
+        Stopwatch masks;
+        const TileChains chains =
+            buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
+        vr.masksMs += masks.ms();
+        vr.tileMasks += chains.start.size();
+        vr.freeVoxelsLit += chains.freeVoxelsLit;
+        vr.voxelsDelayed += chains.voxelsDelayed;
+        Stopwatch dag;
+        builder.addRegion(chains, reuse.active ? &reuse.next.regions[ri].record : nullptr);
+        vr.dagMs += dag.ms();
+      });
+    }
     if (callbacks.progress) {
       const std::lock_guard<std::mutex> lock(run.mutex);
       run.progress(double(run.doneViews) + double(ri + 1) / double(regions.size()));
     }
   }
   pending.wait();
-  return finishDag(run, builder, light, vi, view, vr);
+  ShadowDag dag = finishDag(run, builder, light, vi, view, vr);
+  storeRegions(run, reuse, out.warnings);
+  return dag;
 }
 
 // The light's entry in the bake cache, when there is a cache: a hit fills `out.baked`; a miss, or an entry that
@@ -479,6 +559,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
                            ") reaches no geometry: every voxel of its views is lit (check its position, direction "
                            "and range)");
   const uint64_t cacheKey = lookUpCache(run, views, lightGeometry, out);
+  out.cacheKey = cacheKey;
   const bool fromCache = lightReport.cache == LightReport::Cache::Hit;
   for (size_t vi = 0; vi < views.size(); ++vi) {
     const LightView& view = views[vi];
@@ -492,7 +573,7 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
       BakedView bakedView{view, {}};
       bakedView.dag = view.empty || geometry.triangleCount() == 0
                           ? allLitDag(view.resolution)
-                          : bakeView(run, li, baked.light, lane, vi, view, geometry, vr);
+                          : bakeView(run, li, baked.light, lane, vi, view, geometry, vr, out);
       baked.views.push_back(std::move(bakedView));
     }
     describeDag(baked.views[vi].dag, vr);
@@ -503,6 +584,11 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
   if (run.cache && !fromCache) {
     try {
       run.cache->store(cacheKey, baked);
+      // The entries this light's views were last baked with describe a scene that is gone: the new entry and
+      // the new region packs replace them, so that the folder holds one version of each light, not every edit's.
+      std::sort(out.supersededKeys.begin(), out.supersededKeys.end());
+      out.supersededKeys.erase(std::unique(out.supersededKeys.begin(), out.supersededKeys.end()), out.supersededKeys.end());
+      for (const uint64_t old : out.supersededKeys) run.cache->remove(old);
     } catch (const Error& e) {  // the bake itself is fine: only later runs lose the entry
       out.warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
     }
@@ -562,7 +648,9 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     rep.writeMs += write.ms();
   }
   const unsigned lanes = lanesFor(settings, chosen.size());
-  BakeRun run{scene, settings, world, index, allViews, callbacks, cache, {}, {}, {}, 0, 0};
+  BakeRun run{scene, settings, world, index, allViews, callbacks, cache, {}, {}, {}, {}, 0, 0};
+  if (cache)
+    for (const CoverageMask& mask : world.masked.masks) run.maskHashes.push_back(mask.hash());
   run.renderers.resize(lanes);
   for (const uint32_t li : chosen) run.totalViews += allViews[li].size();  // progress counts views, weighted equally
 

@@ -71,6 +71,7 @@ struct ViewReport {
   bool empty = false;
   double depthMs = 0, peelMs = 0, masksMs = 0, dagMs = 0, writeMs = 0;
   uint32_t regions = 0;
+  uint32_t regionsReused = 0;        // with a cache: regions replayed from it, not rendered (incremental bakes)
   uint64_t trianglesSubmitted = 0;
   uint32_t peelIterations = 0;       // most iterations any region needed
   uint64_t texelsAtPeelCap = 0;

@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <system_error>
 
 #include <fcntl.h>
@@ -10,7 +12,6 @@
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
-#include <xxhash.h>
 
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/bake/baked_from_file.h"
@@ -18,61 +19,6 @@
 #include "libcpvs/version.h"
 
 namespace cpvs {
-namespace {
-
-template <class T>
-void hashVector(XXH3_state_t* state, const std::vector<T>& v) {
-  const uint64_t count = v.size();
-  XXH3_64bits_update(state, &count, sizeof count);
-  if (!v.empty()) XXH3_64bits_update(state, v.data(), v.size() * sizeof(T));
-}
-
-}  // namespace
-
-uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const std::vector<LightView>& views,
-                      const std::vector<ViewGeometry>& geometry) {
-  XXH3_state_t* state = XXH3_createState();
-  XXH3_64bits_reset(state);
-  const std::string version = std::string("cpvs-bake ") + kVersion;
-  XXH3_64bits_update(state, version.data(), version.size());
-  const uint64_t s[] = {settings.resolution, uint64_t(settings.undefinedMode), settings.nodeReuse,
-                        settings.peel.maxPeels, settings.peel.stopBelowPerMillion,
-                        std::min(settings.regionSize, settings.resolution), uint64_t(settings.ground), views.size()};
-  XXH3_64bits_update(state, s, sizeof s);
-  XXH3_64bits_update(state, &settings.voxelSize, sizeof settings.voxelSize);
-  const uint8_t more[] = {uint8_t(settings.cropToCone), uint8_t(settings.backend)};
-  XXH3_64bits_update(state, more, sizeof more);
-  const std::vector<uint64_t> lossy = lossySettingWords(settings);
-  if (!lossy.empty()) XXH3_64bits_update(state, lossy.data(), lossy.size() * sizeof(uint64_t));
-  const double cone[] = {double(light.type), hasCone(light) ? light.outerConeAngle : 0.0};
-  XXH3_64bits_update(state, cone, sizeof cone);
-  for (size_t i = 0; i < views.size(); ++i) {
-    const LightView& v = views[i];
-    const double values[] = {double(v.projection), double(v.mapping), double(v.resolution), v.xMin, v.xMax,
-                             v.yMin, v.yMax, v.near, v.far, double(v.face), double(v.empty)};
-    XXH3_64bits_update(state, values, sizeof values);
-    XXH3_64bits_update(state, &v.viewFromWorld[0][0], sizeof(double) * 16);
-    hashVector(state, geometry[i].positions);
-    hashVector(state, geometry[i].closedIndices);
-    hashVector(state, geometry[i].openIndices);
-    if (geometry[i].hasMasks()) {  // only the masks this view's triangles are cut by
-      hashVector(state, geometry[i].maskOf);
-      hashVector(state, geometry[i].maskUvs);
-      std::vector<bool> used(geometry[i].masks->size(), false);
-      for (int32_t m : geometry[i].maskOf)
-        if (m >= 0) used[size_t(m)] = true;
-      for (size_t m = 0; m < used.size(); ++m) {
-        if (!used[m]) continue;
-        const uint64_t h = (*geometry[i].masks)[m].hash();
-        XXH3_64bits_update(state, &h, sizeof h);
-      }
-    }
-  }
-  const uint64_t key = XXH3_64bits_digest(state);
-  XXH3_freeState(state);
-  return key;
-}
-
 BakeCache::BakeCache(std::string folder) : folder_(std::move(folder)) {
   std::error_code ec;
   std::filesystem::create_directories(folder_, ec);
@@ -111,8 +57,10 @@ void BakeCache::store(uint64_t key, const BakedLight& baked) const {
   CpvsContent content;
   content.lights.push_back(baked);
   content.settingsJson = nlohmann::json{{"cache_key", hex64(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
-  const std::string bytes = writeCpvs(content);
-  const std::string path = pathOf(key);
+  writeAtomically(pathOf(key), writeCpvs(content), key);
+}
+
+void BakeCache::writeAtomically(const std::string& path, const std::string& bytes, uint64_t key) const {
   std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex64(key) + "-XXXXXX")).string();
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot write a bake cache entry");
@@ -131,6 +79,35 @@ void BakeCache::store(uint64_t key, const BakedLight& baked) const {
   }
 }
 
+std::string BakeCache::regionsPathOf(uint64_t frameKey) const {
+  return (std::filesystem::path(folder_) / (hex64(frameKey) + ".regions")).string();
+}
+
+std::optional<RegionPack> BakeCache::findRegions(uint64_t frameKey, std::string* problem) const {
+  const std::string path = regionsPathOf(frameKey);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  try {
+    RegionPack pack = decodeRegionPack(bytes, frameKey, path);
+    std::error_code ec;
+    std::filesystem::last_write_time(path, std::filesystem::file_time_type::clock::now(), ec);  // used now (trim)
+    return pack;
+  } catch (const Error& e) {
+    if (problem) *problem = e.what();
+    return std::nullopt;
+  }
+}
+
+void BakeCache::storeRegions(uint64_t frameKey, const RegionPack& pack) const {
+  writeAtomically(regionsPathOf(frameKey), encodeRegionPack(frameKey, pack), frameKey);
+}
+
+void BakeCache::remove(uint64_t key) const {
+  std::error_code ec;
+  std::filesystem::remove(pathOf(key), ec);  // gone already (another bake removed it): as good
+}
+
 BakeCache::Trimmed BakeCache::trim(uint64_t maxBytes) const {
   struct Entry {
     std::filesystem::file_time_type used;
@@ -142,9 +119,11 @@ BakeCache::Trimmed BakeCache::trim(uint64_t maxBytes) const {
   std::error_code ec;
   for (const auto& item : std::filesystem::directory_iterator(folder_, ec)) {
     const std::string name = item.path().filename().string();
-    // An entry: 16 hex digits and ".cpvs" (temporaries start with ".entry-"; other files are not ours).
-    if (name.size() != 21 || name.substr(16) != ".cpvs" ||
-        name.find_first_not_of("0123456789abcdef") != 16 || !item.is_regular_file(ec))
+    // An entry: 16 hex digits and ".cpvs" or ".regions" (temporaries start with ".entry-"; other files are not
+    // ours).
+    const std::string suffix = name.size() > 16 ? name.substr(16) : std::string();
+    if ((suffix != ".cpvs" && suffix != ".regions") || name.find_first_not_of("0123456789abcdef") != 16 ||
+        !item.is_regular_file(ec))
       continue;
     const uint64_t bytes = item.file_size(ec);
     const auto used = item.last_write_time(ec);

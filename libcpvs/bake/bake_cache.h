@@ -7,18 +7,10 @@
 #include <vector>
 
 #include "libcpvs/bake/cpvs_writer.h"
-#include "libcpvs/views/view_geometry.h"
+#include "libcpvs/bake/bake_keys.h"
+#include "libcpvs/bake/region_pack.h"
 
 namespace cpvs {
-
-struct BakeSettings;
-
-// What a light's DAGs depend on: the tool's version, the settings that shape the bytes, and per view its
-// mapping and the triangles that reach it (in view space, closed and open apart), and a spot's cone (the voxels
-// outside it are left free). The light's colour, intensity and name are not part of it: they do not change a
-// voxel.
-uint64_t lightBakeKey(const BakeSettings& settings, const Light& light, const std::vector<LightView>& views,
-                      const std::vector<ViewGeometry>& geometry);
 
 class BakeCache {
 public:
@@ -34,9 +26,21 @@ public:
 
   std::string pathOf(uint64_t key) const;
 
+  // The region records of the view whose frame key is `frameKey` (region_pack.h), from the last bake of that
+  // view frame that stored them. Nothing when there are none, or when the file is damaged or another frame's
+  // (then `problem` says so).
+  std::optional<RegionPack> findRegions(uint64_t frameKey, std::string* problem = nullptr) const;
+  // Stores a view's region records, replacing the frame's previous ones (atomically, as store()).
+  void storeRegions(uint64_t frameKey, const RegionPack& pack) const;
+  std::string regionsPathOf(uint64_t frameKey) const;
+  // Removes the light entry `key` (one a later bake of the same view frames superseded). A bake sharing the
+  // folder that has it open keeps reading it; one about to open it bakes the light (its regions still hit).
+  void remove(uint64_t key) const;
+
   // Keeps the folder's entries within `maxBytes`: the least recently used go first (an entry is used when it is
-  // stored or found: find() and store() set its modification time). Only entries are counted and removed (files
-  // named as pathOf names them), never anything else in the folder. A bake sharing the folder that has an entry
+  // stored or found: the find and store calls set its modification time). Only entries are counted and removed
+  // (light entries and region packs, named as pathOf and regionsPathOf name them), never anything else in the
+  // folder. A bake sharing the folder that has an entry
   // open keeps reading it (removal unlinks; the mapping stays), and one about to open it finds it missing and
   // bakes the light. Returns the entries removed and the bytes left.
   struct Trimmed {
@@ -45,6 +49,9 @@ public:
   Trimmed trim(uint64_t maxBytes) const;
 
 private:
+  // Writes `bytes` to a temporary in the folder and renames it to `path`. Throws Error(OutputFailed).
+  void writeAtomically(const std::string& path, const std::string& bytes, uint64_t key) const;
+
   std::string folder_;
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <optional>
 
 #include "libcpvs/base/error.h"
 #include "libcpvs/dag/dag_encoder.h"
@@ -42,6 +43,12 @@ DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8
   const uint32_t ref =
       level == leafLevel_ ? leafParents_.intern(header, words + 1, count - 1) : tables_[level].intern(words, count);
   Result result{ChildCode::Ref, ref, nextT, true};
+  if (recorder_) {
+    uint32_t events[8];
+    for (unsigned c = 0, k = 0; c < 8; ++c)
+      if (children[c].code == ChildCode::Ref) events[k++] = children[c].event;
+    result.event = recorder_->node(level, header, events, count - 1);
+  }
   for (unsigned c = 0; c < 4; ++c) result.farNextT[c] = children[c + 4].nextT;
   return result;
 }
@@ -60,8 +67,10 @@ DagBuilder::Result DagBuilder::buildLeafParent(uint32_t tx, uint32_t ty, uint32_
       children[c] = {ChildCode::Lit, 0, 0, true};
     else if (mask == kAllShadowed)
       children[c] = {ChildCode::Shadowed, 0, 0, true};
-    else
+    else {
       children[c] = {ChildCode::Ref, leafTable_.intern(mask), 0, true};
+      if (recorder_) children[c].event = recorder_->leaf(mask);
+    }
   }
   // The bound counts the tile's darkFrom too (it lies after z0: this volume passed the shadow test). The chain
   // may keep a partial mask past it (Kampe places the all-shadowed entry anywhere in its window), while
@@ -128,8 +137,10 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
         const MappedArray<uint32_t>& words = tables_[level].records();
         const uint32_t header = words[neighbour.ref];
         childNeighbour.code = ChildCode(wordCodeOf(header, c + 4));
-        if (childNeighbour.code == ChildCode::Ref)
+        if (childNeighbour.code == ChildCode::Ref) {
           childNeighbour.ref = words[neighbour.ref + 1 + refSlot(header, c + 4)];
+          if (recorder_) childNeighbour.event = recorder_->childEvent(neighbour.event, refSlot(header, c + 4));
+        }
       }
     }
     children[c] = build(level + 1, tx + (c & 1) * childTiles, ty + ((c >> 1) & 1) * childTiles,
@@ -139,22 +150,75 @@ DagBuilder::Result DagBuilder::build(uint32_t level, uint32_t tx, uint32_t ty, u
   return intern(level, children, nextT);
 }
 
-void DagBuilder::addRegion(const TileChains& chains) {
-  if (finished_) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: addRegion() after finish()");
-  if (chains.resolution != resolution_ || chains.rect.width != regionSize_ || chains.rect.height != regionSize_ ||
-      chains.rect.x0 % regionSize_ != 0 || chains.rect.y0 % regionSize_ != 0)
+size_t DagBuilder::regionIndexOf(const RegionRect& rect) const {
+  if (rect.width != regionSize_ || rect.height != regionSize_ || rect.x0 % regionSize_ != 0 ||
+      rect.y0 % regionSize_ != 0 || rect.x0 >= resolution_ || rect.y0 >= resolution_)
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: region does not match the builder's region grid");
-  const uint32_t rx = chains.rect.x0 / regionSize_, ry = chains.rect.y0 / regionSize_;
+  if (finished_) throw Error(ErrorCategory::RuntimeFailure, "DAG builder: a region added after finish()");
+  return size_t(rect.y0 / regionSize_) * regionsPerSide_ + rect.x0 / regionSize_;
+}
+
+void DagBuilder::addRegion(const TileChains& chains, std::string* record) {
+  if (chains.resolution != resolution_)
+    throw Error(ErrorCategory::RuntimeFailure, "DAG builder: region does not match the builder's resolution");
+  const size_t region = regionIndexOf(chains.rect);
   chains_ = &chains;
   hierarchy_ = std::make_unique<TileHierarchy>(chains);
-  Result neighbour;
-  for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
-    neighbour = build(regionLevel_, 0, 0, zBlock * regionSize_, neighbour);
-    regionColumns_[(size_t(ry) * regionsPerSide_ + rx) * regionsPerSide_ + zBlock] = packColumn(neighbour);
+  const DagBuildStats before = stats_;
+  std::optional<RegionRecorder> recorder;
+  if (record) recorder_ = &recorder.emplace(regionLevel_, leafLevel_);
+  try {
+    Result neighbour;
+    for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
+      neighbour = build(regionLevel_, 0, 0, zBlock * regionSize_, neighbour);
+      regionColumns_[region * regionsPerSide_ + zBlock] = packColumn(neighbour);
+      if (recorder_) recorder_->column(neighbour.code, neighbour.event);
+    }
+  } catch (...) {
+    recorder_ = nullptr;
+    throw;
   }
-  regionAdded_[size_t(ry) * regionsPerSide_ + rx] = true;
+  regionAdded_[region] = true;
   chains_ = nullptr;
   hierarchy_.reset();
+  if (record) {
+    *record = recorder_->finish({stats_.nodesBuilt - before.nodesBuilt, stats_.nodesReused - before.nodesReused,
+                                 stats_.homogeneous - before.homogeneous});
+    recorder_ = nullptr;
+  }
+}
+
+RegionEvents DagBuilder::decodeRecord(std::string_view record) const {
+  return decodeRegionRecord(record, regionLevel_, leafLevel_, regionsPerSide_);
+}
+
+void DagBuilder::replayRegion(const RegionRect& rect, const RegionEvents& replay) {
+  const size_t region = regionIndexOf(rect);
+  if (replay.columns.size() != regionsPerSide_)
+    throw Error(ErrorCategory::RuntimeFailure, "DAG builder: a region's events decoded for another builder");
+  std::vector<uint32_t> refs(replay.events.size());  // per event, what interning it gave here
+  uint32_t words[9];
+  for (size_t id = 0; id < replay.events.size(); ++id) {
+    const RegionEvents::Event& e = replay.events[id];
+    if (e.level == leafLevel_ + 1) {
+      refs[id] = leafTable_.intern(e.mask);
+      continue;
+    }
+    const unsigned childCount = nodeWordCount(e.header) - 1;
+    words[0] = e.header;
+    for (unsigned k = 0; k < childCount; ++k) words[1 + k] = refs[replay.childIds[e.firstChild + k]];
+    refs[id] = e.level == leafLevel_ ? leafParents_.intern(e.header, words + 1, childCount)
+                                     : tables_[e.level].intern(words, childCount + 1);
+  }
+  for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
+    const RegionEvents::Column& c = replay.columns[zBlock];
+    regionColumns_[region * regionsPerSide_ + zBlock] =
+        packColumn({c.code, c.code == ChildCode::Ref ? refs[c.event] : 0, 0, true});
+  }
+  regionAdded_[region] = true;
+  stats_.nodesBuilt += replay.counts.nodesBuilt;
+  stats_.nodesReused += replay.counts.nodesReused;
+  stats_.homogeneous += replay.counts.homogeneous;
 }
 
 uint32_t DagBuilder::packColumn(const Result& result) {

@@ -3,11 +3,14 @@
 // docs/construction.md). Hash tables persist across regions, so identical subtrees merge over the whole view.
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "libcpvs/dag/leaf_parent_table.h"
 #include "libcpvs/dag/leaf_table.h"
 #include "libcpvs/dag/node_table.h"
+#include "libcpvs/dag/region_record.h"
 #include "libcpvs/runtime/shadow_dag.h"
 #include "libcpvs/tiles/tile_masks.h"
 
@@ -29,8 +32,14 @@ public:
   ~DagBuilder();
 
   // Adds the subtrees of one region. Regions may come in any order, but the same order gives the same bytes:
-  // callers use splitIntoRegions' order.
-  void addRegion(const TileChains& chains);
+  // callers use splitIntoRegions' order. With `record`, also writes what the region added (region_record.h).
+  void addRegion(const TileChains& chains, std::string* record = nullptr);
+  // A region's record (from addRegion) checked against this builder: throws Error(InvalidInput) when it does not
+  // decode for it. Does not change the builder.
+  RegionEvents decodeRecord(std::string_view record) const;
+  // Adds the region at `rect` again from its decoded record, without its chains: the builder ends as addRegion
+  // would leave it when called at this point of the same sequence with the chains the record was made from.
+  void replayRegion(const RegionRect& rect, const RegionEvents& events);
   // Builds the levels above the regions and returns the relocated DAG. Every region must have been added.
   ShadowDag finish();
   // Bytes finish() may allocate beyond what it frees first (the hash indexes and region columns, which the
@@ -48,11 +57,13 @@ private:
     // nextT of the four far children (c = 4..7, by c - 4) of a built node: the reuse bound of the near
     // children of the volume behind it. 0 (no reuse) where unknown.
     uint32_t farNextT[4] = {0, 0, 0, 0};
+    uint32_t event = 0;  // while a region is recorded: the event of a reference (region_record.h)
   };
   Result build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour);
   Result buildLeafParent(uint32_t tx, uint32_t ty, uint32_t z0);
   Result intern(uint32_t level, const Result (&children)[8], uint32_t nextT);
   Result buildTop(uint32_t level, uint32_t rx, uint32_t ry, uint32_t zBlock);
+  size_t regionIndexOf(const RegionRect& rect) const;  // ry * regionsPerSide + rx; throws off the grid
 
   uint32_t resolution_;
   uint32_t regionSize_;
@@ -73,6 +84,7 @@ private:
   // Per-region state while building.
   const TileChains* chains_ = nullptr;
   std::unique_ptr<TileHierarchy> hierarchy_;
+  RegionRecorder* recorder_ = nullptr;
 };
 
 // Builds a whole view from one region (N <= region size); convenience for tests and small bakes.

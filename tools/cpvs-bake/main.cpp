@@ -81,6 +81,7 @@ nlohmann::json reportJson(const Options& options, const BakeSettings& settings,
                        {"face", v.face},
                        {"empty", v.empty},
                        {"regions", v.regions},
+                       {"regions_reused", v.regionsReused},
                        {"phases_ms",
                         {{"depth", v.depthMs}, {"peel", v.peelMs}, {"next_surface", v.nextSurfaceMs},
                          {"masks", v.masksMs}, {"dag", v.dagMs}, {"write", report.writeMs * share}}},
@@ -182,11 +183,16 @@ std::vector<std::string> bakeOnce(const Options& o, BakeSettings settings, const
   const bool lightLines = !o.quiet && !tools::stderrIsTerminal();
   callbacks.lightDone = [&](const LightReport& l, size_t done, size_t total) {
     if (!lightLines) return;
-    uint64_t bytes = 0;
-    for (const ViewReport& v : l.views) bytes += v.bytes;
+    uint64_t bytes = 0, regions = 0, reused = 0;
+    for (const ViewReport& v : l.views) {
+      bytes += v.bytes;
+      regions += v.regions;
+      reused += v.regionsReused;
+    }
+    std::string cache = l.cache == LightReport::Cache::Hit ? ", from the cache" : "";
+    if (reused) cache = ", " + std::to_string(reused) + " of " + std::to_string(regions) + " regions from the cache";
     std::fprintf(stderr, "cpvs-bake: light %zu/%zu '%s' (index %u): %zu view(s), %.2f s, %llu bytes%s\n", done, total,
-                 l.name.c_str(), l.index, l.views.size(), l.ms / 1000.0, (unsigned long long)bytes,
-                 l.cache == LightReport::Cache::Hit ? ", from the cache" : "");
+                 l.name.c_str(), l.index, l.views.size(), l.ms / 1000.0, (unsigned long long)bytes, cache.c_str());
   };
   if (!o.dumpDepth.empty())
     callbacks.depthRegion = [&](size_t light, size_t view, const LightView&, const DepthRegion& depth) {
@@ -218,10 +224,21 @@ std::vector<std::string> bakeOnce(const Options& o, BakeSettings settings, const
     size_t views = 0;
     for (const auto& l : report.lights) views += l.views.size();
     size_t hits = 0;
-    for (const auto& l : report.lights) hits += l.cache == LightReport::Cache::Hit;
+    uint64_t regions = 0, reused = 0;
+    for (const auto& l : report.lights) {
+      hits += l.cache == LightReport::Cache::Hit;
+      for (const ViewReport& v : l.views) {
+        regions += l.cache == LightReport::Cache::Hit ? 0 : v.regions;
+        reused += v.regionsReused;
+      }
+    }
     std::fprintf(stderr, "cpvs-bake: %zu light(s)", report.lights.size());
     if (report.lights.size() != report.sceneLights) std::fprintf(stderr, " of %zu", report.sceneLights);
-    if (!settings.cacheFolder.empty()) std::fprintf(stderr, " (%zu from the cache)", hits);
+    if (!settings.cacheFolder.empty()) {
+      std::fprintf(stderr, " (%zu from the cache", hits);
+      if (regions) std::fprintf(stderr, "; of the others' regions %llu of %llu", (unsigned long long)reused, (unsigned long long)regions);
+      std::fprintf(stderr, ")");
+    }
     if (report.cacheEntriesRemoved > 0)
       std::fprintf(stderr, " (%llu least recently used cache entries removed: %s)",
                    (unsigned long long)report.cacheEntriesRemoved, o.cacheMaxSize.c_str());

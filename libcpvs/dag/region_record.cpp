@@ -1,0 +1,177 @@
+#include "libcpvs/dag/region_record.h"
+
+#include <algorithm>
+
+#include <xxhash.h>
+
+#include "libcpvs/base/error.h"
+
+namespace cpvs {
+namespace {
+
+// The record's coding: unsigned LEB128 numbers. An event is its level (leafLevel + 1 for a leaf), then a leaf's
+// mask (8 bytes, little-endian) or a node's header and, per reference child, how many events back it is.
+// Then the column count, per column its code and (for a reference) how many events back from the end, and the
+// counts. Children are mostly the events just before their parent, so the distances take one byte.
+void putNumber(std::string& out, uint64_t value) {
+  while (value >= 0x80) {
+    out.push_back(char(uint8_t(value) | 0x80));
+    value >>= 7;
+  }
+  out.push_back(char(value));
+}
+
+class Reader {
+public:
+  explicit Reader(std::string_view bytes) : bytes_(bytes) {}
+  uint64_t number(const char* what) {
+    uint64_t value = 0;
+    for (unsigned shift = 0; shift < 64; shift += 7) {
+      if (at_ == bytes_.size()) fail(std::string("ends inside ") + what);
+      const uint8_t byte = uint8_t(bytes_[at_++]);
+      value |= uint64_t(byte & 0x7f) << shift;
+      if (!(byte & 0x80)) return value;
+    }
+    fail(std::string("has a number longer than 64 bits in ") + what);
+  }
+  uint64_t word64() {
+    if (bytes_.size() - at_ < 8) fail("ends inside a leaf mask");
+    uint64_t value = 0;
+    for (unsigned b = 0; b < 8; ++b) value |= uint64_t(uint8_t(bytes_[at_ + b])) << (8 * b);
+    at_ += 8;
+    return value;
+  }
+  bool done() const { return at_ == bytes_.size(); }
+  [[noreturn]] static void fail(const std::string& why) {
+    throw Error(ErrorCategory::InvalidInput, "region record " + why);
+  }
+
+private:
+  std::string_view bytes_;
+  size_t at_ = 0;
+};
+
+// Whether the builder could have interned a node with this header: codes Lit, Shadowed or Ref, and not eight
+// equal non-reference children (the builder answers those with the code itself).
+bool internableHeader(uint64_t header) {
+  if (header > 0xffff) return false;
+  bool same = true;
+  for (unsigned c = 0; c < 8; ++c) {
+    const uint32_t code = wordCodeOf(uint32_t(header), c);
+    if (code > uint32_t(ChildCode::Ref)) return false;
+    same = same && code == wordCodeOf(uint32_t(header), 0);
+  }
+  return !same || wordCodeOf(uint32_t(header), 0) == uint32_t(ChildCode::Ref);
+}
+
+}  // namespace
+
+uint32_t RegionRecorder::leaf(uint64_t mask) {
+  const uint32_t id = uint32_t(levelOf_.size());
+  const auto [found, added] = maskIds_.emplace(mask, id);
+  if (!added) return found->second;  // asked before: the call changed nothing
+  putNumber(bytes_, leafLevel_ + 1);
+  for (unsigned b = 0; b < 8; ++b) bytes_.push_back(char(uint8_t(mask >> (8 * b))));
+  levelOf_.push_back(leafLevel_ + 1);
+  headerOf_.push_back(0);
+  firstChild_.push_back(uint32_t(childEvents_.size()));
+  return id;
+}
+
+uint32_t RegionRecorder::node(uint32_t level, uint32_t header, const uint32_t* childEvents, unsigned childCount) {
+  uint32_t content[10] = {level, header};
+  std::copy(childEvents, childEvents + childCount, content + 2);
+  const uint64_t hash = XXH3_64bits(content, (2 + childCount) * sizeof(uint32_t));
+  const auto sameAs = [&](uint32_t other) {
+    // The header says how many children there are.
+    return levelOf_[other] == level && headerOf_[other] == header &&
+           std::equal(childEvents, childEvents + childCount, childEvents_.begin() + firstChild_[other]);
+  };
+  const auto found = nodeIds_.find(hash);
+  if (found != nodeIds_.end() && sameAs(found->second)) return found->second;
+  const uint32_t id = uint32_t(levelOf_.size());
+  putNumber(bytes_, level);
+  putNumber(bytes_, header);
+  for (unsigned k = 0; k < childCount; ++k) putNumber(bytes_, id - childEvents[k]);
+  levelOf_.push_back(level);
+  headerOf_.push_back(header);
+  firstChild_.push_back(uint32_t(childEvents_.size()));
+  childEvents_.insert(childEvents_.end(), childEvents, childEvents + childCount);
+  if (found == nodeIds_.end()) nodeIds_.emplace(hash, id);  // a colliding other node is kept twice: harmless
+  return id;
+}
+
+void RegionRecorder::column(ChildCode code, uint32_t event) {
+  columns_.push_back({code, code == ChildCode::Ref ? event : 0});
+}
+
+std::string RegionRecorder::finish(const RegionCounts& counts) {
+  const uint32_t events = uint32_t(levelOf_.size());
+  std::string record;
+  putNumber(record, events);
+  record += bytes_;
+  putNumber(record, columns_.size());
+  for (const auto& [code, id] : columns_) {
+    putNumber(record, uint32_t(code));
+    if (code == ChildCode::Ref) putNumber(record, events - id);
+  }
+  putNumber(record, counts.nodesBuilt);
+  putNumber(record, counts.nodesReused);
+  putNumber(record, counts.homogeneous);
+  *this = RegionRecorder(regionLevel_, leafLevel_);
+  return record;
+}
+
+RegionEvents decodeRegionRecord(std::string_view record, uint32_t regionLevel, uint32_t leafLevel,
+                                uint32_t columnCount) {
+  Reader in(record);
+  RegionEvents out;
+  const uint64_t eventCount = in.number("the event count");
+  if (eventCount > record.size()) Reader::fail("counts more events than it has bytes");
+  out.events.reserve(eventCount);
+  for (uint64_t id = 0; id < eventCount; ++id) {
+    RegionEvents::Event e;
+    const uint64_t level = in.number("an event's level");
+    if (level < regionLevel || level > leafLevel + 1) Reader::fail("has an event of level " + std::to_string(level));
+    e.level = uint32_t(level);
+    if (e.level == leafLevel + 1) {
+      e.mask = in.word64();
+      out.events.push_back(e);
+      continue;
+    }
+    const uint64_t header = in.number("a node header");
+    if (!internableHeader(header)) Reader::fail("has a node header the builder does not make");
+    e.header = uint32_t(header);
+    e.firstChild = uint32_t(out.childIds.size());
+    for (unsigned c = 0; c < 8; ++c) {
+      if (wordCodeOf(e.header, c) != uint32_t(ChildCode::Ref)) continue;
+      const uint64_t back = in.number("a child reference");
+      if (back == 0 || back > id) Reader::fail("has a child reference outside the region");
+      const uint32_t child = uint32_t(id - back);
+      if (out.events[child].level != e.level + 1) Reader::fail("has a child of the wrong level");
+      out.childIds.push_back(child);
+    }
+    out.events.push_back(e);
+  }
+  if (in.number("the column count") != columnCount) Reader::fail("has a column count other than the view's");
+  for (uint32_t z = 0; z < columnCount; ++z) {
+    RegionEvents::Column column;
+    const uint64_t code = in.number("a column");
+    if (code > uint64_t(ChildCode::Ref)) Reader::fail("has a column code of " + std::to_string(code));
+    column.code = ChildCode(code);
+    if (column.code == ChildCode::Ref) {
+      const uint64_t back = in.number("a column reference");
+      if (back == 0 || back > eventCount) Reader::fail("has a column reference outside the region");
+      column.event = uint32_t(eventCount - back);
+      if (out.events[column.event].level != regionLevel) Reader::fail("has a column of the wrong level");
+    }
+    out.columns.push_back(column);
+  }
+  out.counts.nodesBuilt = in.number("the counts");
+  out.counts.nodesReused = in.number("the counts");
+  out.counts.homogeneous = in.number("the counts");
+  if (!in.done()) Reader::fail("has bytes after its end");
+  return out;
+}
+
+}  // namespace cpvs

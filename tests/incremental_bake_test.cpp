@@ -1,0 +1,174 @@
+// Incremental bakes: with a cache, a re-bake after an edit renders only the regions the edit reaches and replays
+// the others' DAG events; the file equals a clean bake of the edited scene byte for byte (moved, deleted and
+// added meshes, a material's alpha mode), damaged region packs are ignored with a warning, and the folder keeps
+// one version of each light.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "libcpvs/bake/bake.h"
+#include "libcpvs/bake/cpvs_writer.h"
+#include "libcpvs/import/gltf_import.h"
+#include "support/test_support.h"
+
+namespace cpvs {
+namespace {
+
+using test::runTool;
+using test::tempDir;
+using test::toolPath;
+
+// A scenegen scene, written once per test run.
+std::string generated(const std::string& kind, const std::string& options) {
+  const std::string path = tempDir() + "/" + kind + ".glb";
+  if (std::filesystem::exists(path)) return path;
+  const test::ToolResult r = runTool(toolPath("cpvs-scenegen") + " " + kind + " " + options + " -o " + path);
+  if (r.exitCode != 0) throw std::runtime_error("cpvs-scenegen failed: " + r.output);
+  return path;
+}
+
+// `source` edited by scripts/gltf_edit.py (`edit`: its action and arguments), as a new file.
+std::string edited(const std::string& source, const std::string& name, const std::string& edit) {
+  const std::string path = tempDir() + "/" + name + ".glb";
+  const test::ToolResult r =
+      runTool("python3 " + test::sourcePath("scripts/gltf_edit.py") + " " + source + " " + path + " " + edit);
+  if (r.exitCode != 0) throw std::runtime_error("gltf_edit.py failed: " + r.output);
+  return path;
+}
+
+// The city's sun, a spot over one block and a point light: a view per kind of mapping, and a cone crop.
+Scene cityWithLights(const std::string& path) {
+  Scene scene = importGltf(path);
+  scene.lights.push_back(test::spotLight("spot", {-60, 90, -40}, {0.2, -1, 0.1}, 0.5, 300));
+  scene.lights.push_back(test::pointLight("point", {100, 40, 120}, 200));
+  return scene;
+}
+
+BakeSettings smallBake(const std::string& cache) {
+  BakeSettings settings;
+  settings.resolution = 512;
+  settings.regionSize = 64;  // 64 regions a view: an edit reaches a few
+  settings.threads = 2;
+  settings.cacheFolder = cache;
+  return settings;
+}
+
+std::string bakeBytes(const Scene& scene, const BakeSettings& settings, BakeReport* report = nullptr) {
+  return writeCpvs(bakeScene(scene, settings, report));
+}
+
+struct Reuse {
+  uint64_t regions = 0, reused = 0;
+};
+Reuse reuseOf(const BakeReport& report) {
+  Reuse r;
+  for (const LightReport& l : report.lights)
+    for (const ViewReport& v : l.views) {
+      r.regions += v.regions;
+      r.reused += v.regionsReused;
+    }
+  return r;
+}
+
+size_t filesEndingWith(const std::string& folder, const std::string& suffix) {
+  size_t n = 0;
+  for (const auto& item : std::filesystem::directory_iterator(folder)) {
+    const std::string name = item.path().filename().string();
+    n += name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+  }
+  return n;
+}
+
+TEST(IncrementalBake, EditedSceneBakesToTheBytesOfACleanBake) {
+  const std::string city = generated("city", "--triangles 20000");
+  const std::string cache = tempDir() + "/incremental-cache";
+  std::filesystem::remove_all(cache);
+  const BakeSettings cached = smallBake(cache), clean = smallBake("");
+  BakeReport first;
+  bakeBytes(cityWithLights(city), cached, &first);
+  EXPECT_EQ(reuseOf(first).reused, 0u);
+  const size_t views = filesEndingWith(cache, ".regions");
+  EXPECT_GE(views, 3u);  // the sun's, the spot's and the point light's faces that see geometry
+
+  // Each edit is baked with the cache the previous one left, as a level's saves are.
+  const std::pair<const char*, std::string> edits[] = {
+      {"moved", "move proto_gable_2.0 5 0 0"},
+      {"deleted", "delete proto_round_1.0"},
+      {"added", "copy proto_hip_1.0 30 0 12"},
+  };
+  std::string previous = city;
+  for (const auto& [name, edit] : edits) {
+    previous = edited(previous, name, edit);
+    const Scene scene = cityWithLights(previous);
+    BakeReport incremental;
+    const std::string bytes = bakeBytes(scene, cached, &incremental);
+    EXPECT_TRUE(bytes == bakeBytes(scene, clean)) << name << ": the incremental file differs from a clean bake";
+    const Reuse reuse = reuseOf(incremental);
+    // The edit reaches a few regions of the views that see it; the others are replayed. Lights whose views it
+    // misses entirely come whole from the cache (no regions counted).
+    EXPECT_GT(reuse.reused, 0u) << name;
+    EXPECT_LT(reuse.reused, reuse.regions) << name;
+    EXPECT_GT(reuse.reused * 4, reuse.regions * 3) << name << ": " << reuse.reused << " of " << reuse.regions;
+    // One light entry per light, one region pack per view: the versions the edits replaced are gone.
+    EXPECT_EQ(filesEndingWith(cache, ".cpvs"), scene.lights.size()) << name;
+    EXPECT_EQ(filesEndingWith(cache, ".regions"), views) << name;
+  }
+}
+
+TEST(IncrementalBake, AlphaModeChangeReplaysTheRegionsItMisses) {
+  const std::string scene = generated("alpha-test", "");
+  const std::string cache = tempDir() + "/alpha-cache";
+  std::filesystem::remove_all(cache);
+  BakeSettings cached = smallBake(cache), clean = smallBake("");
+  bakeBytes(importGltf(scene), cached);
+  for (const auto& [name, edit] : {std::pair<const char*, const char*>{"leaf-opaque", "alpha LeafMask OPAQUE"},
+                                   {"leaf-mask-again", "alpha LeafMask MASK 0.5"}}) {
+    const Scene changed = importGltf(edited(scene, name, edit));
+    BakeReport report;
+    const std::string bytes = bakeBytes(changed, cached, &report);
+    EXPECT_TRUE(bytes == bakeBytes(changed, clean)) << name;
+    const Reuse reuse = reuseOf(report);
+    EXPECT_GT(reuse.reused, 0u) << name;
+    EXPECT_LT(reuse.reused, reuse.regions) << name;
+  }
+}
+
+TEST(IncrementalBake, DamagedRegionPacksAreIgnoredWithAWarning) {
+  const std::string city = generated("city", "--triangles 20000");
+  const std::string cache = tempDir() + "/damaged-cache";
+  std::filesystem::remove_all(cache);
+  const BakeSettings cached = smallBake(cache);
+  Scene scene = importGltf(city);
+  const std::string expected = bakeBytes(scene, cached);
+  // One byte of every pack changed, and one pack cut short: each is refused by its checksum or its length.
+  bool cut = false;
+  for (const auto& item : std::filesystem::directory_iterator(cache)) {
+    if (item.path().extension() != ".regions") continue;
+    std::fstream file(item.path(), std::ios::in | std::ios::out | std::ios::binary);
+    file.seekp(std::streamoff(item.file_size() / 2));
+    file.put('\x5a');
+    file.close();
+    if (!cut) std::filesystem::resize_file(item.path(), item.file_size() - 9);
+    cut = true;
+  }
+  // The light entries would answer first: without them the packs are read.
+  for (const auto& item : std::filesystem::directory_iterator(cache))
+    if (item.path().extension() == ".cpvs") std::filesystem::remove(item.path());
+  BakeReport report;
+  EXPECT_TRUE(bakeBytes(scene, cached, &report) == expected);
+  EXPECT_EQ(reuseOf(report).reused, 0u);
+  bool warned = false;
+  for (const std::string& w : report.warnings) warned = warned || w.find("bake cache regions ignored") != std::string::npos;
+  EXPECT_TRUE(warned);
+  // The packs stored by that bake are whole again: the next one replays every region.
+  for (const auto& item : std::filesystem::directory_iterator(cache))
+    if (item.path().extension() == ".cpvs") std::filesystem::remove(item.path());
+  BakeReport again;
+  EXPECT_TRUE(bakeBytes(scene, cached, &again) == expected);
+  EXPECT_EQ(reuseOf(again).reused, reuseOf(again).regions);
+}
+
+}  // namespace
+}  // namespace cpvs
