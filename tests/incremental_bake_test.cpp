@@ -140,28 +140,37 @@ TEST(IncrementalBake, DamagedRegionPacksAreIgnoredWithAWarning) {
   const std::string cache = tempDir() + "/damaged-cache";
   std::filesystem::remove_all(cache);
   const BakeSettings cached = smallBake(cache);
-  Scene scene = importGltf(city);
+  const Scene scene = cityWithLights(city);
   const std::string expected = bakeBytes(scene, cached);
-  // One byte of every pack changed, and one pack cut short: each is refused by its checksum or its length.
+  // One pack cut short: refused whole (its footer and index are gone). One byte changed in the middle of the
+  // others: the region whose record holds it fails its hash and is rendered again.
   bool cut = false;
   for (const auto& item : std::filesystem::directory_iterator(cache)) {
     if (item.path().extension() != ".regions") continue;
+    if (!cut) {
+      std::filesystem::resize_file(item.path(), item.file_size() - 9);
+      cut = true;
+      continue;
+    }
     std::fstream file(item.path(), std::ios::in | std::ios::out | std::ios::binary);
+    file.seekg(std::streamoff(item.file_size() / 2));
+    const char byte = char(file.get());
     file.seekp(std::streamoff(item.file_size() / 2));
-    file.put('\x5a');
-    file.close();
-    if (!cut) std::filesystem::resize_file(item.path(), item.file_size() - 9);
-    cut = true;
+    file.put(char(byte ^ 0x5a));
   }
   // The light entries would answer first: without them the packs are read.
   for (const auto& item : std::filesystem::directory_iterator(cache))
     if (item.path().extension() == ".cpvs") std::filesystem::remove(item.path());
   BakeReport report;
   EXPECT_TRUE(bakeBytes(scene, cached, &report) == expected);
-  EXPECT_EQ(reuseOf(report).reused, 0u);
-  bool warned = false;
-  for (const std::string& w : report.warnings) warned = warned || w.find("bake cache regions ignored") != std::string::npos;
-  EXPECT_TRUE(warned);
+  EXPECT_LT(reuseOf(report).reused, reuseOf(report).regions);
+  bool packIgnored = false, regionIgnored = false;
+  for (const std::string& w : report.warnings) {
+    packIgnored = packIgnored || w.find("bake cache regions ignored") != std::string::npos;
+    regionIgnored = regionIgnored || w.find("bake cache region ignored") != std::string::npos;
+  }
+  EXPECT_TRUE(packIgnored);
+  EXPECT_TRUE(regionIgnored);
   // The packs stored by that bake are whole again: the next one replays every region.
   for (const auto& item : std::filesystem::directory_iterator(cache))
     if (item.path().extension() == ".cpvs") std::filesystem::remove(item.path());

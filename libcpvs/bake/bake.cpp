@@ -379,13 +379,27 @@ ShadowDag finishDag(BakeRun& run, DagBuilder& builder, const Light& light, size_
 
 // Region reuse (docs/incremental-bakes.md): with a cache, each region's DAG events are kept under a key of what
 // they depend on, and a region whose key is unchanged since the view frame's last bake is replayed instead of
-// rendered. `previous` holds that bake's regions (by region index), `next` this one's.
+// rendered. Packs are read and written region by region: an incremental bake holds no pack in memory.
 struct RegionReuse {
   bool active = false;
   uint64_t frameKey = 0;
-  std::vector<CachedRegion> previous;
-  RegionPack next;
+  std::optional<RegionPackReader> previous;   // the frame's last pack, when it has this view's regions
+  std::unique_ptr<BakeCache::NewEntry> file;  // this bake's pack, written as the regions finish
+  std::optional<RegionPackWriter> writer;
+  struct Waiting {
+    uint64_t key = 0;
+    std::string record;
+  };
+  std::vector<Waiting> waiting;  // per region: its key and record until written
+  size_t written = 0;                 // regions written to the new pack, in order
 };
+
+// A cache write that failed costs later bakes their reuse, not this bake its result.
+void dropNewPack(RegionReuse& reuse, const Error& e, std::vector<std::string>& warnings) {
+  warnings.push_back(std::string("bake cache regions not stored: ") + e.what());
+  reuse.writer.reset();
+  reuse.file.reset();
+}
 
 RegionReuse openRegionReuse(BakeRun& run, const Light& light, const LightView& view, uint32_t regionSize,
                             bool summarizeTiles, size_t regionCount, LightOutcome& out) {
@@ -394,42 +408,62 @@ RegionReuse openRegionReuse(BakeRun& run, const Light& light, const LightView& v
   reuse.active = true;
   reuse.frameKey = viewFrameKey(run.settings, light, view, regionSize, summarizeTiles);
   std::string problem;
-  if (std::optional<RegionPack> found = run.cache->findRegions(reuse.frameKey, &problem)) {
-    if (found->lightKey != out.cacheKey) out.supersededKeys.push_back(found->lightKey);
-    if (found->regions.size() == regionCount) reuse.previous = std::move(found->regions);
-  }
+  if (std::optional<RegionPackReader> found = run.cache->findRegions(reuse.frameKey, &problem))
+    reuse.previous.emplace(std::move(*found));
   if (!problem.empty()) out.warnings.push_back("bake cache regions ignored and baked again: " + problem);
-  reuse.next.lightKey = out.cacheKey;
-  reuse.next.regions.resize(regionCount);
+  if (reuse.previous) {
+    if (reuse.previous->lightKey() != out.cacheKey) out.supersededKeys.push_back(reuse.previous->lightKey());
+    if (reuse.previous->size() != regionCount) reuse.previous.reset();
+  }
+  reuse.waiting.resize(regionCount);
+  try {
+    reuse.file = run.cache->newRegions(reuse.frameKey);
+    reuse.writer.emplace(reuse.file->fd(), reuse.file->path(), reuse.frameKey, out.cacheKey);
+  } catch (const Error& e) {
+    dropNewPack(reuse, e, out.warnings);
+  }
   return reuse;
 }
 
-// The previous bake's events of region `ri` when its key is `key` and they decode for `builder`; nothing else.
+// The previous bake's events of region `ri` when its key is `key` and they read and decode for `builder`.
 std::optional<RegionEvents> reusableRegion(RegionReuse& reuse, size_t ri, uint64_t key, const DagBuilder& builder,
                                            std::vector<std::string>& warnings) {
-  if (ri >= reuse.previous.size()) return std::nullopt;
-  CachedRegion& old = reuse.previous[ri];
-  if (old.key != key || old.record.empty()) {
-    old = {};  // not needed any more
-    return std::nullopt;
-  }
+  reuse.waiting[ri].key = key;
+  if (!reuse.previous || reuse.previous->key(ri) != key) return std::nullopt;
   try {
-    RegionEvents events = builder.decodeRecord(old.record);
-    reuse.next.regions[ri] = std::move(old);
+    std::string record = reuse.previous->record(ri);
+    if (record.empty()) return std::nullopt;
+    RegionEvents events = builder.decodeRecord(record);
+    reuse.waiting[ri].record = std::move(record);
     return events;
   } catch (const Error& e) {
     warnings.push_back(std::string("bake cache region ignored and baked again: ") + e.what());
-    old = {};
     return std::nullopt;
   }
 }
 
-void storeRegions(BakeRun& run, const RegionReuse& reuse, std::vector<std::string>& warnings) {
+// Writes the waiting records of the regions before `end` (all finished) to the new pack.
+void writeWaiting(RegionReuse& reuse, size_t end, std::vector<std::string>& warnings) {
+  for (; reuse.written < end; ++reuse.written) {
+    RegionReuse::Waiting& r = reuse.waiting[reuse.written];
+    if (reuse.writer) try {
+        reuse.writer->add(r.key, r.record);
+      } catch (const Error& e) {
+        dropNewPack(reuse, e, warnings);
+      }
+    std::string().swap(r.record);  // frees it: assigning an empty string would keep its capacity
+  }
+}
+
+void storeRegions(RegionReuse& reuse, std::vector<std::string>& warnings) {
   if (!reuse.active) return;
+  writeWaiting(reuse, reuse.waiting.size(), warnings);
+  if (!reuse.writer) return;
   try {
-    run.cache->storeRegions(reuse.frameKey, reuse.next);
-  } catch (const Error& e) {  // the bake itself is fine: only later runs lose the regions
-    warnings.push_back(std::string("bake cache regions not stored: ") + e.what());
+    reuse.writer->finish();
+    reuse.file->commit();
+  } catch (const Error& e) {
+    dropNewPack(reuse, e, warnings);
   }
 }
 
@@ -455,11 +489,12 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
   // Rendering stays on this thread (it owns the GL context); masks and DAG of the previous region run
   // beside it. The DAG still takes regions in order, so the bytes do not depend on the overlap.
   BackgroundWork pending;
-  const auto runBeside = [&](auto&& work) {
+  const auto runBeside = [&](size_t ri, auto&& work) {
     pending.wait();
     // The builder is idle here. Its tables only grow, so once what encoding them would need no longer fits,
     // the view cannot finish within the budget: stop now rather than at the end.
     checkMemoryBudget(run, builder.finishExtraBytes(), light, vi, view);
+    if (reuse.active) writeWaiting(reuse, ri, out.warnings);  // the regions before this one are done
     if (settings.threads > 1)
       pending.start(work);
     else
@@ -470,14 +505,12 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
     const bool outsideCone = crop.regionOutside(view, rect);
     const ViewGeometry regionGeometry = outsideCone ? ViewGeometry{} : cullToRegion(geometry, rect, regionTriangles[ri]);
     std::optional<RegionEvents> reused;
-    if (reuse.active) {
-      const uint64_t key = regionKey(reuse.frameKey, rect, outsideCone, regionGeometry, run.maskHashes);
-      reused = reusableRegion(reuse, ri, key, builder, out.warnings);
-      if (!reused) reuse.next.regions[ri].key = key;
-    }
+    if (reuse.active)
+      reused = reusableRegion(reuse, ri, regionKey(reuse.frameKey, rect, outsideCone, regionGeometry, run.maskHashes),
+                              builder, out.warnings);
     if (reused) {
       ++vr.regionsReused;
-      runBeside([&, ri, events = std::make_shared<RegionEvents>(std::move(*reused))]() {
+      runBeside(ri, [&, ri, events = std::make_shared<RegionEvents>(std::move(*reused))]() {
         Stopwatch dag;
         builder.replayRegion(regions[ri], *events);
         vr.dagMs += dag.ms();
@@ -489,7 +522,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
         const std::lock_guard<std::mutex> lock(run.mutex);
         callbacks.depthRegion(li, vi, view, *depth);
       }
-      runBeside([&, ri, depth]() {
+      runBeside(ri, [&, ri, depth]() {
         Stopwatch masks;
         const TileChains chains =
             buildTileChains(*depth, settings.undefinedMode, std::max(1u, settings.threads), settings.maxVoxelError);
@@ -498,7 +531,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
         vr.freeVoxelsLit += chains.freeVoxelsLit;
         vr.voxelsDelayed += chains.voxelsDelayed;
         Stopwatch dag;
-        builder.addRegion(chains, reuse.active ? &reuse.next.regions[ri].record : nullptr);
+        builder.addRegion(chains, reuse.active ? &reuse.waiting[ri].record : nullptr);
         vr.dagMs += dag.ms();
       });
     }
@@ -509,7 +542,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
   }
   pending.wait();
   ShadowDag dag = finishDag(run, builder, light, vi, view, vr);
-  storeRegions(run, reuse, out.warnings);
+  storeRegions(reuse, out.warnings);
   return dag;
 }
 

@@ -3,8 +3,6 @@
 #include <cstdio>
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <system_error>
 
 #include <fcntl.h>
@@ -54,28 +52,44 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
 }
 
 void BakeCache::store(uint64_t key, const BakedLight& baked) const {
-  CpvsContent content;
-  content.lights.push_back(baked);
-  content.settingsJson = nlohmann::json{{"cache_key", hex64(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
-  writeAtomically(pathOf(key), writeCpvs(content), key);
+  NewEntry entry(folder_, pathOf(key), key);
+  // Written as it is encoded: neither a copy of the light nor the file's bytes are held beside the bake's DAGs.
+  const std::string settings =
+      nlohmann::json{{"cache_key", hex64(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
+  CpvsWriter writer(settings, {baked.light}, {baked.views.size()}, [&](uint64_t at, const char* data, size_t n) {
+    while (n > 0) {
+      const ssize_t done = ::pwrite(entry.fd(), data, n, off_t(at));
+      if (done <= 0) throw Error(ErrorCategory::OutputFailed, entry.path() + ": cannot write the bake cache entry");
+      data += done;
+      n -= size_t(done);
+      at += uint64_t(done);
+    }
+  });
+  writer.add(baked);
+  writer.finish();
+  entry.commit();
 }
 
-void BakeCache::writeAtomically(const std::string& path, const std::string& bytes, uint64_t key) const {
-  std::string temp = (std::filesystem::path(folder_) / (".entry-" + hex64(key) + "-XXXXXX")).string();
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) throw Error(ErrorCategory::OutputFailed, folder_ + ": cannot write a bake cache entry");
-  ::fchmod(fd, 0644);  // a cache folder is often shared by a team's build machines
-  size_t written = 0;
-  while (written < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
-    if (n <= 0) break;
-    written += size_t(n);
-  }
-  const bool ok = written == bytes.size() && ::fsync(fd) == 0;
-  ::close(fd);
-  if (!ok || std::rename(temp.c_str(), path.c_str()) != 0) {
-    ::unlink(temp.c_str());
-    throw Error(ErrorCategory::OutputFailed, path + ": cannot write the bake cache entry");
+BakeCache::NewEntry::NewEntry(const std::string& folder, std::string path, uint64_t key) : path_(std::move(path)) {
+  temp_ = (std::filesystem::path(folder) / (".entry-" + hex64(key) + "-XXXXXX")).string();
+  fd_ = ::mkstemp(temp_.data());
+  if (fd_ < 0) throw Error(ErrorCategory::OutputFailed, folder + ": cannot write a bake cache entry");
+  ::fchmod(fd_, 0644);  // a cache folder is often shared by a team's build machines
+}
+
+BakeCache::NewEntry::~NewEntry() {
+  if (fd_ < 0) return;
+  ::close(fd_);
+  ::unlink(temp_.c_str());
+}
+
+void BakeCache::NewEntry::commit() {
+  const bool ok = ::fsync(fd_) == 0;
+  ::close(fd_);
+  fd_ = -1;
+  if (!ok || std::rename(temp_.c_str(), path_.c_str()) != 0) {
+    ::unlink(temp_.c_str());
+    throw Error(ErrorCategory::OutputFailed, path_ + ": cannot write the bake cache entry");
   }
 }
 
@@ -83,14 +97,12 @@ std::string BakeCache::regionsPathOf(uint64_t frameKey) const {
   return (std::filesystem::path(folder_) / (hex64(frameKey) + ".regions")).string();
 }
 
-std::optional<RegionPack> BakeCache::findRegions(uint64_t frameKey, std::string* problem) const {
+std::optional<RegionPackReader> BakeCache::findRegions(uint64_t frameKey, std::string* problem) const {
   const std::string path = regionsPathOf(frameKey);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return std::nullopt;
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return std::nullopt;
   try {
-    RegionPack pack = decodeRegionPack(bytes, frameKey, path);
-    std::error_code ec;
+    RegionPackReader pack(path, frameKey);
     std::filesystem::last_write_time(path, std::filesystem::file_time_type::clock::now(), ec);  // used now (trim)
     return pack;
   } catch (const Error& e) {
@@ -99,8 +111,8 @@ std::optional<RegionPack> BakeCache::findRegions(uint64_t frameKey, std::string*
   }
 }
 
-void BakeCache::storeRegions(uint64_t frameKey, const RegionPack& pack) const {
-  writeAtomically(regionsPathOf(frameKey), encodeRegionPack(frameKey, pack), frameKey);
+std::unique_ptr<BakeCache::NewEntry> BakeCache::newRegions(uint64_t frameKey) const {
+  return std::make_unique<NewEntry>(folder_, regionsPathOf(frameKey), frameKey);
 }
 
 void BakeCache::remove(uint64_t key) const {

@@ -2,6 +2,7 @@
 // A folder of finished light bakes keyed by what each one depends on, so that a re-bake after a light or a mesh
 // moved re-bakes only the lights whose inputs changed (docs/many-lights.md, "The bake cache").
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,9 +30,26 @@ public:
   // The region records of the view whose frame key is `frameKey` (region_pack.h), from the last bake of that
   // view frame that stored them. Nothing when there are none, or when the file is damaged or another frame's
   // (then `problem` says so).
-  std::optional<RegionPack> findRegions(uint64_t frameKey, std::string* problem = nullptr) const;
-  // Stores a view's region records, replacing the frame's previous ones (atomically, as store()).
-  void storeRegions(uint64_t frameKey, const RegionPack& pack) const;
+  std::optional<RegionPackReader> findRegions(uint64_t frameKey, std::string* problem = nullptr) const;
+
+  // A cache file being written: a temporary in the folder, renamed to its name by commit() (so a reader, or a
+  // bake sharing the folder, never sees half of it), removed if never committed. Throws Error(OutputFailed).
+  class NewEntry {
+  public:
+    NewEntry(const std::string& folder, std::string path, uint64_t key);
+    ~NewEntry();
+    NewEntry(const NewEntry&) = delete;
+    NewEntry& operator=(const NewEntry&) = delete;
+    int fd() const { return fd_; }
+    const std::string& path() const { return path_; }
+    void commit();
+
+  private:
+    std::string path_, temp_;
+    int fd_ = -1;
+  };
+  // The region pack of `frameKey`, to be written (it replaces the frame's previous one when committed).
+  std::unique_ptr<NewEntry> newRegions(uint64_t frameKey) const;
   std::string regionsPathOf(uint64_t frameKey) const;
   // Removes the light entry `key` (one a later bake of the same view frames superseded). A bake sharing the
   // folder that has it open keeps reading it; one about to open it bakes the light (its regions still hit).
@@ -49,9 +67,6 @@ public:
   Trimmed trim(uint64_t maxBytes) const;
 
 private:
-  // Writes `bytes` to a temporary in the folder and renames it to `path`. Throws Error(OutputFailed).
-  void writeAtomically(const std::string& path, const std::string& bytes, uint64_t key) const;
-
   std::string folder_;
 };
 

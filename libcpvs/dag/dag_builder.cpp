@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <bit>
-#include <optional>
 
 #include "libcpvs/base/error.h"
 #include "libcpvs/dag/dag_encoder.h"
@@ -165,8 +164,11 @@ void DagBuilder::addRegion(const TileChains& chains, std::string* record) {
   chains_ = &chains;
   hierarchy_ = std::make_unique<TileHierarchy>(chains);
   const DagBuildStats before = stats_;
-  std::optional<RegionRecorder> recorder;
-  if (record) recorder_ = &recorder.emplace(regionLevel_, leafLevel_);
+  if (record) {
+    if (!recorderStore_) recorderStore_ = std::make_unique<RegionRecorder>(regionLevel_, leafLevel_);
+    recorder_ = recorderStore_.get();
+    recorder_->begin();
+  }
   try {
     Result neighbour;
     for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
@@ -248,6 +250,7 @@ ShadowDag DagBuilder::finish() {
   stats_.leavesMerged = leafTable_.merged();
   stats_.edgeTexelsFlipped = leafTable_.flipped();
   // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
+  recorderStore_.reset();
   for (NodeTable& table : tables_) table.releaseIndex();
   leafParents_.releaseIndex();
   leafTable_.releaseIndex();

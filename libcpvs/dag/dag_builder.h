@@ -84,7 +84,8 @@ private:
   // Per-region state while building.
   const TileChains* chains_ = nullptr;
   std::unique_ptr<TileHierarchy> hierarchy_;
-  RegionRecorder* recorder_ = nullptr;
+  RegionRecorder* recorder_ = nullptr;     // while a region is recorded: recorderStore_
+  std::unique_ptr<RegionRecorder> recorderStore_;  // kept from region to region
 };
 
 // Builds a whole view from one region (N <= region size); convenience for tests and small bakes.

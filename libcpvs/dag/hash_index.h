@@ -75,6 +75,8 @@ public:
   void prefetch(uint64_t hash) const { __builtin_prefetch(slots_.data() + (size_t(hash) & (slots_.size() - 1))); }
 
   void release() { std::vector<uint32_t>().swap(slots_); }
+  // Empties the index, keeping its slots (for a table refilled many times).
+  void clear() { std::fill(slots_.begin(), slots_.end(), 0u); }
   uint64_t bytes() const { return slots_.capacity() * 4; }
 
 private:

@@ -66,14 +66,35 @@ bool internableHeader(uint64_t header) {
 
 }  // namespace
 
+void RegionRecorder::begin() {
+  bytes_.clear();
+  levelOf_.clear();
+  headerOf_.clear();
+  valueOf_.clear();
+  firstChild_.clear();
+  childEvents_.clear();
+  columns_.clear();
+  leafIndex_.clear();
+  nodeIndex_.clear();
+  leaves_ = nodes_ = 0;
+}
+
 uint32_t RegionRecorder::leaf(uint64_t mask) {
   const uint32_t id = uint32_t(levelOf_.size());
-  const auto [found, added] = maskIds_.emplace(mask, id);
-  if (!added) return found->second;  // asked before: the call changed nothing
+  const uint64_t hash = XXH3_64bits(&mask, sizeof mask);
+  if (leafIndex_.full(leaves_, id))
+    leafIndex_.rebuild(leaves_, id, [&](auto&& add) {
+      for (uint32_t e = 0; e < id; ++e)
+        if (levelOf_[e] == leafLevel_ + 1) add(e, XXH3_64bits(&valueOf_[e], sizeof(uint64_t)));
+    });
+  const uint32_t found = leafIndex_.findOrInsert(hash, id, [&](uint32_t e) { return valueOf_[e] == mask; });
+  if (found != id) return found;  // asked before: the call changed nothing
+  ++leaves_;
   putNumber(bytes_, leafLevel_ + 1);
   for (unsigned b = 0; b < 8; ++b) bytes_.push_back(char(uint8_t(mask >> (8 * b))));
   levelOf_.push_back(leafLevel_ + 1);
   headerOf_.push_back(0);
+  valueOf_.push_back(mask);
   firstChild_.push_back(uint32_t(childEvents_.size()));
   return id;
 }
@@ -82,22 +103,27 @@ uint32_t RegionRecorder::node(uint32_t level, uint32_t header, const uint32_t* c
   uint32_t content[10] = {level, header};
   std::copy(childEvents, childEvents + childCount, content + 2);
   const uint64_t hash = XXH3_64bits(content, (2 + childCount) * sizeof(uint32_t));
-  const auto sameAs = [&](uint32_t other) {
-    // The header says how many children there are.
-    return levelOf_[other] == level && headerOf_[other] == header &&
-           std::equal(childEvents, childEvents + childCount, childEvents_.begin() + firstChild_[other]);
-  };
-  const auto found = nodeIds_.find(hash);
-  if (found != nodeIds_.end() && sameAs(found->second)) return found->second;
   const uint32_t id = uint32_t(levelOf_.size());
+  if (nodeIndex_.full(nodes_, id))
+    nodeIndex_.rebuild(nodes_, id, [&](auto&& add) {
+      for (uint32_t e = 0; e < id; ++e)
+        if (levelOf_[e] <= leafLevel_) add(e, valueOf_[e]);
+    });
+  // The header says how many children there are.
+  const uint32_t found = nodeIndex_.findOrInsert(hash, id, [&](uint32_t e) {
+    return valueOf_[e] == hash && levelOf_[e] == level && headerOf_[e] == header &&
+           std::equal(childEvents, childEvents + childCount, childEvents_.begin() + firstChild_[e]);
+  });
+  if (found != id) return found;
+  ++nodes_;
   putNumber(bytes_, level);
   putNumber(bytes_, header);
   for (unsigned k = 0; k < childCount; ++k) putNumber(bytes_, id - childEvents[k]);
   levelOf_.push_back(level);
   headerOf_.push_back(header);
+  valueOf_.push_back(hash);
   firstChild_.push_back(uint32_t(childEvents_.size()));
   childEvents_.insert(childEvents_.end(), childEvents, childEvents + childCount);
-  if (found == nodeIds_.end()) nodeIds_.emplace(hash, id);  // a colliding other node is kept twice: harmless
   return id;
 }
 
@@ -118,7 +144,6 @@ std::string RegionRecorder::finish(const RegionCounts& counts) {
   putNumber(record, counts.nodesBuilt);
   putNumber(record, counts.nodesReused);
   putNumber(record, counts.homogeneous);
-  *this = RegionRecorder(regionLevel_, leafLevel_);
   return record;
 }
 

@@ -12,10 +12,10 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include "libcpvs/dag/hash_index.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
 namespace cpvs {
@@ -27,13 +27,16 @@ struct RegionCounts {
 
 // Writes a region's record while the builder builds it. Calls are kept by their content (a leaf by its mask, a
 // node by its level, header and children's events), never by the offset the builder gave them: with edge merging
-// two masks may share a leaf in one build and not in the next, and so may the nodes above them.
+// two masks may share a leaf in one build and not in the next, and so may the nodes above them. One recorder
+// serves every region of a view (begin() empties it and keeps its arrays and indexes), so recording allocates
+// nothing per region but the record itself.
 class RegionRecorder {
 public:
   // regionLevel: the level whose nodes cover one region; leafLevel: the level of leaf parents (their children
   // are leaves).
   RegionRecorder(uint32_t regionLevel, uint32_t leafLevel) : regionLevel_(regionLevel), leafLevel_(leafLevel) {}
 
+  void begin();
   // A leaf mask the builder interned; returns its event.
   uint32_t leaf(uint64_t mask);
   // A node of `level` the builder interned (its build-form header, the events of its reference children in
@@ -43,18 +46,19 @@ public:
   uint32_t childEvent(uint32_t parent, unsigned k) const { return childEvents_[firstChild_[parent] + k]; }
   // The region's volume at the next z block, as the builder keeps it for the levels above the regions.
   void column(ChildCode code, uint32_t event);
-  // The record's bytes; the recorder is empty again after.
+  // The record's bytes.
   std::string finish(const RegionCounts& counts);
 
 private:
   uint32_t regionLevel_, leafLevel_;
-  std::string bytes_;                     // the events
+  std::string bytes_;                         // the events
   std::vector<uint32_t> levelOf_, headerOf_;  // per event
-  std::vector<uint32_t> firstChild_;      // per event, into childEvents_
+  std::vector<uint64_t> valueOf_;             // per event: a leaf's mask, a node's content hash
+  std::vector<uint32_t> firstChild_;          // per event, into childEvents_
   std::vector<uint32_t> childEvents_;
   std::vector<std::pair<ChildCode, uint32_t>> columns_;  // code and event, per z block
-  std::unordered_map<uint64_t, uint32_t> maskIds_;  // leaf mask -> event
-  std::unordered_map<uint64_t, uint32_t> nodeIds_;  // hash of a node's content -> event
+  HashIndex leafIndex_, nodeIndex_;                      // of leaf events by mask, of node events by content
+  uint32_t leaves_ = 0, nodes_ = 0;
 };
 
 // A record read back and checked against the builder it is for: every child names an earlier event of the
