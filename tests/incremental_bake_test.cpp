@@ -4,6 +4,7 @@
 // one version of each light.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -177,6 +178,35 @@ TEST(IncrementalBake, DamagedRegionPacksAreIgnoredWithAWarning) {
   BakeReport again;
   EXPECT_TRUE(bakeBytes(scene, cached, &again) == expected);
   EXPECT_EQ(reuseOf(again).reused, reuseOf(again).regions);
+}
+
+// A bake stopped part way (here by its progress callback, as a cancel does) leaves the cache as it was: the
+// entries of the lights it finished are not committed, and no temporary stays behind.
+TEST(IncrementalBake, AStoppedBakeLeavesTheCacheAsItWas) {
+  const std::string city = generated("city", "--triangles 20000");
+  const std::string cache = tempDir() + "/stopped-cache";
+  std::filesystem::remove_all(cache);
+  const Scene scene = cityWithLights(city);
+  BakeCallbacks stopLate;
+  size_t calls = 0;
+  stopLate.progress = [&](double done) {
+    ++calls;
+    if (done > 0.8) throw std::runtime_error("stopped");
+  };
+  EXPECT_THROW(bakeScene(scene, smallBake(cache), nullptr, stopLate), std::runtime_error);
+  EXPECT_GT(calls, 10u);
+  EXPECT_TRUE(std::filesystem::is_empty(cache));
+  // A finished bake then fills it, and a stopped re-bake of an edit leaves that bake's entries untouched.
+  bakeBytes(scene, smallBake(cache));
+  std::vector<std::string> before;
+  for (const auto& item : std::filesystem::directory_iterator(cache)) before.push_back(item.path().filename().string());
+  const Scene moved = cityWithLights(edited(city, "stopped-moved", "move proto_gable_2.0 5 0 0"));
+  EXPECT_THROW(bakeScene(moved, smallBake(cache), nullptr, stopLate), std::runtime_error);
+  std::vector<std::string> after;
+  for (const auto& item : std::filesystem::directory_iterator(cache)) after.push_back(item.path().filename().string());
+  std::sort(before.begin(), before.end());
+  std::sort(after.begin(), after.end());
+  EXPECT_EQ(before, after);
 }
 
 }  // namespace

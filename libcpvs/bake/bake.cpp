@@ -267,6 +267,10 @@ struct BakeRun {
   const BakeCallbacks& callbacks;
   std::optional<BakeCache>& cache;
   std::vector<uint64_t> maskHashes;  // per alpha mask of the world, for the cache's region keys
+  // Cache entries written by this bake, committed together once it succeeds (a bake that fails or is cancelled
+  // leaves the cache as it was), and the light entries they supersede (under `mutex`).
+  std::vector<std::unique_ptr<BakeCache::NewEntry>> newEntries;
+  std::vector<uint64_t> newKeys, supersededKeys;
   std::vector<std::unique_ptr<DepthRenderer>> renderers;  // per lane, opened on first use
   std::mutex mutex;                                       // callbacks, progress, the renderer's description
   std::string rendererDescription;
@@ -455,13 +459,15 @@ void writeWaiting(RegionReuse& reuse, size_t end, std::vector<std::string>& warn
   }
 }
 
-void storeRegions(RegionReuse& reuse, std::vector<std::string>& warnings) {
+void storeRegions(BakeRun& run, RegionReuse& reuse, std::vector<std::string>& warnings) {
   if (!reuse.active) return;
   writeWaiting(reuse, reuse.waiting.size(), warnings);
   if (!reuse.writer) return;
   try {
     reuse.writer->finish();
-    reuse.file->commit();
+    reuse.file->close();
+    const std::lock_guard<std::mutex> lock(run.mutex);
+    run.newEntries.push_back(std::move(reuse.file));
   } catch (const Error& e) {
     dropNewPack(reuse, e, warnings);
   }
@@ -542,7 +548,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
   }
   pending.wait();
   ShadowDag dag = finishDag(run, builder, light, vi, view, vr);
-  storeRegions(reuse, out.warnings);
+  storeRegions(run, reuse, out.warnings);
   return dag;
 }
 
@@ -616,18 +622,33 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
   }
   if (run.cache && !fromCache) {
     try {
-      run.cache->store(cacheKey, baked);
-      // The entries this light's views were last baked with describe a scene that is gone: the new entry and
-      // the new region packs replace them, so that the folder holds one version of each light, not every edit's.
-      std::sort(out.supersededKeys.begin(), out.supersededKeys.end());
-      out.supersededKeys.erase(std::unique(out.supersededKeys.begin(), out.supersededKeys.end()), out.supersededKeys.end());
-      for (const uint64_t old : out.supersededKeys) run.cache->remove(old);
+      std::unique_ptr<BakeCache::NewEntry> entry = run.cache->write(cacheKey, baked);
+      const std::lock_guard<std::mutex> lock(run.mutex);
+      run.newEntries.push_back(std::move(entry));
+      run.newKeys.push_back(cacheKey);
+      run.supersededKeys.insert(run.supersededKeys.end(), out.supersededKeys.begin(), out.supersededKeys.end());
     } catch (const Error& e) {  // the bake itself is fine: only later runs lose the entry
       out.warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
     }
   }
   lightReport.ms = lightTime.ms();
   return out;
+}
+
+// The bake succeeded: its cache entries go into place. The light entries its region packs replaced describe a
+// scene that is gone (the light as it was before the edit): they are removed, so the folder holds one version
+// of each light and view, not every edit's.
+void commitCacheEntries(BakeRun& run, std::vector<std::string>& warnings) {
+  for (const std::unique_ptr<BakeCache::NewEntry>& entry : run.newEntries) try {
+      entry->commit();
+    } catch (const Error& e) {
+      warnings.push_back(std::string("bake cache entry not stored: ") + e.what());
+    }
+  std::sort(run.newKeys.begin(), run.newKeys.end());
+  std::sort(run.supersededKeys.begin(), run.supersededKeys.end());
+  run.supersededKeys.erase(std::unique(run.supersededKeys.begin(), run.supersededKeys.end()), run.supersededKeys.end());
+  for (const uint64_t old : run.supersededKeys)
+    if (!std::binary_search(run.newKeys.begin(), run.newKeys.end(), old)) run.cache->remove(old);
 }
 
 // How many lights bake at once. The CPU rasteriser runs one light per thread: the per-region passes of one light
@@ -681,7 +702,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     rep.writeMs += write.ms();
   }
   const unsigned lanes = lanesFor(settings, chosen.size());
-  BakeRun run{scene, settings, world, index, allViews, callbacks, cache, {}, {}, {}, {}, 0, 0};
+  BakeRun run{scene, settings, world, index, allViews, callbacks, cache, {}, {}, {}, {}, {}, {}, {}, {}, 0, 0};
   if (cache)
     for (const CoverageMask& mask : world.masked.masks) run.maskHashes.push_back(mask.hash());
   run.renderers.resize(lanes);
@@ -715,6 +736,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     handOverFinished();
   });
   rep.renderer = run.rendererDescription;
+  if (cache) commitCacheEntries(run, rep.warnings);
   if (cache && settings.cacheMaxBytes > 0) {
     const BakeCache::Trimmed trimmed = cache->trim(settings.cacheMaxBytes);
     rep.cacheEntriesRemoved = trimmed.removed;

@@ -51,15 +51,15 @@ std::optional<BakedLight> BakeCache::find(uint64_t key, const Light& light, std:
   return baked;
 }
 
-void BakeCache::store(uint64_t key, const BakedLight& baked) const {
-  NewEntry entry(folder_, pathOf(key), key);
+std::unique_ptr<BakeCache::NewEntry> BakeCache::write(uint64_t key, const BakedLight& baked) const {
+  auto entry = std::make_unique<NewEntry>(folder_, pathOf(key), key);
   // Written as it is encoded: neither a copy of the light nor the file's bytes are held beside the bake's DAGs.
   const std::string settings =
       nlohmann::json{{"cache_key", hex64(key)}, {"tool", "cpvs-bake"}, {"tool_version", kVersion}}.dump();
   CpvsWriter writer(settings, {baked.light}, {baked.views.size()}, [&](uint64_t at, const char* data, size_t n) {
     while (n > 0) {
-      const ssize_t done = ::pwrite(entry.fd(), data, n, off_t(at));
-      if (done <= 0) throw Error(ErrorCategory::OutputFailed, entry.path() + ": cannot write the bake cache entry");
+      const ssize_t done = ::pwrite(entry->fd(), data, n, off_t(at));
+      if (done <= 0) throw Error(ErrorCategory::OutputFailed, entry->path() + ": cannot write the bake cache entry");
       data += done;
       n -= size_t(done);
       at += uint64_t(done);
@@ -67,7 +67,8 @@ void BakeCache::store(uint64_t key, const BakedLight& baked) const {
   });
   writer.add(baked);
   writer.finish();
-  entry.commit();
+  entry->close();
+  return entry;
 }
 
 BakeCache::NewEntry::NewEntry(const std::string& folder, std::string path, uint64_t key) : path_(std::move(path)) {
@@ -78,19 +79,23 @@ BakeCache::NewEntry::NewEntry(const std::string& folder, std::string path, uint6
 }
 
 BakeCache::NewEntry::~NewEntry() {
+  if (fd_ >= 0) ::close(fd_);
+  if (!temp_.empty()) ::unlink(temp_.c_str());
+}
+
+void BakeCache::NewEntry::close() {
   if (fd_ < 0) return;
-  ::close(fd_);
-  ::unlink(temp_.c_str());
+  const bool ok = ::fsync(fd_) == 0;
+  const bool closed = ::close(fd_) == 0;
+  fd_ = -1;
+  if (!ok || !closed) throw Error(ErrorCategory::OutputFailed, path_ + ": cannot write the bake cache entry");
 }
 
 void BakeCache::NewEntry::commit() {
-  const bool ok = ::fsync(fd_) == 0;
-  ::close(fd_);
-  fd_ = -1;
-  if (!ok || std::rename(temp_.c_str(), path_.c_str()) != 0) {
-    ::unlink(temp_.c_str());
+  close();
+  if (std::rename(temp_.c_str(), path_.c_str()) != 0)
     throw Error(ErrorCategory::OutputFailed, path_ + ": cannot write the bake cache entry");
-  }
+  temp_.clear();
 }
 
 std::string BakeCache::regionsPathOf(uint64_t frameKey) const {

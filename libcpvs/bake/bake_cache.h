@@ -21,9 +21,11 @@ public:
   // The light baked under `key`, with `light`'s own record (name, colour, intensity) in place. Nothing when
   // the entry is missing, or is damaged or from another key (then `problem` says so; the caller bakes again).
   std::optional<BakedLight> find(uint64_t key, const Light& light, std::string* problem = nullptr) const;
-  // Stores a finished light under `key`: a one-light .cpvs, written to a temporary and renamed, so a reader
-  // (or another bake sharing the folder) never sees half an entry. Throws Error(OutputFailed).
-  void store(uint64_t key, const BakedLight& baked) const;
+  class NewEntry;
+  // Writes a finished light for `key`: a one-light .cpvs in a temporary of the folder, which the returned
+  // entry's commit() renames into place, so a reader (or another bake sharing the folder) never sees half an
+  // entry, and a bake that fails or is cancelled before committing leaves none. Throws Error(OutputFailed).
+  std::unique_ptr<NewEntry> write(uint64_t key, const BakedLight& baked) const;
 
   std::string pathOf(uint64_t key) const;
 
@@ -42,6 +44,8 @@ public:
     NewEntry& operator=(const NewEntry&) = delete;
     int fd() const { return fd_; }
     const std::string& path() const { return path_; }
+    // Flushes and closes the temporary (a bake keeps its entries closed until it commits them all).
+    void close();
     void commit();
 
   private:

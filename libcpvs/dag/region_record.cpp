@@ -9,10 +9,21 @@
 namespace cpvs {
 namespace {
 
-// The record's coding: unsigned LEB128 numbers. An event is its level (leafLevel + 1 for a leaf), then a leaf's
-// mask (8 bytes, little-endian) or a node's header and, per reference child, how many events back it is.
-// Then the column count, per column its code and (for a reference) how many events back from the end, and the
-// counts. Children are mostly the events just before their parent, so the distances take one byte.
+// The record's coding. An event starts with a 16-bit little-endian word: 0xffff for a leaf (no node header has
+// a code 3), followed by its mask (8 bytes, little-endian); else a node's build-form header, followed by its level
+// (an unsigned LEB128 number) only when it has no reference child (otherwise the level is its children's minus
+// one), then per reference child how many events back it is (LEB128: children are mostly the events just before
+// their parent, so one byte). Then the column count, per column its code and (for a reference) how many events
+// back from the end, and the counts, all LEB128.
+constexpr uint32_t kLeafMark = 0xffff;
+
+void putWord16(std::string& out, uint32_t value) {
+  out.push_back(char(uint8_t(value)));
+  out.push_back(char(uint8_t(value >> 8)));
+}
+
+bool hasReference(uint32_t header) { return (header & 0xAAAAu) != 0; }
+
 void putNumber(std::string& out, uint64_t value) {
   while (value >= 0x80) {
     out.push_back(char(uint8_t(value) | 0x80));
@@ -33,6 +44,12 @@ public:
       if (!(byte & 0x80)) return value;
     }
     fail(std::string("has a number longer than 64 bits in ") + what);
+  }
+  uint32_t word16() {
+    if (bytes_.size() - at_ < 2) fail("ends inside an event");
+    const uint32_t value = uint32_t(uint8_t(bytes_[at_])) | uint32_t(uint8_t(bytes_[at_ + 1])) << 8;
+    at_ += 2;
+    return value;
   }
   uint64_t word64() {
     if (bytes_.size() - at_ < 8) fail("ends inside a leaf mask");
@@ -90,7 +107,7 @@ uint32_t RegionRecorder::leaf(uint64_t mask) {
   const uint32_t found = leafIndex_.findOrInsert(hash, id, [&](uint32_t e) { return valueOf_[e] == mask; });
   if (found != id) return found;  // asked before: the call changed nothing
   ++leaves_;
-  putNumber(bytes_, leafLevel_ + 1);
+  putWord16(bytes_, kLeafMark);
   for (unsigned b = 0; b < 8; ++b) bytes_.push_back(char(uint8_t(mask >> (8 * b))));
   levelOf_.push_back(leafLevel_ + 1);
   headerOf_.push_back(0);
@@ -116,8 +133,8 @@ uint32_t RegionRecorder::node(uint32_t level, uint32_t header, const uint32_t* c
   });
   if (found != id) return found;
   ++nodes_;
-  putNumber(bytes_, level);
-  putNumber(bytes_, header);
+  putWord16(bytes_, header);
+  if (!hasReference(header)) putNumber(bytes_, level);
   for (unsigned k = 0; k < childCount; ++k) putNumber(bytes_, id - childEvents[k]);
   levelOf_.push_back(level);
   headerOf_.push_back(header);
@@ -156,24 +173,33 @@ RegionEvents decodeRegionRecord(std::string_view record, uint32_t regionLevel, u
   out.events.reserve(eventCount);
   for (uint64_t id = 0; id < eventCount; ++id) {
     RegionEvents::Event e;
-    const uint64_t level = in.number("an event's level");
-    if (level < regionLevel || level > leafLevel + 1) Reader::fail("has an event of level " + std::to_string(level));
-    e.level = uint32_t(level);
-    if (e.level == leafLevel + 1) {
+    const uint32_t header = in.word16();
+    if (header == kLeafMark) {
+      e.level = leafLevel + 1;
       e.mask = in.word64();
       out.events.push_back(e);
       continue;
     }
-    const uint64_t header = in.number("a node header");
     if (!internableHeader(header)) Reader::fail("has a node header the builder does not make");
-    e.header = uint32_t(header);
+    e.header = header;
     e.firstChild = uint32_t(out.childIds.size());
+    if (!hasReference(header)) {
+      const uint64_t level = in.number("a node's level");
+      if (level < regionLevel || level > leafLevel) Reader::fail("has a node of level " + std::to_string(level));
+      e.level = uint32_t(level);
+    }
     for (unsigned c = 0; c < 8; ++c) {
       if (wordCodeOf(e.header, c) != uint32_t(ChildCode::Ref)) continue;
       const uint64_t back = in.number("a child reference");
       if (back == 0 || back > id) Reader::fail("has a child reference outside the region");
       const uint32_t child = uint32_t(id - back);
-      if (out.events[child].level != e.level + 1) Reader::fail("has a child of the wrong level");
+      const uint32_t childLevel = out.events[child].level;
+      if (e.firstChild == out.childIds.size()) {  // the first child says the level
+        if (childLevel <= regionLevel || childLevel > leafLevel + 1) Reader::fail("has a child of the wrong level");
+        e.level = childLevel - 1;
+      } else if (childLevel != e.level + 1) {
+        Reader::fail("has a child of the wrong level");
+      }
       out.childIds.push_back(child);
     }
     out.events.push_back(e);
