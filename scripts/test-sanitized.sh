@@ -5,7 +5,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/scripts/install-deps.sh"
 cmake -S "$root" -B "$root/build-sanitize" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCPVS_SANITIZE=ON \
-  -DCPVS_BUILD_BENCHMARKS=OFF >/dev/null
+  -DCPVS_BUILD_BENCHMARKS=OFF -DCPVS_BUILD_PYTHON=OFF >/dev/null
 ninja -C "$root/build-sanitize"
 # Leaks: the GL driver (llvmpipe) and TBB keep process-lifetime allocations; they are listed in
 # tests/sanitizer-suppressions/lsan.txt. halt_on_error: the first report fails the test.

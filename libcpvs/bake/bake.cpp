@@ -300,8 +300,7 @@ void checkMemoryBudget(const BakeRun& run, uint64_t extraBytes, const Light& lig
   const uint64_t resident = currentRssBytes();
   extraBytes += run.encodingBytes.load();
   if (resident + extraBytes <= settings.maxMemoryBytes) return;
-  throw Error(ErrorCategory::RuntimeFailure,
-              "memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
+  throw MemoryBudgetError("memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
                   (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") + " exceeded (" +
                   std::to_string(resident >> 20) + " MiB resident" +
                   (extraBytes ? ", and about " + std::to_string(extraBytes >> 20) + " MiB more to encode the view's DAG"
@@ -395,7 +394,7 @@ struct RegionReuse {
     std::string record;
   };
   std::vector<Waiting> waiting;  // per region: its key and record until written
-  size_t written = 0;                 // regions written to the new pack, in order
+  size_t written = 0;            // regions written to the new pack, in order
 };
 
 // A cache write that failed costs later bakes their reuse, not this bake its result.

@@ -20,6 +20,13 @@ private:
   ErrorCategory category_;
 };
 
+// A bake stopped before it would outgrow its memory budget (a RuntimeFailure; the Python module raises
+// MemoryError for it).
+class MemoryBudgetError : public Error {
+public:
+  explicit MemoryBudgetError(const std::string& message) : Error(ErrorCategory::RuntimeFailure, message) {}
+};
+
 // Throws Error for a failed Outcome (where the baker meets the runtime's non-throwing API).
 inline void orThrow(const Outcome& status) {
   if (!status.ok()) throw Error(status);

@@ -1,0 +1,39 @@
+#pragma once
+// Points and normals as the lookups take them from numpy: an array of shape (..., 3), float32 or float64 in C
+// order read where it lies (no copy), anything else numeric converted once to float64 (never reinterpreted).
+#include <pybind11/numpy.h>
+
+#include <cstddef>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace cpvs::python {
+
+class VectorArray {
+public:
+  VectorArray() = default;
+  // `array` of shape (..., 3); with `single`, also one vector of shape (3,), used for every point. Raises
+  // cpvs.ArgumentError naming `name` for another shape or a dtype that is not a real number (bool, complex,
+  // strings, objects).
+  VectorArray(pybind11::handle array, const char* name, bool single = false);
+
+  size_t size() const { return count_; }                  // vectors (1 for a single one)
+  bool single() const { return single_; }
+  const std::vector<pybind11::ssize_t>& leadingShape() const { return shape_; }  // the shape without the last 3
+  // Vector i (or the single one); read without the GIL.
+  glm::dvec3 at(size_t i) const {
+    const size_t k = single_ ? 0 : 3 * i;
+    return f32_ ? glm::dvec3(f32_[k], f32_[k + 1], f32_[k + 2]) : glm::dvec3(f64_[k], f64_[k + 1], f64_[k + 2]);
+  }
+
+private:
+  pybind11::array keep_;  // the array read (the caller's, or the converted copy)
+  const float* f32_ = nullptr;
+  const double* f64_ = nullptr;
+  size_t count_ = 0;
+  bool single_ = false;
+  std::vector<pybind11::ssize_t> shape_;
+};
+
+}  // namespace cpvs::python
