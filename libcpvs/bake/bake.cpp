@@ -429,20 +429,20 @@ RegionReuse openRegionReuse(BakeRun& run, const Light& light, const LightView& v
 }
 
 // The previous bake's events of region `ri` when its key is `key` and they read and decode for `builder`.
-std::optional<RegionEvents> reusableRegion(RegionReuse& reuse, size_t ri, uint64_t key, const DagBuilder& builder,
+// The events view the record, kept in `waiting` until the replay is done and it is written to the new pack.
+std::optional<RegionEvents> reusableRegion(RegionReuse& reuse, size_t ri, uint64_t key, DagBuilder& builder,
                                            std::vector<std::string>& warnings) {
-  reuse.waiting[ri].key = key;
+  RegionReuse::Waiting& waiting = reuse.waiting[ri];
+  waiting.key = key;
   if (!reuse.previous || reuse.previous->key(ri) != key) return std::nullopt;
   try {
-    std::string record = reuse.previous->record(ri);
-    if (record.empty()) return std::nullopt;
-    RegionEvents events = builder.decodeRecord(record);
-    reuse.waiting[ri].record = std::move(record);
-    return events;
+    waiting.record = reuse.previous->record(ri);
+    if (!waiting.record.empty()) return builder.decodeRecord(waiting.record);
   } catch (const Error& e) {
     warnings.push_back(std::string("bake cache region ignored and baked again: ") + e.what());
-    return std::nullopt;
   }
+  std::string().swap(waiting.record);  // rendered and recorded again
+  return std::nullopt;
 }
 
 // Writes the waiting records of the regions before `end` (all finished) to the new pack.
@@ -515,9 +515,9 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
                               builder, out.warnings);
     if (reused) {
       ++vr.regionsReused;
-      runBeside(ri, [&, ri, events = std::make_shared<RegionEvents>(std::move(*reused))]() {
+      runBeside(ri, [&, ri, events = *reused]() {
         Stopwatch dag;
-        builder.replayRegion(regions[ri], *events);
+        builder.replayRegion(regions[ri], events);
         vr.dagMs += dag.ms();
       });
     } else {

@@ -190,37 +190,38 @@ void DagBuilder::addRegion(const TileChains& chains, std::string* record) {
   }
 }
 
-RegionEvents DagBuilder::decodeRecord(std::string_view record) const {
-  return decodeRegionRecord(record, regionLevel_, leafLevel_, regionsPerSide_);
+RegionEvents DagBuilder::decodeRecord(std::string_view record) {
+  return decodeRegionRecord(record, regionLevel_, leafLevel_, regionsPerSide_, decodeLevels_);
 }
 
-void DagBuilder::replayRegion(const RegionRect& rect, const RegionEvents& replay) {
+void DagBuilder::replayRegion(const RegionRect& rect, const RegionEvents& events) {
   const size_t region = regionIndexOf(rect);
-  if (replay.columns.size() != regionsPerSide_)
+  if (events.regionLevel != regionLevel_ || events.leafLevel != leafLevel_ || events.columnCount != regionsPerSide_)
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: a region's events decoded for another builder");
-  std::vector<uint32_t> refs(replay.events.size());  // per event, what interning it gave here
-  uint32_t words[9];
-  for (size_t id = 0; id < replay.events.size(); ++id) {
-    const RegionEvents::Event& e = replay.events[id];
-    if (e.level == leafLevel_ + 1) {
-      refs[id] = leafTable_.intern(e.mask);
-      continue;
+  // Each call made again, its children being what the calls that made them gave here.
+  struct Replay final : RegionEventVisitor {
+    DagBuilder& b;
+    size_t region;
+    explicit Replay(DagBuilder& builder, size_t r) : b(builder), region(r) {}
+    void leaf(uint32_t id, uint64_t mask) override { b.replayRefs_[id] = b.leafTable_.intern(mask); }
+    void node(uint32_t id, uint32_t level, uint32_t header, const uint32_t* children, unsigned count) override {
+      uint32_t words[9];
+      words[0] = header;
+      for (unsigned k = 0; k < count; ++k) words[1 + k] = b.replayRefs_[children[k]];
+      b.replayRefs_[id] = level == b.leafLevel_ ? b.leafParents_.intern(header, words + 1, count)
+                                                : b.tables_[level].intern(words, count + 1);
     }
-    const unsigned childCount = nodeWordCount(e.header) - 1;
-    words[0] = e.header;
-    for (unsigned k = 0; k < childCount; ++k) words[1 + k] = refs[replay.childIds[e.firstChild + k]];
-    refs[id] = e.level == leafLevel_ ? leafParents_.intern(e.header, words + 1, childCount)
-                                     : tables_[e.level].intern(words, childCount + 1);
-  }
-  for (uint32_t zBlock = 0; zBlock < regionsPerSide_; ++zBlock) {
-    const RegionEvents::Column& c = replay.columns[zBlock];
-    regionColumns_[region * regionsPerSide_ + zBlock] =
-        packColumn({c.code, c.code == ChildCode::Ref ? refs[c.event] : 0, 0, true});
-  }
+    void column(uint32_t z, ChildCode code, uint32_t event) override {
+      b.regionColumns_[region * b.regionsPerSide_ + z] =
+          packColumn({code, code == ChildCode::Ref ? b.replayRefs_[event] : 0, 0, true});
+    }
+  } replay(*this, region);
+  replayRefs_.resize(events.eventCount);
+  walkRegionEvents(events, replayLevels_, replay);
   regionAdded_[region] = true;
-  stats_.nodesBuilt += replay.counts.nodesBuilt;
-  stats_.nodesReused += replay.counts.nodesReused;
-  stats_.homogeneous += replay.counts.homogeneous;
+  stats_.nodesBuilt += events.counts.nodesBuilt;
+  stats_.nodesReused += events.counts.nodesReused;
+  stats_.homogeneous += events.counts.homogeneous;
 }
 
 uint32_t DagBuilder::packColumn(const Result& result) {

@@ -35,8 +35,9 @@ public:
   // callers use splitIntoRegions' order. With `record`, also writes what the region added (region_record.h).
   void addRegion(const TileChains& chains, std::string* record = nullptr);
   // A region's record (from addRegion) checked against this builder: throws Error(InvalidInput) when it does not
-  // decode for it. Does not change the builder.
-  RegionEvents decodeRecord(std::string_view record) const;
+  // decode for it. Adds nothing; may run on one thread while another adds or replays a region. The result views
+  // `record`, which must outlive it.
+  RegionEvents decodeRecord(std::string_view record);
   // Adds the region at `rect` again from its decoded record, without its chains: the builder ends as addRegion
   // would leave it when called at this point of the same sequence with the chains the record was made from.
   void replayRegion(const RegionRect& rect, const RegionEvents& events);
@@ -84,6 +85,8 @@ private:
   // Per-region state while building.
   const TileChains* chains_ = nullptr;
   std::unique_ptr<TileHierarchy> hierarchy_;
+  std::vector<uint8_t> decodeLevels_, replayLevels_;  // scratch of decodeRecord and replayRegion (two threads)
+  std::vector<uint32_t> replayRefs_;                  // per event of the region replayed, what interning it gave
   RegionRecorder* recorder_ = nullptr;     // while a region is recorded: recorderStore_
   std::unique_ptr<RegionRecorder> recorderStore_;  // kept from region to region
 };

@@ -164,65 +164,86 @@ std::string RegionRecorder::finish(const RegionCounts& counts) {
   return record;
 }
 
-RegionEvents decodeRegionRecord(std::string_view record, uint32_t regionLevel, uint32_t leafLevel,
-                                uint32_t columnCount) {
+namespace {
+
+// Reads a record event by event, checking each, and hands them to `visitor`; returns the counts.
+RegionCounts walk(std::string_view record, uint32_t regionLevel, uint32_t leafLevel, uint32_t columnCount,
+                  std::vector<uint8_t>& levels, RegionEventVisitor& visitor) {
   Reader in(record);
-  RegionEvents out;
   const uint64_t eventCount = in.number("the event count");
   if (eventCount > record.size()) Reader::fail("counts more events than it has bytes");
-  out.events.reserve(eventCount);
-  for (uint64_t id = 0; id < eventCount; ++id) {
-    RegionEvents::Event e;
+  levels.resize(eventCount);
+  uint32_t children[8];
+  for (uint32_t id = 0; id < eventCount; ++id) {
     const uint32_t header = in.word16();
     if (header == kLeafMark) {
-      e.level = leafLevel + 1;
-      e.mask = in.word64();
-      out.events.push_back(e);
+      levels[id] = uint8_t(leafLevel + 1);
+      visitor.leaf(id, in.word64());
       continue;
     }
     if (!internableHeader(header)) Reader::fail("has a node header the builder does not make");
-    e.header = header;
-    e.firstChild = uint32_t(out.childIds.size());
+    uint32_t level = 0;
     if (!hasReference(header)) {
-      const uint64_t level = in.number("a node's level");
-      if (level < regionLevel || level > leafLevel) Reader::fail("has a node of level " + std::to_string(level));
-      e.level = uint32_t(level);
+      const uint64_t given = in.number("a node's level");
+      if (given < regionLevel || given > leafLevel) Reader::fail("has a node of level " + std::to_string(given));
+      level = uint32_t(given);
     }
+    unsigned count = 0;
     for (unsigned c = 0; c < 8; ++c) {
-      if (wordCodeOf(e.header, c) != uint32_t(ChildCode::Ref)) continue;
+      if (wordCodeOf(header, c) != uint32_t(ChildCode::Ref)) continue;
       const uint64_t back = in.number("a child reference");
       if (back == 0 || back > id) Reader::fail("has a child reference outside the region");
       const uint32_t child = uint32_t(id - back);
-      const uint32_t childLevel = out.events[child].level;
-      if (e.firstChild == out.childIds.size()) {  // the first child says the level
+      const uint32_t childLevel = levels[child];
+      if (count == 0) {  // the first child says the level
         if (childLevel <= regionLevel || childLevel > leafLevel + 1) Reader::fail("has a child of the wrong level");
-        e.level = childLevel - 1;
-      } else if (childLevel != e.level + 1) {
+        level = childLevel - 1;
+      } else if (childLevel != level + 1) {
         Reader::fail("has a child of the wrong level");
       }
-      out.childIds.push_back(child);
+      children[count++] = child;
     }
-    out.events.push_back(e);
+    levels[id] = uint8_t(level);
+    visitor.node(id, level, header, children, count);
   }
   if (in.number("the column count") != columnCount) Reader::fail("has a column count other than the view's");
   for (uint32_t z = 0; z < columnCount; ++z) {
-    RegionEvents::Column column;
     const uint64_t code = in.number("a column");
     if (code > uint64_t(ChildCode::Ref)) Reader::fail("has a column code of " + std::to_string(code));
-    column.code = ChildCode(code);
-    if (column.code == ChildCode::Ref) {
+    uint32_t event = 0;
+    if (ChildCode(code) == ChildCode::Ref) {
       const uint64_t back = in.number("a column reference");
       if (back == 0 || back > eventCount) Reader::fail("has a column reference outside the region");
-      column.event = uint32_t(eventCount - back);
-      if (out.events[column.event].level != regionLevel) Reader::fail("has a column of the wrong level");
+      event = uint32_t(eventCount - back);
+      if (levels[event] != regionLevel) Reader::fail("has a column of the wrong level");
     }
-    out.columns.push_back(column);
+    visitor.column(z, ChildCode(code), event);
   }
-  out.counts.nodesBuilt = in.number("the counts");
-  out.counts.nodesReused = in.number("the counts");
-  out.counts.homogeneous = in.number("the counts");
+  RegionCounts counts;
+  counts.nodesBuilt = in.number("the counts");
+  counts.nodesReused = in.number("the counts");
+  counts.homogeneous = in.number("the counts");
   if (!in.done()) Reader::fail("has bytes after its end");
-  return out;
+  return counts;
+}
+
+struct NoVisitor final : RegionEventVisitor {
+  void leaf(uint32_t, uint64_t) override {}
+  void node(uint32_t, uint32_t, uint32_t, const uint32_t*, unsigned) override {}
+  void column(uint32_t, ChildCode, uint32_t) override {}
+};
+
+}  // namespace
+
+RegionEvents decodeRegionRecord(std::string_view record, uint32_t regionLevel, uint32_t leafLevel,
+                                uint32_t columnCount, std::vector<uint8_t>& levels) {
+  NoVisitor none;
+  const RegionCounts counts = walk(record, regionLevel, leafLevel, columnCount, levels, none);
+  return {record, regionLevel, leafLevel, columnCount, uint32_t(levels.size()), counts};
+}
+
+void walkRegionEvents(const RegionEvents& events, std::vector<uint8_t>& levels, RegionEventVisitor& visitor) {
+  walk(events.record, events.regionLevel, events.leafLevel, events.columnCount, levels, visitor);
 }
 
 }  // namespace cpvs

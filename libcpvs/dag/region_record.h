@@ -61,28 +61,33 @@ private:
   uint32_t leaves_ = 0, nodes_ = 0;
 };
 
-// A record read back and checked against the builder it is for: every child names an earlier event of the
-// level below, every header is one the builder could have interned, and the columns are of the region level.
+// A record checked against the builder it is for (decodeRegionRecord): every child names an earlier event of
+// the level below, every header is one the builder could have interned, the columns are of the region level,
+// nothing is left over. It views the record's bytes, which must outlive it.
 struct RegionEvents {
-  struct Event {
-    uint32_t level = 0;      // leafLevel + 1 for a leaf
-    uint32_t header = 0;     // nodes: the build-form header
-    uint64_t mask = 0;       // leaves
-    uint32_t firstChild = 0; // nodes: index of their first child in childIds
-  };
-  std::vector<Event> events;
-  std::vector<uint32_t> childIds;  // event ids, per node its reference children in order
-  struct Column {
-    ChildCode code = ChildCode::Lit;
-    uint32_t event = 0;  // when code is Ref
-  };
-  std::vector<Column> columns;
+  std::string_view record;
+  uint32_t regionLevel = 0, leafLevel = 0, columnCount = 0;
+  uint32_t eventCount = 0;
   RegionCounts counts;
 };
 
-// Decodes `record` for a builder with these levels and `columnCount` z blocks. Throws Error(InvalidInput) naming
-// what is wrong: a damaged or foreign record must be refused before the builder is touched.
+// What walkRegionEvents hands over, event by event, in the order the builder made them (ids count from 0).
+class RegionEventVisitor {
+public:
+  virtual ~RegionEventVisitor() = default;
+  virtual void leaf(uint32_t id, uint64_t mask) = 0;
+  // A node of `level` (leafLevel: a leaf parent, whose children are leaves) and its reference children's ids.
+  virtual void node(uint32_t id, uint32_t level, uint32_t header, const uint32_t* children, unsigned count) = 0;
+  // The region's volume at z block `z`: its code, and its event when a reference.
+  virtual void column(uint32_t z, ChildCode code, uint32_t event) = 0;
+};
+
+// Checks `record` for a builder with these levels and `columnCount` z blocks. Throws Error(InvalidInput) naming
+// what is wrong: a damaged or foreign record must be refused before the builder is touched. `levels` is scratch
+// space (one byte per event), reused from call to call.
 RegionEvents decodeRegionRecord(std::string_view record, uint32_t regionLevel, uint32_t leafLevel,
-                                uint32_t columnCount);
+                                uint32_t columnCount, std::vector<uint8_t>& levels);
+// Hands a checked record's events and columns to `visitor`, in order.
+void walkRegionEvents(const RegionEvents& events, std::vector<uint8_t>& levels, RegionEventVisitor& visitor);
 
 }  // namespace cpvs
