@@ -17,6 +17,7 @@ packages=(
   g++-mingw-w64-x86-64-posix wine64 g++-aarch64-linux-gnu qemu-user # the runtime cross-compiled for Windows
                                                                       # and ARM64, run under Wine and qemu
   python3-dev python3-pybind11 python3-numpy python3-pytest mypy # the Python module (python/, docs/python.md)
+  libzstd-dev # the bake cache's region packs, compressed (docs/incremental-bakes.md)
 )
 
 missing=()

@@ -438,8 +438,9 @@ std::optional<RegionEvents> reusableRegion(RegionReuse& reuse, size_t ri, uint64
   try {
     waiting.record = reuse.previous->record(ri);
     if (!waiting.record.empty()) return builder.decodeRecord(waiting.record);
-  } catch (const Error& e) {
-    warnings.push_back(std::string("bake cache region ignored and baked again: ") + e.what());
+  } catch (const Error& e) {  // a damaged pack: this region and those after it are rendered
+    warnings.push_back(std::string("bake cache region ignored and baked again, with the pack's later ones: ") + e.what());
+    reuse.previous.reset();
   }
   std::string().swap(waiting.record);  // rendered and recorded again
   return std::nullopt;

@@ -6,14 +6,17 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <xxhash.h>
+#include <zstd.h>
 
 #include "libcpvs/base/error.h"
 
 namespace cpvs {
 namespace {
 
-constexpr char kMagic[8] = {'C', 'P', 'V', 'S', 'R', 'G', 'N', '2'};
-constexpr size_t kHeaderBytes = 24, kFooterBytes = 32, kEntryBytes = 32;
+constexpr char kMagic[8] = {'C', 'P', 'V', 'S', 'R', 'G', 'N', '3'};
+constexpr size_t kHeaderBytes = 24, kFooterBytes = 40, kEntryWords = 5, kBlockWords = 3;
+constexpr size_t kBlockTarget = size_t(1) << 20;  // records a block collects before it is compressed
+constexpr int kLevel = 1;                         // zstd's fastest level: a pack is written by every cached bake
 
 void putWord(std::string& out, uint64_t value) {
   for (unsigned b = 0; b < 8; ++b) out.push_back(char(uint8_t(value >> (8 * b))));
@@ -50,25 +53,37 @@ RegionPackReader::RegionPackReader(const std::string& path, uint64_t frameKey) :
     char head[kHeaderBytes], foot[kFooterBytes];
     if (!readAt(fd_, head, kHeaderBytes, 0) || !readAt(fd_, foot, kFooterBytes, size - kFooterBytes))
       fail("cannot be read");
-    if (std::memcmp(head, kMagic, 8) != 0 || std::memcmp(foot + 24, kMagic, 8) != 0)
+    if (std::memcmp(head, kMagic, 8) != 0 || std::memcmp(foot + 32, kMagic, 8) != 0)
       fail("not a region pack of this version");
-    const uint64_t count = wordAt(foot), indexAt = wordAt(foot + 8);
-    if (indexAt < kHeaderBytes || indexAt > size - kFooterBytes || (size - kFooterBytes - indexAt) / kEntryBytes != count ||
-        (size - kFooterBytes - indexAt) % kEntryBytes != 0)
+    const uint64_t count = wordAt(foot), blockCount = wordAt(foot + 8), indexAt = wordAt(foot + 16);
+    const uint64_t tableBytes = size - kFooterBytes - std::min(indexAt, size - kFooterBytes);
+    if (indexAt < kHeaderBytes || count > tableBytes / (8 * kEntryWords) || blockCount > tableBytes / (8 * kBlockWords) ||
+        8 * (kEntryWords * count + kBlockWords * blockCount) != tableBytes)
       fail("its index does not fit the file (cut short?)");
-    std::string index(size_t(count * kEntryBytes), '\0');
-    if (!readAt(fd_, index.data(), index.size(), indexAt)) fail("cannot be read");
+    std::string tables(size_t(tableBytes), '\0');
+    if (!readAt(fd_, tables.data(), tables.size(), indexAt)) fail("cannot be read");
     std::string hashed(head, kHeaderBytes);
-    hashed += index;
-    if (XXH3_64bits(hashed.data(), hashed.size()) != wordAt(foot + 16)) fail("checksum mismatch (damaged)");
+    hashed += tables;
+    if (XXH3_64bits(hashed.data(), hashed.size()) != wordAt(foot + 24)) fail("checksum mismatch (damaged)");
     if (wordAt(head + 8) != frameKey) fail("a region pack of another view");
     lightKey_ = wordAt(head + 16);
+    const char* blockTable = tables.data() + 8 * kEntryWords * count;
+    for (size_t b = 0; b < blockCount; ++b) {
+      const char* e = blockTable + 8 * kBlockWords * b;
+      const Block block{wordAt(e), wordAt(e + 8), wordAt(e + 16)};
+      if (block.offset < kHeaderBytes || block.offset > indexAt || block.size > indexAt - block.offset ||
+          block.bytes > (uint64_t(1) << 34))
+        fail("block " + std::to_string(b) + " lies outside the blocks");
+      blocks_.push_back(block);
+    }
     index_.resize(count);
     for (size_t r = 0; r < count; ++r) {
-      const char* e = index.data() + r * kEntryBytes;
-      index_[r] = {wordAt(e), wordAt(e + 8), wordAt(e + 16), wordAt(e + 24)};
-      if (index_[r].offset < kHeaderBytes || index_[r].length > indexAt - index_[r].offset)
-        fail("region " + std::to_string(r) + " lies outside the records");
+      const char* e = tables.data() + 8 * kEntryWords * r;
+      Entry& entry = index_[r];
+      entry = {wordAt(e), wordAt(e + 8), wordAt(e + 16), wordAt(e + 24), wordAt(e + 32)};
+      if (entry.length > 0 && (entry.block >= blockCount || entry.offset > blocks_[entry.block].bytes ||
+                               entry.length > blocks_[entry.block].bytes - entry.offset))
+        fail("region " + std::to_string(r) + " lies outside its block");
     }
   } catch (...) {
     ::close(fd_);
@@ -81,14 +96,29 @@ RegionPackReader::~RegionPackReader() {
 }
 
 RegionPackReader::RegionPackReader(RegionPackReader&& other) noexcept
-    : path_(std::move(other.path_)), fd_(other.fd_), lightKey_(other.lightKey_), index_(std::move(other.index_)) {
+    : path_(std::move(other.path_)), fd_(other.fd_), lightKey_(other.lightKey_), index_(std::move(other.index_)),
+      blocks_(std::move(other.blocks_)), loaded_(other.loaded_), bytes_(std::move(other.bytes_)) {
   other.fd_ = -1;
 }
 
-std::string RegionPackReader::record(size_t region) const {
+void RegionPackReader::loadBlock(uint64_t block) {
+  if (loaded_ == block) return;
+  loaded_ = UINT64_MAX;
+  const Block& b = blocks_[block];
+  std::string compressed(size_t(b.size), '\0');
+  bytes_.resize(size_t(b.bytes));
+  if (!readAt(fd_, compressed.data(), compressed.size(), b.offset) ||
+      ZSTD_decompress(bytes_.data(), bytes_.size(), compressed.data(), compressed.size()) != b.bytes)
+    throw Error(ErrorCategory::InvalidInput, path_ + ": block " + std::to_string(block) + " is damaged");
+  loaded_ = block;
+}
+
+std::string RegionPackReader::record(size_t region) {
   const Entry& e = index_[region];
-  std::string bytes(size_t(e.length), '\0');
-  if (!readAt(fd_, bytes.data(), bytes.size(), e.offset) || XXH3_64bits(bytes.data(), bytes.size()) != e.hash)
+  if (e.length == 0) return {};
+  loadBlock(e.block);
+  std::string bytes = bytes_.substr(size_t(e.offset), size_t(e.length));
+  if (XXH3_64bits(bytes.data(), bytes.size()) != e.hash)
     throw Error(ErrorCategory::InvalidInput, path_ + ": region " + std::to_string(region) + " is damaged");
   return bytes;
 }
@@ -111,21 +141,36 @@ void RegionPackWriter::write(std::string_view bytes) {
   offset_ += bytes.size();
 }
 
+void RegionPackWriter::flushBlock() {
+  if (block_.empty()) return;
+  std::string compressed(ZSTD_compressBound(block_.size()), '\0');
+  const size_t size = ZSTD_compress(compressed.data(), compressed.size(), block_.data(), block_.size(), kLevel);
+  if (ZSTD_isError(size)) throw Error(ErrorCategory::RuntimeFailure, name_ + ": zstd: " + ZSTD_getErrorName(size));
+  blocks_.insert(blocks_.end(), {offset_, size, block_.size()});
+  write({compressed.data(), size});
+  std::string().swap(block_);  // a block may hold one large record: do not keep its capacity
+}
+
 void RegionPackWriter::add(uint64_t key, std::string_view record) {
-  index_.insert(index_.end(), {key, offset_, record.size(), XXH3_64bits(record.data(), record.size())});
-  write(record);
+  if (!block_.empty() && block_.size() + record.size() > kBlockTarget) flushBlock();
+  index_.insert(index_.end(), {key, blocks_.size() / kBlockWords, block_.size(), record.size(),
+                               XXH3_64bits(record.data(), record.size())});
+  block_ += record;
 }
 
 void RegionPackWriter::finish() {
-  std::string tail;
-  for (const uint64_t word : index_) putWord(tail, word);
+  flushBlock();
+  std::string tables;
+  for (const uint64_t word : index_) putWord(tables, word);
+  for (const uint64_t word : blocks_) putWord(tables, word);
   const uint64_t indexAt = offset_;
-  std::string hashed = head_ + tail;
-  putWord(tail, index_.size() / 4);
-  putWord(tail, indexAt);
-  putWord(tail, XXH3_64bits(hashed.data(), hashed.size()));
-  tail.append(kMagic, sizeof kMagic);
-  write(tail);
+  const std::string hashed = head_ + tables;
+  putWord(tables, index_.size() / kEntryWords);
+  putWord(tables, blocks_.size() / kBlockWords);
+  putWord(tables, indexAt);
+  putWord(tables, XXH3_64bits(hashed.data(), hashed.size()));
+  tables.append(kMagic, sizeof kMagic);
+  write(tables);
 }
 
 }  // namespace cpvs
