@@ -38,4 +38,12 @@ VectorArray::VectorArray(py::handle object, const char* name, bool single) {
   for (py::ssize_t d = 0; d + 1 < keep_.ndim(); ++d) shape_.push_back(keep_.shape(d));
 }
 
+VectorArray normalsFor(py::handle normals, const VectorArray& points) {
+  if (normals.is_none()) return {};
+  VectorArray out(normals, "normals", true);
+  if (!out.single() && out.leadingShape() != points.leadingShape())
+    raiseArgumentError("normals: expected the points' shape or (3,)");
+  return out;
+}
+
 }  // namespace cpvs::python

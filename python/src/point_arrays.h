@@ -36,4 +36,8 @@ private:
   std::vector<pybind11::ssize_t> shape_;
 };
 
+// The normals of `points`: None (an empty array: no normals), one (3,) vector for every point, or an array of the
+// points' shape. Raises cpvs.ArgumentError otherwise.
+VectorArray normalsFor(pybind11::handle normals, const VectorArray& points);
+
 }  // namespace cpvs::python

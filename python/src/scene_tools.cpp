@@ -105,13 +105,8 @@ Light Reference::lightOf(py::handle light) const {
 
 py::array Reference::lookup(py::handle pointsArg, py::handle normalsArg, py::handle lightArg, int threads) const {
   const VectorArray points(pointsArg, "points");
-  VectorArray normals;
+  const VectorArray normals = normalsFor(normalsArg, points);
   const bool hasNormals = !normalsArg.is_none();
-  if (hasNormals) {
-    normals = VectorArray(normalsArg, "normals", true);
-    if (!normals.single() && normals.leadingShape() != points.leadingShape())
-      raiseArgumentError("normals: expected the points' shape or (3,)");
-  }
   const Light light = lightOf(lightArg);
   if (threads < 0 || threads > 1024) raiseArgumentError("threads: 0 (every core) to 1024");
   for (size_t i = 0; i < points.size(); ++i) {

@@ -81,13 +81,8 @@ std::vector<size_t> ShadowFile::selectLights(py::handle light, bool& list) const
 py::array ShadowFile::lookup(py::handle pointsArg, py::handle normalsArg, py::handle lightArg, py::handle pcfArg,
                              py::handle biasArg, bool towardLight, int threads, py::handle outArg) const {
   const VectorArray points(pointsArg, "points");
-  VectorArray normals;
+  const VectorArray normals = normalsFor(normalsArg, points);
   const bool hasNormals = !normalsArg.is_none();
-  if (hasNormals) {
-    normals = VectorArray(normalsArg, "normals", true);
-    if (!normals.single() && normals.leadingShape() != points.leadingShape())
-      raiseArgumentError("normals: expected the points' shape or (3,)");
-  }
   bool list = false;
   const std::vector<size_t> lights = selectLights(lightArg, list);
   LookupOptions options;
