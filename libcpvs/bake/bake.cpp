@@ -547,9 +547,12 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
     }
   }
   pending.wait();
-  ShadowDag dag = finishDag(run, builder, light, vi, view, vr);
+  // The regions are in: the pack is finished and the previous one closed, and the builder's region scratch
+  // freed, before the DAG is encoded (where the bake's memory peaks).
   storeRegions(run, reuse, out.warnings);
-  return dag;
+  reuse.previous.reset();
+  builder.releaseRegionScratch();
+  return finishDag(run, builder, light, vi, view, vr);
 }
 
 // The light's entry in the bake cache, when there is a cache: a hit fills `out.baked`; a miss, or an entry that

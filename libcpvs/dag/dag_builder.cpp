@@ -224,6 +224,13 @@ void DagBuilder::replayRegion(const RegionRect& rect, const RegionEvents& events
   stats_.homogeneous += events.counts.homogeneous;
 }
 
+void DagBuilder::releaseRegionScratch() {
+  recorderStore_.reset();
+  std::vector<uint8_t>().swap(decodeLevels_);
+  std::vector<uint8_t>().swap(replayLevels_);
+  std::vector<uint32_t>().swap(replayRefs_);
+}
+
 uint32_t DagBuilder::packColumn(const Result& result) {
   if (result.ref >= (1u << 30))
     throw Error(ErrorCategory::RuntimeFailure, "DAG builder: a region level holds more than 2^30 words");
@@ -251,7 +258,7 @@ ShadowDag DagBuilder::finish() {
   stats_.leavesMerged = leafTable_.merged();
   stats_.edgeTexelsFlipped = leafTable_.flipped();
   // No node is added from here on: the indexes and columns go before encoding needs its own arrays.
-  recorderStore_.reset();
+  releaseRegionScratch();
   for (NodeTable& table : tables_) table.releaseIndex();
   leafParents_.releaseIndex();
   leafTable_.releaseIndex();

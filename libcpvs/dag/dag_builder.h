@@ -41,6 +41,8 @@ public:
   // Adds the region at `rect` again from its decoded record, without its chains: the builder ends as addRegion
   // would leave it when called at this point of the same sequence with the chains the record was made from.
   void replayRegion(const RegionRect& rect, const RegionEvents& events);
+  // Frees what recording and replaying regions keep from region to region (finish() does too).
+  void releaseRegionScratch();
   // Builds the levels above the regions and returns the relocated DAG. Every region must have been added.
   ShadowDag finish();
   // Bytes finish() may allocate beyond what it frees first (the hash indexes and region columns, which the
