@@ -27,6 +27,10 @@ DagBuilder::DagBuilder(uint32_t resolution, uint32_t regionSize, bool nodeReuse,
 
 DagBuilder::~DagBuilder() = default;
 
+uint32_t DagBuilder::internWords(uint32_t level, const uint32_t* words, unsigned refs) {
+  return level == leafLevel_ ? leafParents_.intern(words[0], words + 1, refs) : tables_[level].intern(words, refs + 1);
+}
+
 DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8], uint32_t nextT) {
   uint32_t words[9];
   uint32_t header = 0, count = 1;
@@ -39,8 +43,7 @@ DagBuilder::Result DagBuilder::intern(uint32_t level, const Result (&children)[8
   if (same && children[0].code != ChildCode::Ref) return {children[0].code, 0, nextT, true};
   words[0] = header;
   ++stats_.nodesBuilt;
-  const uint32_t ref =
-      level == leafLevel_ ? leafParents_.intern(header, words + 1, count - 1) : tables_[level].intern(words, count);
+  const uint32_t ref = internWords(level, words, count - 1);
   Result result{ChildCode::Ref, ref, nextT, true};
   if (recorder_) {
     uint32_t events[8];
@@ -208,8 +211,7 @@ void DagBuilder::replayRegion(const RegionRect& rect, const RegionEvents& events
       uint32_t words[9];
       words[0] = header;
       for (unsigned k = 0; k < count; ++k) words[1 + k] = b.replayRefs_[children[k]];
-      b.replayRefs_[id] = level == b.leafLevel_ ? b.leafParents_.intern(header, words + 1, count)
-                                                : b.tables_[level].intern(words, count + 1);
+      b.replayRefs_[id] = b.internWords(level, words, count);
     }
     void column(uint32_t z, ChildCode code, uint32_t event) override {
       b.regionColumns_[region * b.regionsPerSide_ + z] =

@@ -65,6 +65,9 @@ private:
   Result build(uint32_t level, uint32_t tx, uint32_t ty, uint32_t z0, const Result& neighbour);
   Result buildLeafParent(uint32_t tx, uint32_t ty, uint32_t z0);
   Result intern(uint32_t level, const Result (&children)[8], uint32_t nextT);
+  // The offset of the node `words` (a build-form header, then its `refs` reference words) in its level's table:
+  // the leaf parents' byte-coded one at the leaf level, else the level's word table.
+  uint32_t internWords(uint32_t level, const uint32_t* words, unsigned refs);
   Result buildTop(uint32_t level, uint32_t rx, uint32_t ry, uint32_t zBlock);
   size_t regionIndexOf(const RegionRect& rect) const;  // ry * regionsPerSide + rx; throws off the grid
 
