@@ -72,6 +72,12 @@ std::vector<SurfacePoint> hardPoints(const LightView& view, const Light& light, 
   return points;
 }
 
+// SurfacePoint records as mapCells reads them.
+PointArrays interleavedArrays(const std::vector<SurfacePoint>& points) {
+  const double* base = reinterpret_cast<const double*>(points.data());
+  return {base, 6, base + 3, 6};
+}
+
 struct Cells {
   std::vector<int32_t> x, y, z;
   std::vector<uint8_t> state;
@@ -97,7 +103,7 @@ TEST(BatchCells, VectorPathsEqualScalarEqualsLookupCell) {
         in.mapping = &mapping;
         in.settings = cellSettings(options);
         in.spot = light.type == LightType::Spot ? &spot : nullptr;
-        in.points = reinterpret_cast<const double*>(points.data());
+        in.points = interleavedArrays(points);
         in.count = points.size();
         Cells scalar(points.size()), avx2(points.size()), avx512(points.size());
         mapCells(in, scalar.output(), CellIsa::Scalar);
@@ -157,7 +163,7 @@ TEST(BatchCells, IndexListsAndShortGroups) {
   for (uint32_t i = 0; i < points.size(); i += 3) indices.push_back(uint32_t(points.size() - 1 - i));
   CellBatchInput in;
   in.mapping = &mapping;
-  in.points = reinterpret_cast<const double*>(points.data());
+  in.points = interleavedArrays(points);
   Cells all(points.size());
   in.count = points.size();
   mapCells(in, all.output(), CellIsa::Scalar);
@@ -174,6 +180,55 @@ TEST(BatchCells, IndexListsAndShortGroups) {
       }
       for (size_t j = count; j < count + 8; ++j) ASSERT_EQ(some.state[j], 99) << "wrote past the batch";
     }
+}
+
+// Positions and normals in separate arrays (numpy's (n, 3) layout), and one normal for every point: the same
+// cells on every path as SurfacePoint records, with and without index lists. Each array is exactly 3n doubles,
+// so a load past a vector's third coordinate reads past the allocation (the sanitized build catches it).
+TEST(BatchCells, SeparateArraysEqualSurfacePoints) {
+  const WorldGeometry world = test::groundAndRidge();
+  for (const Light& light : testLights()) {
+    const LightView view = makeLightViews(light, world, 512).at(0);
+    const ViewMapping mapping(view);
+    std::vector<SurfacePoint> points = hardPoints(view, light, 13);
+    const SpotInfluence spot = spotInfluence(light);
+    for (bool oneNormal : {false, true}) {
+      const glm::dvec3 shared(0.3, 0.8, -0.2);
+      if (oneNormal)
+        for (SurfacePoint& p : points) p.normal = shared;
+      std::vector<double> positions, normals;
+      for (const SurfacePoint& p : points)
+        for (int c = 0; c < 3; ++c) {
+          positions.push_back(p.position[c]);
+          normals.push_back(p.normal[c]);
+        }
+      const std::vector<double> single = {shared.x, shared.y, shared.z};
+      std::vector<uint32_t> indices;
+      for (uint32_t i = 0; i < points.size(); i += 2) indices.push_back(uint32_t(points.size() - 1 - i));
+      for (CellIsa isa : {CellIsa::Scalar, CellIsa::Avx2, CellIsa::Avx512})
+        for (const uint32_t* selection : {static_cast<const uint32_t*>(nullptr), static_cast<const uint32_t*>(indices.data())}) {
+          CellBatchInput in;
+          in.mapping = &mapping;
+          in.settings = cellSettings(LookupOptions{3, NormalOrientation::TowardLight, 0.25});
+          in.spot = light.type == LightType::Spot ? &spot : nullptr;
+          in.indices = selection;
+          in.count = selection ? indices.size() : points.size();
+          in.points = interleavedArrays(points);
+          Cells records(in.count), separate(in.count);
+          mapCells(in, records.output(), isa);
+          in.points = oneNormal ? PointArrays{positions.data(), 3, single.data(), 0}
+                                : PointArrays{positions.data(), 3, normals.data(), 3};
+          ASSERT_FALSE(in.points.interleaved());
+          mapCells(in, separate.output(), isa);
+          SCOPED_TRACE(light.name + (oneNormal ? " one normal" : "") + (selection ? " indices" : "") + " isa " +
+                       std::to_string(int(isa)));
+          EXPECT_EQ(separate.state, records.state);
+          EXPECT_EQ(separate.x, records.x);
+          EXPECT_EQ(separate.y, records.y);
+          EXPECT_EQ(separate.z, records.z);
+        }
+    }
+  }
 }
 
 }  // namespace

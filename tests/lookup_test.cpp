@@ -599,6 +599,58 @@ TEST(Influence, PointLightBatchEqualsSinglePointLookups) {
   }
 }
 
+// LightShadow::visibility from separate position and normal arrays (numpy's (n, 3) layout) and with one normal
+// for all: the SurfacePoint overload's answers bit for bit, unfiltered and PCF, for a point light (its points
+// sorted by cube face first) and a sun. Each array is exactly 3n doubles (the sanitized build catches a read
+// past one).
+TEST(Lookup, PointArraysEqualSurfacePoints) {
+  const Light point = test::pointLight("point", {0.5, 0.25, 0.1}, 9);
+  std::vector<LightView> views = makeLightViews(point, boxWorld(), 64);
+  std::vector<ShadowDag> owned;
+  for (uint32_t face = 0; face < 6; ++face) owned.push_back(dagFrom(syntheticDepth(64, 40 + face)));
+  std::vector<DagView> dags;
+  for (const ShadowDag& d : owned) dags.push_back(d.view());
+  for (LightView& v : views) v.empty = false;
+  const std::vector<std::pair<Light, LightShadow>> shadows = {
+      {point, orThrow(LightShadow::create(point, views, dags))},
+      {sun(), orThrow(LightShadow::create(sun(), {identityView(64)}, {dags[0]}))}};
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(-3.0, 3.0), grid(0.0, 64.0), dir(-1.0, 1.0);
+  for (const auto& [light, shadow] : shadows) {
+    const bool isSun = light.type == LightType::Directional;
+    std::vector<SurfacePoint> points;
+    for (int i = 0; i < 3000; ++i) {
+      const glm::dvec3 p = isSun ? glm::dvec3(grid(rng), grid(rng), -grid(rng)) : glm::dvec3(pos(rng), pos(rng), pos(rng));
+      points.push_back({p, {dir(rng), dir(rng), dir(rng)}});
+    }
+    points.push_back({{std::nan(""), 0, 0}, {0, 1, 0}});
+    const double shared[3] = {0.2, 0.9, -0.3};
+    std::vector<SurfacePoint> sharing = points;
+    for (SurfacePoint& p : sharing) p.normal = {shared[0], shared[1], shared[2]};
+    std::vector<double> positions, normals;
+    for (const SurfacePoint& p : points)
+      for (int c = 0; c < 3; ++c) {
+        positions.push_back(p.position[c]);
+        normals.push_back(p.normal[c]);
+      }
+    for (int k : {1, 3, 9}) {
+      const size_t n = points.size();
+      std::vector<float> records(n), separate(n), recordsShared(n), oneNormal(n);
+      orThrow(shadow.visibility(points, {k}, records));
+      orThrow(shadow.visibility(PointArrays{positions.data(), 3, normals.data(), 3}, {k}, separate));
+      orThrow(shadow.visibility(sharing, {k}, recordsShared));
+      orThrow(shadow.visibility(PointArrays{positions.data(), 3, shared, 0}, {k}, oneNormal));
+      EXPECT_EQ(separate, records) << light.name << " K=" << k;
+      EXPECT_EQ(oneNormal, recordsShared) << light.name << " K=" << k;
+      EXPECT_EQ(records.back(), 0.0f);  // the non-finite point
+      size_t zeros = 0;
+      for (float v : records) zeros += v == 0.0f;
+      EXPECT_GT(zeros, 100u) << light.name;  // the DAGs are really walked
+      EXPECT_LT(zeros, n - 100) << light.name;
+    }
+  }
+}
+
 // ---- a baked scene ------------------------------------------------------------------------------------
 
 struct BakedScene {

@@ -52,6 +52,12 @@ struct ScalarLanes {
   static void load(const double* const (&p)[1], double (&c)[6]) {
     for (int i = 0; i < 6; ++i) c[i] = p[0][i];
   }
+  static void loadSplit(const double* const (&p)[1], const double* const (&n)[1], double (&c)[6]) {
+    for (int i = 0; i < 3; ++i) {
+      c[i] = p[0][i];
+      c[3 + i] = n[0][i];
+    }
+  }
   static uint64_t cells(const CellVerdict<double, bool>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
     xs[0] = int32_t(v.x);
     ys[0] = int32_t(v.y);

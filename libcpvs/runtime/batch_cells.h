@@ -19,13 +19,26 @@ enum CellState : uint8_t {
   kCellVoxel = 2,  // look up voxel (x, y, z)
 };
 
+// Points where the caller keeps them: point i's x, y, z at positions[i * positionStride + 0..2], its normal's at
+// normals[i * normalStride + 0..2] (normalStride 0: one normal for every point). An array of SurfacePoint
+// (shadow_lookup.h) is positionStride = normalStride = 6 with normals = positions + 3; a numpy array of shape
+// (n, 3) is stride 3. Exactly three doubles are read at each place.
+struct PointArrays {
+  const double* positions = nullptr;
+  size_t positionStride = 3;
+  const double* normals = nullptr;
+  size_t normalStride = 3;
+
+  // SurfacePoint's layout, which the vector paths load with fewer instructions.
+  bool interleaved() const { return positionStride == 6 && normalStride == 6 && normals == positions + 3; }
+};
+
 struct CellBatchInput {
   const ViewMapping* mapping = nullptr;
   CellSettings settings;
   const SpotInfluence* spot = nullptr;  // tested when set (a spot light's only view)
-  // Points as 6 doubles each (position, then normal: SurfacePoint's layout), point i at points + 6 * i;
-  // `indices` (when set) selects which: lane j maps point indices[j].
-  const double* points = nullptr;
+  PointArrays points;
+  // When set, selects which points: lane j maps point indices[j] (else point j).
   const uint32_t* indices = nullptr;
   size_t count = 0;
 };

@@ -86,6 +86,10 @@ struct Avx2Lanes {
     const Coords4 t = transpose4(p[0], p[1], p[2], p[3]);
     for (int i = 0; i < 6; ++i) c[i] = t.c[i];
   }
+  static void loadSplit(const double* const (&p)[4], const double* const (&n)[4], Real4 (&c)[6]) {
+    const Coords4 t = transposeSplit4(p, n);
+    for (int i = 0; i < 6; ++i) c[i] = t.c[i];
+  }
   static uint64_t cells(const CellVerdict<Real4, Mask4>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
     _mm_store_si128(reinterpret_cast<__m128i*>(xs), _mm256_cvttpd_epi32(v.x.v));
     _mm_store_si128(reinterpret_cast<__m128i*>(ys), _mm256_cvttpd_epi32(v.y.v));

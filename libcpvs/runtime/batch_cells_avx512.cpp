@@ -93,6 +93,10 @@ struct Avx512Lanes {
     const Coords4 lo = transpose4(p[0], p[1], p[2], p[3]), hi = transpose4(p[4], p[5], p[6], p[7]);
     for (int i = 0; i < 6; ++i) c[i] = _mm512_insertf64x4(_mm512_castpd256_pd512(lo.c[i]), hi.c[i], 1);
   }
+  static void loadSplit(const double* const (&p)[8], const double* const (&n)[8], Real8 (&c)[6]) {
+    const Coords4 lo = transposeSplit4(p, n), hi = transposeSplit4(p + 4, n + 4);
+    for (int i = 0; i < 6; ++i) c[i] = _mm512_insertf64x4(_mm512_castpd256_pd512(lo.c[i]), hi.c[i], 1);
+  }
   static uint64_t cells(const CellVerdict<Real8, Mask8>& v, int32_t* xs, int32_t* ys, int32_t* zs) {
     _mm256_store_si256(reinterpret_cast<__m256i*>(xs), _mm512_cvttpd_epi32(v.x.v));
     _mm256_store_si256(reinterpret_cast<__m256i*>(ys), _mm512_cvttpd_epi32(v.y.v));

@@ -355,11 +355,25 @@ CPVS_POPCNT_CLONES void LightShadow::countFootprints(uint32_t view, std::span<co
   }
 }
 
-CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
-                                                std::span<float> out) const {
+Outcome LightShadow::visibility(std::span<const SurfacePoint> points, const LookupOptions& options,
+                                std::span<float> out) const {
   if (out.size() != points.size())
     return {ErrorCategory::InvalidArgument, "LightShadow::visibility: " + std::to_string(out.size()) +
                                                 " outputs for " + std::to_string(points.size()) + " points"};
+  static_assert(sizeof(SurfacePoint) == 6 * sizeof(double) && offsetof(SurfacePoint, normal) == 3 * sizeof(double),
+                "PointArrays reads SurfacePoint as 6 doubles, the normal after the position");
+  PointArrays arrays;
+  arrays.positions = reinterpret_cast<const double*>(points.data());
+  arrays.positionStride = 6;
+  arrays.normals = arrays.positions + 3;
+  arrays.normalStride = 6;
+  return visibility(arrays, options, out);
+}
+
+CPVS_POPCNT_CLONES Outcome LightShadow::visibility(const PointArrays& points, const LookupOptions& options,
+                                                std::span<float> out) const {
+  if (!out.empty() && (!points.positions || !points.normals))
+    return {ErrorCategory::InvalidArgument, "LightShadow::visibility: no position or normal array"};
   if (Outcome kernel = checkPcfKernel(options.pcfKernel); !kernel) return kernel;
   const int k = options.pcfKernel;
   const int64_t h = k / 2;
@@ -368,14 +382,13 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
 
   // Where each point lands (batch_cells.h: eight or four points at a time where the CPU has AVX-512 or AVX2),
   // view by view; then that view's walks (K = 1: walkVoxels) or footprints (K > 1: filter below).
-  const size_t count = points.size();
-  static_assert(sizeof(SurfacePoint) == 6 * sizeof(double), "mapCells reads points as 6 doubles");
+  const size_t count = out.size();
   thread_local BatchScratch scratch;
   scratch.resize(count);
   std::vector<PendingPoint>& pendingStore = scratch.pending;
   CellBatchInput in;
   in.settings = cellSettings(options);
-  in.points = reinterpret_cast<const double*>(points.data());
+  in.points = points;
   const CellBatchOutput cells{scratch.x.data(), scratch.y.data(), scratch.z.data(), scratch.state.data()};
   // K > 1, lane j of a mapped run (point indices[j], or j): the answers that need no DAG into out[], the
   // footprints that do counted (countCornerTiles for K <= 9, countFootprints above), then their answers.
@@ -427,8 +440,9 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(std::span<const SurfacePoint>
     std::vector<uint32_t> starts(views_.size() + 1, 0);  // then: where each view's run begins in `order`
     for (size_t i = 0; i < count; ++i) {
       out[i] = 0.0f;
-      const SurfacePoint& p = points[i];
-      const int index = finite(p.position) ? viewIndex(p.position) : -1;
+      const double* xyz = points.positions + points.positionStride * i;
+      const glm::dvec3 position(xyz[0], xyz[1], xyz[2]);
+      const int index = finite(position) ? viewIndex(position) : -1;
       face[i] = index < 0 ? kNoView : uint32_t(index);
       if (index >= 0) ++starts[size_t(index) + 1];
     }

@@ -159,6 +159,9 @@ public:
   // level by level over every node the footprint overlaps (homogeneous children counted at once).
   // Fails (InvalidArgument, nothing written) when the spans differ in size or K is not valid (checkPcfKernel).
   Outcome visibility(std::span<const SurfacePoint> points, const LookupOptions& options, std::span<float> out) const;
+  // The same for out.size() points read where the caller keeps them (PointArrays, batch_cells.h: e.g. separate
+  // position and normal arrays, or one normal for all), with the same answers bit for bit.
+  Outcome visibility(const PointArrays& points, const LookupOptions& options, std::span<float> out) const;
 
   const Light& light() const { return light_; }
   const std::vector<LightView>& views() const { return views_; }

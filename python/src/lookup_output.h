@@ -4,6 +4,7 @@
 // when a list of lights was asked for.
 #include <pybind11/numpy.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -32,6 +33,15 @@ public:
   }
   // Answers of points [begin, end) for the l-th of `width` lights.
   void store(size_t begin, size_t end, size_t l, size_t width, const float* visibility) {
+    if (width == 1) {  // contiguous: loops the compiler turns into vector code
+      if (filtered_) {
+        std::copy(visibility, visibility + (end - begin), static_cast<float*>(data_) + begin);
+      } else {
+        bool* out = static_cast<bool*>(data_) + begin;
+        for (size_t i = 0; i < end - begin; ++i) out[i] = visibility[i] != 0.0f;
+      }
+      return;
+    }
     if (filtered_) {
       float* out = static_cast<float*>(data_);
       for (size_t i = begin; i < end; ++i) out[i * width + l] = visibility[i - begin];

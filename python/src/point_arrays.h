@@ -8,6 +8,8 @@
 
 #include <glm/glm.hpp>
 
+#include "libcpvs/runtime/batch_cells.h"
+
 namespace cpvs::python {
 
 class VectorArray {
@@ -27,6 +29,11 @@ public:
     return f32_ ? glm::dvec3(f32_[k], f32_[k + 1], f32_[k + 2]) : glm::dvec3(f64_[k], f64_[k + 1], f64_[k + 2]);
   }
 
+  // Vectors [begin, end) as doubles for the lookups (PointArrays): the caller's own float64 array where it lies,
+  // float32 converted into `buffer`; the single vector for every point (stride 0) when single().
+  const double* doubles(size_t begin, size_t end, std::vector<double>& buffer) const;
+  size_t stride() const { return single_ ? 0 : 3; }
+
 private:
   pybind11::array keep_;  // the array read (the caller's, or the converted copy)
   const float* f32_ = nullptr;
@@ -39,5 +46,15 @@ private:
 // The normals of `points`: None (an empty array: no normals), one (3,) vector for every point, or an array of the
 // points' shape. Raises cpvs.ArgumentError otherwise.
 VectorArray normalsFor(pybind11::handle normals, const VectorArray& points);
+
+// Points [begin, end) and their normals (none: zero) as the lookups read them, converted into the buffers where
+// they are not float64.
+PointArrays pointArraysOf(const VectorArray& points, const VectorArray& normals, size_t begin, size_t end,
+                          std::vector<double>& positionBuffer, std::vector<double>& normalBuffer);
+
+// The first of points [begin, end) whose position or normal is not finite, or SIZE_MAX; `arrays` are those
+// points as pointArraysOf gave them (read first: they are then in the caches for the lookups).
+size_t firstNonFinite(const PointArrays& arrays, const VectorArray& points, const VectorArray& normals, size_t begin,
+                      size_t end);
 
 }  // namespace cpvs::python

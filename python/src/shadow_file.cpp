@@ -82,7 +82,6 @@ py::array ShadowFile::lookup(py::handle pointsArg, py::handle normalsArg, py::ha
                              py::handle biasArg, bool towardLight, int threads, py::handle outArg) const {
   const VectorArray points(pointsArg, "points");
   const VectorArray normals = normalsFor(normalsArg, points);
-  const bool hasNormals = !normalsArg.is_none();
   bool list = false;
   const std::vector<size_t> lights = selectLights(lightArg, list);
   LookupOptions options;
@@ -108,29 +107,24 @@ py::array ShadowFile::lookup(py::handle pointsArg, py::handle normalsArg, py::ha
     py::gil_scoped_release release;
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
     arena.execute([&] {
-      constexpr size_t kChunk = 4096;
+      constexpr size_t kChunk = kLookupBatch;  // cpvs-query's batches
       tbb::parallel_for(tbb::blocked_range<size_t>(0, (n + kChunk - 1) / kChunk), [&](const tbb::blocked_range<size_t>& r) {
-        std::vector<SurfacePoint> batch;
+        std::vector<double> positionBuffer, normalBuffer;
         std::vector<float> visibility;
         for (size_t c = r.begin(); c != r.end(); ++c) {
           const size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
-          batch.resize(end - begin);
           visibility.resize(end - begin);
-          bool finite = true;
-          for (size_t i = begin; i < end; ++i) {
-            SurfacePoint& p = batch[i - begin];
-            p.position = points.at(i);
-            p.normal = hasNormals ? normals.at(i) : glm::dvec3(0.0);
-            if (!std::isfinite(p.position.x + p.position.y + p.position.z + p.normal.x + p.normal.y + p.normal.z)) {
-              size_t seen = firstBad.load();
-              while (i < seen && !firstBad.compare_exchange_weak(seen, i)) {
-              }
-              finite = false;
-            }
-          }
-          if (!finite) continue;
+          const PointArrays arrays = pointArraysOf(points, normals, begin, end, positionBuffer, normalBuffer);
           for (size_t l = 0; l < width; ++l) {
-            orThrow(shadows_[lights[l]].visibility(batch, options, visibility));
+            orThrow(shadows_[lights[l]].visibility(arrays, options, visibility));
+            if (l == 0)  // checked after the first light's lookups have brought the chunk into the caches
+              if (const size_t bad = firstNonFinite(arrays, points, normals, begin, end);
+                  bad != std::numeric_limits<size_t>::max()) {
+                size_t seen = firstBad.load();
+                while (bad < seen && !firstBad.compare_exchange_weak(seen, bad)) {
+                }
+                break;
+              }
             out.store(begin, end, l, width, visibility.data());
           }
         }

@@ -47,6 +47,29 @@ def test_bad_lookups_raise(f, points, normals, kwargs, error, message):
         f.lookup(points, normals, **kwargs)
 
 
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("where", ["point", "normal", "single normal"])
+def test_the_first_non_finite_point_is_named(f, dtype, where):
+    # Several chunks of lookups, run on both cores: the error names the first bad point, whichever chunk
+    # finished first.
+    rng = np.random.default_rng(3)
+    points = rng.uniform(-50, 50, (20000, 3)).astype(dtype)
+    normals = np.tile(np.array([0, 1, 0], dtype=dtype), (20000, 1))
+    if where == "point":
+        points[17000, 1] = np.inf
+        points[9321, 2] = np.nan
+        first = 9321
+    elif where == "normal":
+        normals[19999, 0] = -np.inf
+        normals[5000, 0] = np.nan
+        first = 5000
+    else:
+        normals = np.array([0, np.nan, 0], dtype=dtype)
+        first = 0
+    with pytest.raises(cpvs.ArgumentError, match=f"point {first} .* not finite"):
+        f.lookup(points, normals, light=0, threads=2)
+
+
 def test_bad_files_raise(city_bake, tmp_path):
     with pytest.raises(cpvs.MissingFileError):
         cpvs.open(str(tmp_path / "missing.cpvs"))
