@@ -15,6 +15,7 @@ from ._cpvs import (  # noqa: F401
     __version__,
     bake,
     open,
+    preview,
     read_info,
     reference,
     sample,
@@ -23,5 +24,5 @@ from ._cpvs import (  # noqa: F401
 __all__ = [
     "ArgumentError", "Cancelled", "Error", "FormatError", "LightNotFoundError", "MemoryBudgetError",
     "MissingFileError", "NotSupportedError", "OutputError", "Reference", "RuntimeFailure", "ShadowFile",
-    "__version__", "bake", "open", "read_info", "reference", "sample",
+    "__version__", "bake", "open", "preview", "read_info", "reference", "sample",
 ]

@@ -65,6 +65,14 @@ def bake(
     progress: Optional[Callable[[float], Optional[bool]]] = None,
     **options: Any,
 ) -> dict[str, Any]: ...
+def preview(
+    scene: str,
+    file: str,
+    *,
+    size: Union[str, tuple[int, int]] = "1920x1080",
+    threads: int = 0,
+    **options: Any,
+) -> npt.NDArray[np.uint8]: ...
 def sample(
     scene: str, n: int, seed: int = 1, *, exclude_mesh: Sequence[str] = ...
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]: ...

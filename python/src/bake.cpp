@@ -9,6 +9,7 @@
 
 #include "libcpvs/base/error.h"
 #include "python/src/errors.h"
+#include "python/src/option_flags.h"
 #include "tools/cpvs-bake/bake_command.h"
 
 namespace py = pybind11;
@@ -19,17 +20,7 @@ namespace {
 // Thrown inside the bake by its progress hook once the caller asked it to stop.
 struct BakeStopped {};
 
-std::string optionText(py::handle value) {
-  if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
-    std::string text;
-    for (py::handle item : value) text += (text.empty() ? "" : ",") + std::string(py::str(item));
-    return text;
-  }
-  return py::str(value);
-}
-
-// cpvs-bake's command line for the call: every keyword option becomes its flag (exclude_mesh=["a", "b"] gives
-// --exclude-mesh a --exclude-mesh b; True a bare flag; False and None nothing).
+// cpvs-bake's command line for the call: every keyword option becomes its flag (option_flags.h).
 std::vector<std::string> commandLine(const std::string& scene, const std::string& output, py::handle lights,
                                      py::handle resolution, py::handle cache, int threads, const py::kwargs& options) {
   std::vector<std::string> args = {"cpvs-bake", scene, "-o", output, "--quiet", "-r", optionText(resolution)};
@@ -37,20 +28,7 @@ std::vector<std::string> commandLine(const std::string& scene, const std::string
   if (!cache.is_none()) args.insert(args.end(), {"--cache", optionText(cache)});
   if (threads < 0 || threads > 256) raiseArgumentError("threads: 0 (every core) to 256");
   if (threads > 0) args.insert(args.end(), {"--threads", std::to_string(threads)});
-  for (const auto& [key, value] : options) {
-    std::string flag = "--" + std::string(py::str(key));
-    for (char& c : flag)
-      if (c == '_') c = '-';
-    if (flag == "--watch" || flag == "--output" || flag == "--quiet" || flag == "--dump-depth")
-      raiseArgumentError(std::string(py::str(key)) + ": not an option of cpvs.bake");
-    if (py::isinstance<py::bool_>(value)) {
-      if (value.cast<bool>()) args.push_back(flag);
-    } else if (py::isinstance<py::list>(value) || py::isinstance<py::tuple>(value)) {
-      for (py::handle item : value) args.insert(args.end(), {flag, std::string(py::str(item))});
-    } else if (!value.is_none()) {
-      args.insert(args.end(), {flag, std::string(py::str(value))});
-    }
-  }
+  appendOptionFlags(args, options, {"--watch", "--output", "--quiet", "--dump-depth"}, "cpvs.bake");
   return args;
 }
 
@@ -63,13 +41,7 @@ py::dict bake(const std::string& scene, const std::string& output, py::handle li
   CLI::App app{"cpvs.bake"};
   command.addTo(app);
   const std::vector<std::string> args = commandLine(scene, output, lights, resolution, cache, threads, options);
-  std::vector<const char*> argv;
-  for (const std::string& a : args) argv.push_back(a.c_str());
-  try {
-    app.parse(int(argv.size()), argv.data());
-  } catch (const CLI::ParseError& e) {
-    raiseArgumentError(std::string("cpvs.bake: ") + e.what());
-  }
+  parseOptionFlags(app, args, "cpvs.bake");
   const BakeSettings settings = command.settings();
 
   std::mutex mutex;

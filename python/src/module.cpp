@@ -3,8 +3,12 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdlib>
+
+#include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/version.h"
 #include "python/src/bake.h"
+#include "python/src/preview.h"
 #include "python/src/errors.h"
 #include "python/src/file_info.h"
 #include "python/src/scene_tools.h"
@@ -17,6 +21,8 @@ PYBIND11_MODULE(_cpvs, m) {
   using namespace cpvs::python;
   m.doc() = "cpvs: Compact Precomputed Voxelized Shadows, baked and looked up from Python (docs/python.md).";
   m.attr("__version__") = cpvs::kVersion;
+  // As in the tools: CPVS_LOOKUP_ISA=scalar|avx2|avx512, read at import, caps the lookups' instruction set.
+  if (const auto isa = cpvs::parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) cpvs::setCellIsaLimit(*isa);
   defineErrors(m);
 
   py::class_<ShadowFile>(m, "ShadowFile", "An opened .cpvs file: its lights and their shadow lookups. Immutable; "
@@ -39,6 +45,9 @@ PYBIND11_MODULE(_cpvs, m) {
   m.def("bake", &bake, "scene"_a, "output"_a, py::kw_only(), "lights"_a = py::none(), "resolution"_a = "4k",
         "cache"_a = py::none(), "threads"_a = 0, "progress"_a = py::none(),
         "Bakes a glTF scene into a .cpvs with cpvs-bake's options; returns cpvs-bake's report as a dict.");
+  m.def("preview", &preview, "scene"_a, "file"_a, py::kw_only(), "size"_a = "1920x1080", "threads"_a = 0,
+        "Renders the file's shadows on its scene as cpvs-view does, with cpvs-view's options; returns the "
+        "tone-mapped sRGB image, shape (height, width, 3), uint8.");
   m.def("sample", &sample, "scene"_a, "n"_a, "seed"_a = 1, py::kw_only(), "exclude_mesh"_a = std::vector<std::string>(),
         "Area-weighted points on the scene's surfaces and their normals, as cpvs-sample draws them.");
 
