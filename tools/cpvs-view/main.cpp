@@ -4,28 +4,17 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <memory>
 #include <optional>
-#include <span>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-#include "libcpvs/runtime/cpvs_file.h"
-#include "libcpvs/import/gltf_import.h"
 #include "libcpvs/io/exr_image.h"
 #include "libcpvs/io/png_image.h"
-#include "libcpvs/bake/baked_from_file.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/preview/camera.h"
 #include "libcpvs/preview/frame_image.h"
 #include "libcpvs/preview/preview_renderer.h"
-#include "libcpvs/raster/depth_renderer.h"
-#include "libcpvs/runtime/file_shadows.h"
-#include "libcpvs/version.h"
 #include "tools/common/atomic_file.h"
 #include "tools/common/cli.h"
 #include "tools/common/input_kind.h"
@@ -37,7 +26,6 @@ namespace {
 
 using namespace cpvs;
 using cpvs::tools::ViewReport;
-using json = nlohmann::ordered_json;
 
 void writeImage(const std::string& path, const Frame& frame, const std::vector<glm::vec4>& radiance, double exposure,
                 const Fill& fill, Overlay overlay) {
