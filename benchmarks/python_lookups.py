@@ -8,10 +8,11 @@ Bakes `cpvs-scenegen city --triangles 100000` with --sun 0.4,-1,0.3 at --resolut
 (cpvs.sample, seed 1), writes them as cpvs-query's CSV, then alternates, unfiltered and with --pcf 3, on two
 workloads:
   all     every point: cpvs-query --timing-points N (its single-thread batch lookups per second over all of
-          them, best of 3 timing rounds) against ShadowFile.lookup(points, normals, threads=1) over all of them
-          (best of 3 calls);
-  first   cpvs-query's default timing set, the first 65,536 points, warm in the caches: cpvs-query's default
-          figure against the Python call on those points, repeated for at least 0.2 s (best of 3).
+          them, best of 5 timing rounds) against ShadowFile.lookup(points, normals, threads=1) over all of them
+          (best of 5 calls);
+  first   cpvs-query's default timing set, the first 65,536 points, warm in the caches: cpvs-query's figure
+          (best of 5 timing rounds) against the Python call on those points, repeated for at least 0.3 s (best
+          of 5).
 Also the Python figure over all points on every core (threads=0). Prints a table with the CPU model, the
 instruction set the lookups used (CPVS_LOOKUP_ISA narrows it) and the load average; writes DOC/lookups.json
 (DOC/lookups-ISA.json with CPVS_LOOKUP_ISA set).
@@ -35,10 +36,10 @@ def run(cmd):
     subprocess.run([str(c) for c in cmd], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def python_rate(f, points, normals, pcf, threads, seconds=0.0):
-    """Best of three: lookups per second over `points`, each a run of calls lasting at least `seconds`."""
+def python_rate(f, points, normals, pcf, threads, seconds=0.0, tries=5):
+    """Best of `tries`: lookups per second over `points`, each a run of calls lasting at least `seconds`."""
     best = 0.0
-    for _ in range(3):
+    for _ in range(tries):
         calls, start = 0, time.perf_counter()
         while True:
             f.lookup(points, normals, light=0, pcf=pcf, threads=threads)
@@ -53,7 +54,7 @@ def python_rate(f, points, normals, pcf, threads, seconds=0.0):
 def query_rate(a, bake, csv, pcf, timing_points):
     report = os.path.join(a.out, "query.json")
     run([os.path.join(a.bin, "cpvs-query"), bake, "--points", csv, "-o", os.path.join(a.out, "vis.csv"),
-         "--report", report, "--quiet", "--timing-rounds", "3", "--timing-points", timing_points] +
+         "--report", report, "--quiet", "--timing-rounds", "5", "--timing-points", timing_points] +
         (["--pcf", str(pcf)] if pcf else []))
     return json.load(open(report))["lookups_per_s"]
 
@@ -86,7 +87,7 @@ def main():
             row = {"all_cpvs_query": query_rate(a, bake, csv, pcf, len(points)),
                    "all_python": python_rate(f, points, normals, pcf, 1),
                    "first_cpvs_query": query_rate(a, bake, csv, pcf, first),
-                   "first_python": python_rate(f, head_points, head_normals, pcf, 1, seconds=0.2),
+                   "first_python": python_rate(f, head_points, head_normals, pcf, 1, seconds=0.3),
                    "all_python_every_core": python_rate(f, points, normals, pcf, 0)}
             rows.setdefault(name, []).append(row)
             load.append(os.getloadavg()[0])

@@ -67,7 +67,7 @@ struct ScalarLanes {
 };
 
 void mapCellsScalar(const CellBatchInput& in, const CellBatchOutput& out) {
-  detail::withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<ScalarLanes, decltype(shape)>(in, out); });
+  mapCellsLanes<ScalarLanes>(in, out);
 }
 
 }  // namespace

@@ -104,7 +104,7 @@ struct Avx2Lanes {
 namespace detail {
 
 void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out) {
-  withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<Avx2Lanes, decltype(shape)>(in, out); });
+  mapCellsLanes<Avx2Lanes>(in, out);
 }
 
 }  // namespace detail

@@ -112,7 +112,7 @@ struct Avx512Lanes {
 namespace detail {
 
 void mapCellsAvx512(const CellBatchInput& in, const CellBatchOutput& out) {
-  withFixedShape(*in.mapping, [&](auto shape) { mapCellsShaped<Avx512Lanes, decltype(shape)>(in, out); });
+  mapCellsLanes<Avx512Lanes>(in, out);
 }
 
 }  // namespace detail

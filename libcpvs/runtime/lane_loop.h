@@ -12,10 +12,11 @@
 namespace cpvs {
 namespace {
 
-// mapCells for one kind of view with lane type L: L::kWidth points at a time (L::load reads them from
-// SurfacePoint records, L::loadSplit from separate position and normal arrays; L::cells gives their voxels and
-// states, one byte per lane; a short last group repeats its last point in the unused lanes, read, never stored).
-template <class L, class Shape>
+// mapCells for one kind of view and one layout of the points with lane type L: L::kWidth points at a time
+// (L::load reads them from SurfacePoint records, L::loadSplit from separate position and normal arrays; L::cells
+// gives their voxels and states, one byte per lane; a short last group repeats its last point in the unused
+// lanes, read, never stored).
+template <class L, class Shape, bool kInterleaved>
 void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   using Real = typename L::Real;
   using Mask = typename L::Mask;
@@ -26,24 +27,28 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   const CellSettings settings = in.settings;
   const SpotInfluence spot = in.spot ? *in.spot : SpotInfluence{};
   const SpotInfluence* spotOrNull = in.spot ? &spot : nullptr;
-  const PointArrays points = in.points;
-  const bool interleaved = points.interleaved();  // the same in every group: a branch always predicted
+  const double* const points = in.points.positions;
   const uint32_t* const indices = in.indices;
   for (size_t j = 0; j < in.count; j += kWidth) {
     const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
     const double* p[kWidth];
-    const double* n[kWidth];
-    for (size_t l = 0; l < kWidth; ++l) {
-      const size_t k = j + (l < lanes ? l : lanes - 1);
-      const size_t i = indices ? indices[k] : k;
-      p[l] = points.positions + points.positionStride * i;
-      n[l] = points.normals + points.normalStride * i;
-    }
     Real c[6];
-    if (interleaved)
+    if constexpr (kInterleaved) {  // the tools' layout: one pointer and a constant stride, nothing more per lane
+      for (size_t l = 0; l < kWidth; ++l) {
+        const size_t k = j + (l < lanes ? l : lanes - 1);
+        p[l] = points + 6 * size_t(indices ? indices[k] : k);
+      }
       L::load(p, c);
-    else
+    } else {
+      const double* n[kWidth];
+      for (size_t l = 0; l < kWidth; ++l) {
+        const size_t k = j + (l < lanes ? l : lanes - 1);
+        const size_t i = size_t(indices ? indices[k] : k);
+        p[l] = points + in.points.positionStride * i;
+        n[l] = in.points.normals + in.points.normalStride * i;
+      }
       L::loadSplit(p, n, c);
+    }
     const CellVerdict<Real, Mask> v =
         cellVerdict<Real, Mask, Shape>(mapping, settings, spotOrNull, c[0], c[1], c[2], c[3], c[4], c[5]);
     alignas(64) int32_t xs[kWidth], ys[kWidth], zs[kWidth];
@@ -62,6 +67,18 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
       out.state[j + l] = uint8_t(state >> (8 * l));
     }
   }
+}
+
+// mapCells with lane type L: the kind of view and the points' layout each chosen once per batch, each loop
+// compiled for its choice (SurfacePoint records then cost no stride arithmetic per lane).
+template <class L>
+void mapCellsLanes(const CellBatchInput& in, const CellBatchOutput& out) {
+  detail::withFixedShape(*in.mapping, [&](auto shape) {
+    if (in.points.interleaved())
+      mapCellsShaped<L, decltype(shape), true>(in, out);
+    else
+      mapCellsShaped<L, decltype(shape), false>(in, out);
+  });
 }
 
 }  // namespace

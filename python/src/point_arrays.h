@@ -1,6 +1,7 @@
 #pragma once
-// Points and normals as the lookups take them from numpy: an array of shape (..., 3), float32 or float64 in C
-// order read where it lies (no copy), anything else numeric converted once to float64 (never reinterpreted).
+// Points and normals as the lookups take them from numpy: an array of shape (..., 3); float64 in C order read
+// where it lies, float32 in C order read where it lies and widened a chunk at a time, anything else numeric
+// converted once to float64 (never reinterpreted).
 #include <pybind11/numpy.h>
 
 #include <cstddef>
@@ -53,7 +54,7 @@ PointArrays pointArraysOf(const VectorArray& points, const VectorArray& normals,
                           std::vector<double>& positionBuffer, std::vector<double>& normalBuffer);
 
 // The first of points [begin, end) whose position or normal is not finite, or SIZE_MAX; `arrays` are those
-// points as pointArraysOf gave them (read first: they are then in the caches for the lookups).
+// points as pointArraysOf gave them (read after the chunk's lookups, while it is still in the caches).
 size_t firstNonFinite(const PointArrays& arrays, const VectorArray& points, const VectorArray& normals, size_t begin,
                       size_t end);
 

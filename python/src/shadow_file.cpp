@@ -103,33 +103,41 @@ py::array ShadowFile::lookup(py::handle pointsArg, py::handle normalsArg, py::ha
 
   const size_t n = points.size(), width = lights.size();
   std::atomic<size_t> firstBad{std::numeric_limits<size_t>::max()};
+  constexpr size_t kChunk = kLookupBatch;  // cpvs-query's batches
+  const size_t chunks = (n + kChunk - 1) / kChunk;
+  // Chunks [first, last): each chunk's points looked up for every light, its answers stored.
+  const auto lookUpChunks = [&](size_t first, size_t last) {
+    std::vector<double> positionBuffer, normalBuffer;
+    std::vector<float> visibility;
+    for (size_t c = first; c != last; ++c) {
+      const size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
+      visibility.resize(end - begin);
+      const PointArrays arrays = pointArraysOf(points, normals, begin, end, positionBuffer, normalBuffer);
+      for (size_t l = 0; l < width; ++l) {
+        orThrow(shadows_[lights[l]].visibility(arrays, options, visibility));
+        if (l == 0)  // checked after the first light's lookups have brought the chunk into the caches
+          if (const size_t bad = firstNonFinite(arrays, points, normals, begin, end);
+              bad != std::numeric_limits<size_t>::max()) {
+            size_t seen = firstBad.load();
+            while (bad < seen && !firstBad.compare_exchange_weak(seen, bad)) {
+            }
+            break;
+          }
+        out.store(begin, end, l, width, visibility.data());
+      }
+    }
+  };
   {
     py::gil_scoped_release release;
-    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-      constexpr size_t kChunk = kLookupBatch;  // cpvs-query's batches
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, (n + kChunk - 1) / kChunk), [&](const tbb::blocked_range<size_t>& r) {
-        std::vector<double> positionBuffer, normalBuffer;
-        std::vector<float> visibility;
-        for (size_t c = r.begin(); c != r.end(); ++c) {
-          const size_t begin = c * kChunk, end = std::min(n, begin + kChunk);
-          visibility.resize(end - begin);
-          const PointArrays arrays = pointArraysOf(points, normals, begin, end, positionBuffer, normalBuffer);
-          for (size_t l = 0; l < width; ++l) {
-            orThrow(shadows_[lights[l]].visibility(arrays, options, visibility));
-            if (l == 0)  // checked after the first light's lookups have brought the chunk into the caches
-              if (const size_t bad = firstNonFinite(arrays, points, normals, begin, end);
-                  bad != std::numeric_limits<size_t>::max()) {
-                size_t seen = firstBad.load();
-                while (bad < seen && !firstBad.compare_exchange_weak(seen, bad)) {
-                }
-                break;
-              }
-            out.store(begin, end, l, width, visibility.data());
-          }
-        }
+    if (threads == 1 || chunks <= 1) {  // on the calling thread: no arena to make for one worker
+      lookUpChunks(0, chunks);
+    } else {
+      tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, chunks),
+                          [&](const tbb::blocked_range<size_t>& r) { lookUpChunks(r.begin(), r.end()); });
       });
-    });
+    }
   }
   if (firstBad.load() != std::numeric_limits<size_t>::max()) {
     const size_t i = firstBad.load();

@@ -79,7 +79,6 @@ int run(int argc, char** argv) {
   // Both inputs are checked before either is read: swapped, they would fail deep inside the wrong reader.
   tools::expectScene(o.scene, tools::positionalUsage(app));
   tools::expectCpvs(o.file, tools::positionalUsage(app));
-  o.import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
   if (animated) {
     std::error_code error;
     std::filesystem::create_directories(o.frames, error);

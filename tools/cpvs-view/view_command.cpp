@@ -187,7 +187,9 @@ PreviewCamera chooseCamera(const ViewOptions& o, const Scene& scene, std::span<c
 std::shared_ptr<LoadedView> loadView(const ViewOptions& o, RasterBackend backend) {
   auto view = std::make_shared<LoadedView>();
   Scene& scene = view->scene;
-  scene = importGltf(o.scene, o.import);
+  ImportOptions import = o.import;
+  import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
+  scene = importGltf(o.scene, import);
   if (!o.excludedMeshes.empty()) forFlag("--exclude-mesh", [&] { excludeMeshes(scene, o.excludedMeshes); });
   if (!o.quiet)
     for (const std::string& w : scene.warnings) std::fprintf(stderr, "cpvs-view: warning: %s\n", w.c_str());
@@ -277,9 +279,7 @@ RgbImage renderStill(const ViewOptions& o, const std::string& usage, std::string
   expectCpvs(o.file, usage);
   const Overlay overlay = forFlag("--overlay", [&] { return parseOverlay(o.overlay); });
   const RasterBackend backend = forFlag("--backend", [&] { return parseRasterBackend(o.backend); });
-  ViewOptions still = o;
-  still.import.loadBaseColorTextures = true;  // the viewer shows them; the bake never reads images
-  const std::shared_ptr<LoadedView> loaded = loadView(still, backend);
+  const std::shared_ptr<LoadedView> loaded = loadView(o, backend);
   PreviewRenderer& renderer = *loaded->renderer;
   const PreviewCamera camera =
       chooseCamera(o, loaded->scene, loaded->lightModels, double(settings.width) / settings.height);
