@@ -262,6 +262,39 @@ TEST(Robustness, TheDefaultMemoryBudgetFollowsCpvsMemoryLimit) {
   EXPECT_NE(bad.output.find("CPVS_MEMORY_LIMIT='lots'"), std::string::npos) << bad.output;
 }
 
+// `ulimit -v` and `ulimit -d` make allocations fail at the limit however much memory is free: without a budget
+// on mapped memory the same bake ended with "out of memory" (exit 4 too, but no word of the limit). Under a
+// 200 MiB limit the default mapped budget is 136 MiB, and the bake must stop with the budget's message; a bake
+// that fits keeps its bytes. AddressSanitizer reserves terabytes of address space: no such limit can hold it.
+TEST(Robustness, TheDefaultMemoryBudgetFollowsUlimit) {
+#ifdef CPVS_SANITIZED
+  GTEST_SKIP() << "AddressSanitizer's shadow memory does not fit any address-space limit";
+#else
+  expectStoppedByDefaultBudget("sh -c 'ulimit -v 204800 && exec \"$0\" \"$@\"' ",
+                               "address-space limit (ulimit -v) 200 MiB");
+  expectStoppedByDefaultBudget("sh -c 'ulimit -d 204800 && exec \"$0\" \"$@\"' ", "data limit (ulimit -d) 200 MiB");
+  const std::string dir = tempDir();
+  const std::string bake = toolPath("cpvs-bake") + " " + test::sourcePath("data/scenes/TorusKnot/torusknot.gltf") +
+                           " -r 2k --sun 0.3,-1,0.2 --quiet -o " + dir;
+  const auto fits = runTool("sh -c 'ulimit -v 409600 && exec \"$0\" \"$@\"' " + bake + "/fits.cpvs --report " + dir +
+                            "/fits.json");
+  ASSERT_EQ(fits.exitCode, 0) << fits.output;
+  ASSERT_EQ(runTool(bake + "/none.cpvs --max-memory none").exitCode, 0);
+  EXPECT_EQ(runTool("cmp " + dir + "/fits.cpvs " + dir + "/none.cpvs").exitCode, 0);
+  const auto report = runTool("cat " + dir + "/fits.json");
+  EXPECT_NE(report.output.find("\"max_mapped_source\": \"default: address-space limit (ulimit -v) 400 MiB less 64 MiB\""),
+            std::string::npos)
+      << report.output;
+  // --max-memory none turns the mapped budget off too: the limit then ends the bake as any failed allocation does.
+  const auto none = runTool("sh -c 'ulimit -v 204800 && exec \"$0\" \"$@\"' " + toolPath("cpvs-bake") + " " +
+                            test::sourcePath("data/scenes/MacrossCityDiorama/scene.glb") +
+                            " -r 16k --sun 0.3,-1,0.2 -j 2 --quiet --max-memory none -o " + dir + "/out.cpvs");
+  EXPECT_EQ(none.exitCode, 4) << none.output;
+  EXPECT_EQ(none.output.find("memory budget"), std::string::npos) << none.output;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.cpvs"));
+#endif
+}
+
 // A memory cgroup of its own with a 200 MiB limit, where this machine lets the test make one (root, a writable
 // cgroup v1 memory hierarchy or v2 with the memory controller): the kernel would kill the bake at 200 MiB, so
 // this also shows the budget stops it first.

@@ -292,21 +292,30 @@ struct LightOutcome {
   std::vector<uint64_t> supersededKeys;  // light entries the views' previous region packs were stored with
 };
 
-// Stops the bake when the process's resident memory, plus `extraBytes` about to be needed, exceeds the budget.
-// Other lanes' encodings under way count too: each may still allocate what it reserved.
+// Stops the bake when the process's resident memory (or, under a mapped-memory budget, what that counts), plus
+// `extraBytes` about to be needed, exceeds the budget. Other lanes' encodings under way count too: each may still
+// allocate what it reserved.
 void checkMemoryBudget(const BakeRun& run, uint64_t extraBytes, const Light& light, size_t vi, const LightView& view) {
   const BakeSettings& settings = run.settings;
-  if (!settings.maxMemoryBytes) return;
-  const uint64_t resident = currentRssBytes();
+  if (!settings.maxMemoryBytes && !settings.maxMappedBytes) return;
   extraBytes += run.encodingBytes.load();
-  if (resident + extraBytes <= settings.maxMemoryBytes) return;
-  throw MemoryBudgetError("memory budget of " + std::to_string(settings.maxMemoryBytes >> 20) + " MiB" +
-                  (settings.maxMemorySource.empty() ? "" : " (" + settings.maxMemorySource + ")") + " exceeded (" +
-                  std::to_string(resident >> 20) + " MiB resident" +
-                  (extraBytes ? ", and about " + std::to_string(extraBytes >> 20) + " MiB more to encode the view's DAG"
-                              : "") +
-                  ") while baking light '" + light.name + "' view " + std::to_string(vi) + " at " +
-                  std::to_string(view.resolution) + "^3: lower the resolution or raise the budget");
+  const auto check = [&](uint64_t budget, MemoryMeasure measure, const std::string& source) {
+    if (!budget) return;
+    const uint64_t used = currentMemoryBytes(measure);
+    if (used + extraBytes <= budget) return;
+    const char* what = measure == MemoryMeasure::Resident ? "resident" : measure == MemoryMeasure::AddressSpace
+                                                                             ? "of address space mapped"
+                                                                             : "of data mapped";
+    throw MemoryBudgetError(
+        "memory budget of " + std::to_string(budget >> 20) + " MiB" + (source.empty() ? "" : " (" + source + ")") +
+        " exceeded (" + std::to_string(used >> 20) + " MiB " + what +
+        ((extraBytes >> 20) ? ", and about " + std::to_string(extraBytes >> 20) + " MiB more to encode the view's DAG" : "") +
+        ") while baking light '" + light.name + "' view " + std::to_string(vi) + " at " +
+        std::to_string(view.resolution) + "^3: lower the resolution or raise the " +
+        (measure == MemoryMeasure::Resident ? "budget" : "limit"));
+  };
+  check(settings.maxMemoryBytes, MemoryMeasure::Resident, settings.maxMemorySource);
+  check(settings.maxMappedBytes, settings.maxMappedMeasure, settings.maxMappedSource);
 }
 
 void addRenderStats(const RenderStats& stats, ViewReport& vr) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "libcpvs/bake/cpvs_writer.h"
+#include "libcpvs/base/memory_limit.h"
 #include "libcpvs/bake/light_subsets.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/scene/scene.h"
@@ -54,6 +55,13 @@ struct BakeSettings {
   // A budget the caller did not ask for (cpvs-bake's default) only stops the bake: it never lowers the region
   // size, which is recorded in the file and its input hash, so the bytes never depend on the machine.
   bool maxMemoryOnlyStops = false;
+  // A second budget, on mapped memory (0: none): where `ulimit -v` or `ulimit -d` is set, allocations fail at the
+  // limit however much memory is free, so the bake stops with the same error once what maxMappedMeasure counts
+  // exceeds this (checked with the resident budget). cpvs-bake defaults to defaultMappedBudget(); it never
+  // changes the bytes.
+  uint64_t maxMappedBytes = 0;
+  MemoryMeasure maxMappedMeasure = MemoryMeasure::AddressSpace;
+  std::string maxMappedSource;
 
   // Which lights this run bakes (none of this changes a light's bytes, nor the input hash):
   std::vector<uint32_t> lights;  // indices into the scene's lights, ascending; empty: every light

@@ -1,5 +1,6 @@
 #include "libcpvs/base/memory_limit.h"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -110,6 +111,25 @@ MemoryLimit physicalMemory() {
   return {uint64_t(pages) * uint64_t(pageSize), "physical memory", ""};
 }
 
+// A soft resource limit in bytes, 0 when unlimited or unknown.
+uint64_t softLimit(int resource) {
+  struct rlimit limit {};
+  if (::getrlimit(resource, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return 0;
+  return uint64_t(limit.rlim_cur);
+}
+
+// The budget left under `limit` once the margin is kept, with a source that says both.
+MemoryLimit lessMargin(const MemoryLimit& limit) {
+  if (limit.bytes == 0) return {};
+  const uint64_t margin = memoryMargin(limit.bytes);
+  // A limit at or below the margin leaves a token budget: the bake then stops at its first check.
+  const uint64_t budget = limit.bytes > margin ? limit.bytes - margin : uint64_t(1) << 20;
+  return {budget,
+          limit.source + " " + formatMemorySize(limit.bytes) + (limit.file.empty() ? "" : " in " + limit.file) +
+              " less " + formatMemorySize(margin),
+          limit.file, limit.measure};
+}
+
 }  // namespace
 
 uint64_t parseMemorySize(const std::string& text) {
@@ -158,16 +178,17 @@ uint64_t memoryMargin(uint64_t limitBytes) {
   return std::clamp<uint64_t>(limitBytes / 8, uint64_t(64) << 20, uint64_t(4) << 30);
 }
 
-MemoryLimit defaultMemoryBudget() {
-  const MemoryLimit limit = processMemoryLimit();
-  if (limit.bytes == 0) return {};
-  const uint64_t margin = memoryMargin(limit.bytes);
-  // A limit at or below the margin leaves a token budget: the bake then stops at its first check.
-  const uint64_t budget = limit.bytes > margin ? limit.bytes - margin : uint64_t(1) << 20;
-  return {budget,
-          limit.source + " " + formatMemorySize(limit.bytes) + (limit.file.empty() ? "" : " in " + limit.file) +
-              " less " + formatMemorySize(margin),
-          limit.file};
+MemoryLimit defaultMemoryBudget() { return lessMargin(processMemoryLimit()); }
+
+MemoryLimit mappedMemoryLimit() {
+  const uint64_t addressSpace = softLimit(RLIMIT_AS), data = softLimit(RLIMIT_DATA);
+  // The data a process maps is part of its address space: the smaller limit is the one reached first.
+  if (data && (!addressSpace || data < addressSpace))
+    return {data, "data limit (ulimit -d)", "", MemoryMeasure::Data};
+  if (addressSpace) return {addressSpace, "address-space limit (ulimit -v)", "", MemoryMeasure::AddressSpace};
+  return {};
 }
+
+MemoryLimit defaultMappedBudget() { return lessMargin(mappedMemoryLimit()); }
 
 }  // namespace cpvs

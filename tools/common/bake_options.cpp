@@ -17,6 +17,12 @@ MemoryLimit defaultBudgetOrNone() {
   }
 }
 
+// Where ulimit -v or -d is set, the second budget it gives (checked besides the first): for --help.
+std::string mappedNote() {
+  const MemoryLimit mapped = defaultMappedBudget();
+  return mapped.bytes ? ", here " + formatMemorySize(mapped.bytes) + " (" + mapped.source + ")" : "";
+}
+
 }  // namespace
 
 void BakeShapeOptions::addTo(CLI::App& app) {
@@ -44,7 +50,9 @@ void BakeShapeOptions::addTo(CLI::App& app) {
                  "the system runs out (resident memory, plus what encoding the DAG would need, checked after every "
                  "region). Default: the memory this process may use (cgroup limit, CPVS_MEMORY_LIMIT, else physical memory) less an "
                  "eighth (64 MiB to 4 GiB), here " +
-                     (budget.bytes ? formatMemorySize(budget.bytes) + " (" + budget.source + ")" : std::string("none")))
+                     (budget.bytes ? formatMemorySize(budget.bytes) + " (" + budget.source + ")" : std::string("none")) +
+                     "; where ulimit -v or -d is set, also that limit less an eighth, counted in mapped memory" +
+                     mappedNote())
       ->type_name("SIZE|none");
   app.add_option("--max-peels", maxPeels,
                  "Cap on exit-depth peel iterations: each resolves one level of nested closed solids; beyond it exits "
@@ -98,6 +106,12 @@ void BakeShapeOptions::applyTo(BakeSettings& settings) const {
   } else {
     settings.maxMemoryBytes = forFlag("--max-memory", [&] { return parseByteSize(maxMemory); });
     settings.maxMemorySource = "--max-memory " + maxMemory;
+  }
+  if (maxMemory != "none") {  // a limit on mapped memory holds whatever budget was asked for
+    const MemoryLimit mapped = defaultMappedBudget();
+    settings.maxMappedBytes = mapped.bytes;
+    settings.maxMappedMeasure = mapped.measure;
+    settings.maxMappedSource = mapped.bytes ? "default: " + mapped.source : "";
   }
   settings.ground = forFlag("--ground", [&] { return parseGroundSheets(ground); });
   if (maxVoxelError != -1) {

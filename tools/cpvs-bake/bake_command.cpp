@@ -106,6 +106,8 @@ nlohmann::json reportJson(const BakeCommand& options, const BakeSettings& settin
             {"max_peels", settings.peel.maxPeels},
             {"max_memory_bytes", settings.maxMemoryBytes},
             {"max_memory_source", settings.maxMemorySource},
+            {"max_mapped_bytes", settings.maxMappedBytes},
+            {"max_mapped_source", settings.maxMappedSource},
             {"ground", groundSheetsName(settings.ground)},
             {"max_voxel_error", settings.maxVoxelError ? nlohmann::json(*settings.maxVoxelError) : nlohmann::json()},
             {"max_edge_error", settings.maxEdgeError}}},
