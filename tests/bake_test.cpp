@@ -21,6 +21,7 @@
 #include "libcpvs/io/exr_image.h"
 #include "libcpvs/bake/bake.h"
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
 #include "tools/common/exit_codes.h"
 #include "support/test_support.h"
 
@@ -353,6 +354,51 @@ TEST(Bake, ReportCountsWhatWasBuilt) {
     EXPECT_EQ(v.shadowMapBytes, 128u * 128u * 2u);
     EXPECT_GT(v.nodesReused, 0u) << "no node was reused: the test scene has no repeated structure?";
   }
+}
+
+// CPU time in a parallel loop, or in work beside the caller, is not the caller's serial work; the same spin
+// outside them is.
+TEST(Bake, SerialCpuLeavesParallelLoopsOut) {
+  const auto spin = [](double ms) {
+    const double until = threadCpuMs() + ms;
+    volatile double x = 0;
+    while (threadCpuMs() < until) x = x + 1;
+  };
+  const SerialCpuTimer inLoop;
+  parallelFor(1, [&](size_t) { spin(60); });
+  EXPECT_LT(inLoop.ms(), 20.0);
+  BackgroundWork beside;
+  beside.start([&] { spin(60); });
+  beside.wait();  // the caller may run it itself while it waits
+  EXPECT_LT(inLoop.ms(), 20.0);
+  const SerialCpuTimer outside;
+  spin(60);
+  EXPECT_GE(outside.ms(), 55.0);
+}
+
+// The report's work and span: every view's serial parts measured, the span within the work, and about the same
+// with one thread as with two (it counts what runs on one thread, whatever the cores).
+TEST(Bake, ReportsWorkAndSpan) {
+  const Scene scene = torusKnotScene();
+  double spans[2];
+  for (const unsigned threads : {1u, 2u}) {
+    BakeSettings settings;
+    settings.resolution = 1024;
+    settings.threads = threads;
+    Bake b;
+    SKIP_WITHOUT_OSMESA(b = bake(scene, settings));
+    const ViewReport& v = b.report.lights.at(0).views.at(0);
+    EXPECT_GT(v.laneSerialMs, 0.0);
+    EXPECT_GT(v.dagChainMs, 0.0);
+    EXPECT_GT(v.encodeMs, 0.0);
+    EXPECT_GT(b.report.setupSerialMs, 0.0);
+    const double span = bakeSpanMs(b.report);
+    EXPECT_GT(span, 0.0);
+    EXPECT_LE(span, b.report.cpuMs * 1.02) << threads << " thread(s)";
+    EXPECT_GE(span, std::max(v.laneSerialMs, v.dagChainMs) + v.encodeMs);
+    spans[threads - 1] = span;
+  }
+  EXPECT_LT(std::abs(spans[0] - spans[1]), 0.5 * std::max(spans[0], spans[1])) << spans[0] << " " << spans[1];
 }
 
 // ------------------------------------------------------------------------------------------------ the tool

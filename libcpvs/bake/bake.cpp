@@ -122,21 +122,6 @@ uint64_t sceneInputHash(const Scene& scene, const BakeSettings& requested) {
   return bakeInputHash(flatten(scene, settings.ground), scene.lights, settings);
 }
 
-uint64_t regionMemoryBytes(uint32_t regionSize) {
-  // llvmpipe's colour, depth and stencil targets and read-back (about 40 bytes a texel, docs/depth-maps.md),
-  // the enter/exit maps (8) and tile chains (up to about 16). A lossy bake's next-surface layer and its pass
-  // (16 more, raster/next_surface.cpp) fit in the GL targets' share, which the CPU rasteriser does not use.
-  constexpr uint64_t kBytesPerTexel = 64;
-  return uint64_t(regionSize) * regionSize * kBytesPerTexel;
-}
-
-uint32_t regionSizeWithinBudget(const BakeSettings& settings) {
-  uint32_t size = settings.regionSize;
-  if (settings.maxMemoryBytes == 0 || settings.maxMemoryOnlyStops) return size;
-  while (size > 64 && regionMemoryBytes(size) > settings.maxMemoryBytes / 4) size /= 2;
-  return size;
-}
-
 namespace {
 
 // Per view of a light: its triangles (view space) and the estimated cost of baking it: the texels of the
@@ -303,9 +288,8 @@ void checkMemoryBudget(const BakeRun& run, uint64_t extraBytes, const Light& lig
     if (!budget) return;
     const uint64_t used = currentMemoryBytes(measure);
     if (used + extraBytes <= budget) return;
-    const char* what = measure == MemoryMeasure::Resident ? "resident" : measure == MemoryMeasure::AddressSpace
-                                                                             ? "of address space mapped"
-                                                                             : "of data mapped";
+    const char* what = measure == MemoryMeasure::Resident       ? "resident"
+                       : measure == MemoryMeasure::AddressSpace ? "of address space mapped" : "of data mapped";
     throw MemoryBudgetError(
         "memory budget of " + std::to_string(budget >> 20) + " MiB" + (source.empty() ? "" : " (" + source + ")") +
         " exceeded (" + std::to_string(used >> 20) + " MiB " + what +
@@ -372,6 +356,7 @@ ShadowDag finishDag(BakeRun& run, DagBuilder& builder, const Light& light, size_
   const uint64_t encoding = builder.finishExtraBytes();
   checkMemoryBudget(run, encoding, light, vi, view);  // the last region's tables too
   Stopwatch finish;
+  const SerialCpuTimer encodeCpu;
   run.encodingBytes += encoding;
   ShadowDag dag;
   try {
@@ -382,6 +367,7 @@ ShadowDag finishDag(BakeRun& run, DagBuilder& builder, const Light& light, size_
   }
   run.encodingBytes -= encoding;
   vr.dagMs += finish.ms();
+  vr.encodeMs += encodeCpu.ms();
   vr.nodesBuilt = builder.stats().nodesBuilt;
   vr.nodesReused = builder.stats().nodesReused;
   vr.leavesMerged = builder.stats().leavesMerged;
@@ -488,6 +474,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
                    const ViewGeometry& geometry, ViewReport& vr, LightOutcome& out) {
   const BakeSettings& settings = run.settings;
   const BakeCallbacks& callbacks = run.callbacks;
+  const SerialCpuTimer laneCpu;  // this lane's work outside parallel loops and the DAG beside it
   DepthRenderer& renderer = laneRenderer(run, lane);
   const uint32_t regionSize = std::min({settings.regionSize, renderer.maxRegionSize(), view.resolution});
   const std::vector<RegionRect> regions = splitIntoRegions(view.resolution, regionSize);
@@ -510,10 +497,12 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
     // the view cannot finish within the budget: stop now rather than at the end.
     checkMemoryBudget(run, builder.finishExtraBytes(), light, vi, view);
     if (reuse.active) writeWaiting(reuse, ri, out.warnings);  // the regions before this one are done
-    if (settings.threads > 1)
+    if (settings.threads > 1) {
       pending.start(work);
-    else
+    } else {
+      const InParallelLoop beside;  // the DAG's chain, not the lane's, on one thread as with several
       work();
+    }
   };
   for (size_t ri = 0; ri < regions.size(); ++ri) {
     const RegionRect& rect = regions[ri];
@@ -527,8 +516,10 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
       ++vr.regionsReused;
       runBeside(ri, [&, ri, events = *reused]() {
         Stopwatch dag;
+        const SerialCpuTimer dagCpu;
         builder.replayRegion(regions[ri], events);
         vr.dagMs += dag.ms();
+        vr.dagChainMs += dagCpu.ms();
       });
     } else {
       const std::shared_ptr<DepthRegion> depth =
@@ -546,8 +537,10 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
         vr.freeVoxelsLit += chains.freeVoxelsLit;
         vr.voxelsDelayed += chains.voxelsDelayed;
         Stopwatch dag;
+        const SerialCpuTimer dagCpu;
         builder.addRegion(chains, reuse.active ? &reuse.waiting[ri].record : nullptr);
         vr.dagMs += dag.ms();
+        vr.dagChainMs += dagCpu.ms();
       });
     }
     if (callbacks.progress) {
@@ -561,6 +554,7 @@ ShadowDag bakeView(BakeRun& run, uint32_t li, const Light& light, unsigned lane,
   storeRegions(run, reuse, out.warnings);
   reuse.previous.reset();
   builder.releaseRegionScratch();
+  vr.laneSerialMs += laneCpu.ms();
   return finishDag(run, builder, light, vi, view, vr);
 }
 
@@ -590,6 +584,7 @@ uint64_t lookUpCache(BakeRun& run, const std::vector<LightView>& views, const Li
 // Bakes one light's views on `lane` (its renderer), or takes them from the cache.
 LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
   const Stopwatch lightTime;
+  const SerialCpuTimer lightCpu;
   LightOutcome out;
   BakedLight& baked = out.baked;
   baked.light = run.scene.lights[li];
@@ -644,6 +639,9 @@ LightOutcome bakeLight(BakeRun& run, uint32_t li, unsigned lane) {
     }
   }
   lightReport.ms = lightTime.ms();
+  double inViews = 0;
+  for (const ViewReport& v : lightReport.views) inViews += v.laneSerialMs + v.encodeMs;
+  lightReport.serialMs = std::max(0.0, lightCpu.ms() - inViews);
   return out;
 }
 
@@ -679,6 +677,8 @@ unsigned lanesFor(const BakeSettings& settings, size_t lights) {
 CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, BakeReport* report,
                           const BakeCallbacks& callbacks, const CpvsWriter::WriteAt* stream, uint64_t* fileBytes) {
   const Stopwatch setup;
+  const double cpuAtStart = processCpuMs();
+  const SerialCpuTimer setupCpu;
   BakeSettings settings = requested;
   settings.regionSize = regionSizeWithinBudget(requested);
   const WorldGeometry world = flatten(scene, settings.ground);
@@ -693,6 +693,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
   BakeReport localReport;
   BakeReport& rep = report ? *report : localReport;
   rep.setupMs = setup.ms();
+  rep.setupSerialMs = setupCpu.ms();
   rep.inputHash = inputHash;
   rep.groundSheets = world.groundSheets;
   rep.sceneTriangles = world.sceneTriangleCount();
@@ -748,6 +749,7 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     handOverFinished();
   });
   rep.renderer = run.rendererDescription;
+  const SerialCpuTimer endCpu;
   if (cache) commitCacheEntries(run, rep.warnings);
   if (cache && settings.cacheMaxBytes > 0) {
     const BakeCache::Trimmed trimmed = cache->trim(settings.cacheMaxBytes);
@@ -760,6 +762,8 @@ CpvsContent bakeSceneHere(const Scene& scene, const BakeSettings& requested, Bak
     rep.writeMs += write.ms();
     if (fileBytes) *fileBytes = size;
   }
+  rep.endSerialMs = endCpu.ms();
+  rep.cpuMs = processCpuMs() - cpuAtStart;
   return content;
 }
 

@@ -78,6 +78,9 @@ struct ViewReport {
   int face = -1;
   bool empty = false;
   double depthMs = 0, peelMs = 0, masksMs = 0, dagMs = 0, writeMs = 0;
+  // The view's work that runs on one thread (CPU ms; bakeSpanMs): on the rendering lane outside parallel loops,
+  // in the DAG's region-by-region construction beside it, and in encoding the DAG once every region is in.
+  double laneSerialMs = 0, dagChainMs = 0, encodeMs = 0;
   uint32_t regions = 0;
   uint32_t regionsReused = 0;        // with a cache: regions replayed from it, not rendered (incremental bakes)
   uint64_t trianglesSubmitted = 0;
@@ -106,6 +109,7 @@ struct LightReport {
   LightType type = LightType::Directional;
   std::vector<ViewReport> views;
   double ms = 0;               // wall time of this light, cache look-up included
+  double serialMs = 0;         // CPU ms on one thread outside its views: gathering its geometry, the cache
   double estimatedCost = 0;    // what shards are balanced by (arbitrary units)
   enum class Cache { Off, Hit, Miss } cache = Cache::Off;
   bool reachesGeometry = true;
@@ -122,10 +126,19 @@ struct BakeReport {
   double writeMs = 0;                     // bakeSceneTo: time spent writing the file
   double setupMs = 0;                     // the once-per-bake work over the whole scene: flattening, the input
                                           // hash, the triangle index, every asked light's views and the selection
+  double cpuMs = 0;                       // CPU time of the whole bake (every thread of the process): its work
+  double setupSerialMs = 0, endSerialMs = 0;  // CPU ms on one thread before the lights and after them (bakeSpanMs)
   // With a cache bounded by cacheMaxBytes: the entries removed after the bake and the bytes the folder's
   // entries take then.
   uint64_t cacheEntriesRemoved = 0, cacheBytes = 0;
 };
+
+// The bake's span: the longest chain of its work that must run on one thread, in CPU ms. Per view, the rendering
+// lane's serial work and the DAG's construction run beside each other (the longer counts), then the encoding;
+// a light's views follow each other; lights run side by side (the longest counts), after the setup and before
+// the end. Parallel loops count as if they had cores enough (their imbalance is not in it). On N cores a bake
+// takes at least max(cpuMs / N, span) and, with ideal scheduling, at most cpuMs / N + span (Brent's bound).
+double bakeSpanMs(const BakeReport& report);
 
 struct BakeCallbacks {
   // Fraction of the whole bake done, in [0, 1].

@@ -12,11 +12,52 @@
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
 
+#include "libcpvs/base/stopwatch.h"
+
 namespace cpvs {
+
+// What a thread spent inside parallel loops it called (its own share of their work, and whatever it picked up
+// while waiting in them), so that the rest of its CPU time is the work that ran on one thread: what a bake's
+// span counts (SerialCpuTimer).
+struct ParallelLoopClock {
+  // This thread's CPU ms inside parallel loops it called, so far (nested loops counted once).
+  static double& spentMs() {
+    thread_local double ms = 0;
+    return ms;
+  }
+};
+
+// Counts the calling thread's CPU time in a parallel loop as the loop's (RAII). A loop inside it (its own, or
+// one of a task it picked up while waiting) has counted its part already: only the rest is added.
+class InParallelLoop {
+public:
+  InParallelLoop() : cpu_(threadCpuMs()), counted_(ParallelLoopClock::spentMs()) {}
+  ~InParallelLoop() {
+    double& spent = ParallelLoopClock::spentMs();
+    spent += (threadCpuMs() - cpu_) - (spent - counted_);
+  }
+  InParallelLoop(const InParallelLoop&) = delete;
+  InParallelLoop& operator=(const InParallelLoop&) = delete;
+
+private:
+  double cpu_, counted_;
+};
+
+// The calling thread's CPU time since construction less what it spent in parallel loops: the part of a section
+// that ran on this thread alone. Read it on the thread that made it.
+class SerialCpuTimer {
+public:
+  SerialCpuTimer() : cpu_(threadCpuMs()), inLoops_(ParallelLoopClock::spentMs()) {}
+  double ms() const { return (threadCpuMs() - cpu_) - (ParallelLoopClock::spentMs() - inLoops_); }
+
+private:
+  double cpu_, inLoops_;
+};
 
 // fn(i) for every i in [0, count), in parallel; `grain` indices at least per task.
 template <class Fn>
 void parallelFor(size_t count, Fn&& fn, size_t grain = 256) {
+  const InParallelLoop counted;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, count, std::max<size_t>(1, grain)),
                     [&](const tbb::blocked_range<size_t>& r) {
                       for (size_t i = r.begin(); i != r.end(); ++i) fn(i);
@@ -30,6 +71,7 @@ void parallelFor(size_t count, Fn&& fn, size_t grain = 256) {
 // threads spinning in TBB's arena set-up for most of a 256k bake.
 template <class Fn>
 void parallelParts(size_t count, unsigned parts, Fn&& fn) {
+  const InParallelLoop counted;  // one part or several: with more threads it would be parallel work
   parts = std::max(1u, parts);
   if (parts == 1) {
     fn(0u, size_t(0), count);
@@ -70,12 +112,18 @@ public:
   template <class Fn>
   void start(Fn&& fn) {
     wait();
-    group_.run(std::forward<Fn>(fn));
+    // Work beside the caller, not the caller's own: whichever thread runs it (the caller too, while it waits)
+    // counts its CPU time as it counts a parallel loop's.
+    group_.run([fn = std::forward<Fn>(fn)]() {
+      const InParallelLoop beside;
+      fn();
+    });
     running_ = true;
   }
   void wait() {
     if (!running_) return;
     running_ = false;
+    const InParallelLoop waiting;  // waiting (and the work it may run meanwhile) is not the caller's own work
     group_.wait();
   }
 

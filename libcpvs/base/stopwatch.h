@@ -1,6 +1,8 @@
 #pragma once
-// The one clock every phase timing, throughput figure and report uses: monotonic wall time.
+// The one clock every phase timing, throughput figure and report uses: monotonic wall time. Beside it, CPU time
+// (of this thread, or of the whole process) for the work a bake reports.
 #include <chrono>
+#include <ctime>
 
 namespace cpvs {
 
@@ -15,5 +17,15 @@ public:
 private:
   Clock::time_point start_;
 };
+
+// CPU time of a clock (CLOCK_THREAD_CPUTIME_ID: the calling thread; CLOCK_PROCESS_CPUTIME_ID: every thread of
+// the process), in milliseconds.
+inline double cpuClockMs(clockid_t clock) {
+  timespec t{};
+  ::clock_gettime(clock, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+inline double threadCpuMs() { return cpuClockMs(CLOCK_THREAD_CPUTIME_ID); }
+inline double processCpuMs() { return cpuClockMs(CLOCK_PROCESS_CPUTIME_ID); }
 
 }  // namespace cpvs

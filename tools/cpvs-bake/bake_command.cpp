@@ -42,6 +42,23 @@ nlohmann::json groundSheetsJson(const std::vector<GroundSheet>& sheets) {
   return out;
 }
 
+// The bake's work and span (bakeSpanMs), and what they let one predict: on N cores at least max(work / N, span)
+// and at most work / N + span.
+nlohmann::json workJson(const BakeSettings& settings, const BakeReport& report) {
+  const double span = bakeSpanMs(report);
+  nlohmann::json bounds = nlohmann::json::object();
+  std::vector<unsigned> cores = {1, 2, 4, 8, 16};
+  if (std::find(cores.begin(), cores.end(), settings.threads) == cores.end()) cores.push_back(settings.threads);
+  for (const unsigned n : cores)
+    bounds[std::to_string(n)] = {std::max(report.cpuMs / n, span), report.cpuMs / n + span};
+  return {{"cpu_ms", report.cpuMs},
+          {"span_ms", span},
+          {"serial_fraction", report.cpuMs > 0 ? span / report.cpuMs : 0.0},
+          {"setup_serial_ms", report.setupSerialMs},
+          {"end_serial_ms", report.endSerialMs},
+          {"wall_bounds_ms", bounds}};
+}
+
 nlohmann::json reportJson(const BakeCommand& options, const BakeSettings& settings,
                           const BakeReport& report, double totalMs, double loadMs, uint64_t fileBytes) {
   uint64_t dagBytes = 0;
@@ -79,7 +96,8 @@ nlohmann::json reportJson(const BakeCommand& options, const BakeSettings& settin
                        {"free_voxels_lit", v.freeVoxelsLit},
                        {"voxels_delayed", v.voxelsDelayed},
                        {"leaves_merged", v.leavesMerged},
-                       {"edge_texels_flipped", v.edgeTexelsFlipped}});
+                       {"edge_texels_flipped", v.edgeTexelsFlipped},
+                       {"serial_ms", {{"lane", v.laneSerialMs}, {"dag_chain", v.dagChainMs}, {"encode", v.encodeMs}}}});
     }
     const char* cache = l.cache == LightReport::Cache::Hit ? "hit" : l.cache == LightReport::Cache::Miss ? "miss" : "off";
     lights.push_back({{"name", l.name},
@@ -89,6 +107,7 @@ nlohmann::json reportJson(const BakeCommand& options, const BakeSettings& settin
                       {"cache", cache},
                       {"estimated_cost", l.estimatedCost},
                       {"reaches_geometry", l.reachesGeometry},
+                      {"serial_ms", l.serialMs},
                       {"views", views}});
   }
   return {{"version", kVersion},
@@ -119,6 +138,7 @@ nlohmann::json reportJson(const BakeCommand& options, const BakeSettings& settin
           {"total_ms", totalMs},
           {"load_ms", loadMs},
           {"setup_ms", report.setupMs},
+          {"work", workJson(settings, report)},
           {"peak_rss_bytes", peakRssBytes()},
           {"file_bytes", fileBytes},
           {"cache", settings.cacheFolder.empty() ? nlohmann::json(nullptr)
@@ -230,6 +250,11 @@ BakeOutcome bakeOnce(const BakeCommand& o, BakeSettings settings, const std::str
     std::fprintf(stderr, ", %zu view(s) at %u^3 in %.2f s", views, settings.resolution, totalMs / 1000.0);
     if (!o.output.empty()) std::fprintf(stderr, " -> %s (%llu bytes)", o.output.c_str(), (unsigned long long)fileBytes);
     std::fprintf(stderr, "\n");
+    const double span = bakeSpanMs(report), work = report.cpuMs;
+    if (work > 0)
+      std::fprintf(stderr, "cpvs-bake: work %.1f CPU-s, %.1f s of it on one thread (%.1f %%): 16 cores would take at "
+                   "least %.1f s\n", work / 1000.0, span / 1000.0, 100.0 * span / work,
+                   std::max(work / 16.0, span) / 1000.0);
   }
   return outcome;
 }
