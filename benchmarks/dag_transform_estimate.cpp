@@ -48,6 +48,7 @@
 #include <vector>
 
 #include "benchmarks/level_widths.h"
+#include "benchmarks/node_pool.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/runtime/cpvs_file.h"
 
@@ -263,13 +264,7 @@ std::vector<ViewRoot> readViews(const CpvsFile& file, ContentDag& content) {
       std::vector<Code> leafCode(dag.leaves.size());
       for (size_t i = 0; i < dag.leaves.size(); ++i) leafCode[i] = content.leaf(dag.leaves[i]);
       const size_t levels = v.nodesPerLevel.size();
-      std::vector<std::vector<uint32_t>> offsets(levels);
-      uint32_t at = 0;
-      for (size_t l = 0; l < levels; ++l)
-        for (uint64_t k = 0; k < v.nodesPerLevel[l]; ++k) {
-          offsets[l].push_back(at);
-          at += nodeUnitCount(dag.nodes[at]);
-        }
+      const std::vector<std::vector<uint32_t>> offsets = study::nodeOffsetsByLevel(v);
       std::unordered_map<uint32_t, Code> below;
       for (size_t l = levels; l-- > 0;) {
         const uint32_t edge = dag.resolution >> l;
@@ -534,18 +529,9 @@ Weight weigh(const CanonicalDag& dag, const std::vector<std::pair<unsigned, Ref>
     for (const auto& n : level)
       for (const Ref& r : n)
         if (!uniform(r.target)) needing[std::max(1, int(std::bit_width(bitValueOf(r))))] += 1;
-    uint64_t fewest = std::numeric_limits<uint64_t>::max();
-    for (unsigned sb = 1; sb <= 40; ++sb)
-      for (unsigned lb = sb; lb <= 40; ++lb) {
-        uint64_t total = 0;
-        bool fits = true;
-        for (unsigned k = 1; k <= 64; ++k) {
-          if (!needing[k]) continue;
-          fits = fits && k <= lb;
-          total += needing[k] * (k <= sb ? sb : lb);
-        }
-        if (fits && total < fewest) fewest = total, lw.shortBits = sb, lw.longBits = lb;
-      }
+    const study::BitWidths pair = study::fewestBits(needing, 40);
+    lw.shortBits = pair.shortBits;
+    lw.longBits = pair.longBits;
     std::vector<uint64_t> bitOffsets(level.size(), 0);
     uint64_t bitAt = 0;
     for (const uint32_t id : order) {

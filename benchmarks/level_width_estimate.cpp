@@ -162,18 +162,9 @@ Weight weigh(const Pool& pool) {
       uint64_t needing[65] = {};
       for (const uint32_t id : l.order)
         for (const uint32_t c : pool.nodes[id].children) needing[std::bit_width(valueOf(pool.nodes[id], c)) | 1] += 1;
-      uint64_t best = std::numeric_limits<uint64_t>::max();
-      for (unsigned sb = 1; sb <= 32; ++sb)
-        for (unsigned lb = sb; lb <= 32; ++lb) {
-          uint64_t total = 0;
-          bool fits = true;
-          for (unsigned k = 1; k <= 64; ++k) {
-            if (!needing[k]) continue;
-            fits = fits && k <= lb;
-            total += needing[k] * (k <= sb ? sb : lb);
-          }
-          if (fits && total < best) best = total, level.shortBits = sb, level.longBits = lb;
-        }
+      const BitWidths pair = fewestBits(needing, 32);
+      level.shortBits = pair.shortBits;
+      level.longBits = pair.longBits;
       uint64_t at = 0;
       for (const uint32_t id : l.order) {
         offsetBits[id] = at;

@@ -45,6 +45,29 @@ inline std::vector<uint32_t> popularityOrder(std::vector<uint32_t> ids, const st
   return ids;
 }
 
+// The pair of reference widths in bits (each at most maxBits) that codes a level's references most briefly, from
+// how many need each bit count (needing[k]: references whose value has k significant bits): a short width for
+// those that fit it, the long one for the rest. {0, 0} when none fits.
+struct BitWidths {
+  unsigned shortBits = 0, longBits = 0;
+};
+inline BitWidths fewestBits(const uint64_t (&needing)[65], unsigned maxBits) {
+  BitWidths out;
+  uint64_t fewest = std::numeric_limits<uint64_t>::max();
+  for (unsigned sb = 1; sb <= maxBits; ++sb)
+    for (unsigned lb = sb; lb <= maxBits; ++lb) {
+      uint64_t total = 0;
+      bool fits = true;
+      for (unsigned k = 1; k <= 64; ++k) {
+        if (!needing[k]) continue;
+        fits = fits && k <= lb;
+        total += needing[k] * (k <= sb ? sb : lb);
+      }
+      if (fits && total < fewest) fewest = total, out = {sb, lb};
+    }
+  return out;
+}
+
 struct PoolLevel {
   uint32_t edge = 0;
   std::vector<uint32_t> order;  // pooled node ids as laid out

@@ -13,6 +13,18 @@
 
 namespace cpvs::study {
 
+// Where each node of a view's DAG starts (in units), level by level from the root.
+inline std::vector<std::vector<uint32_t>> nodeOffsetsByLevel(const CpvsFile::View& v) {
+  std::vector<std::vector<uint32_t>> offsets(v.nodesPerLevel.size());
+  uint32_t at = 0;
+  for (size_t l = 0; l < offsets.size(); ++l)
+    for (uint64_t k = 0; k < v.nodesPerLevel[l]; ++k) {
+      offsets[l].push_back(at);
+      at += nodeUnitCount(v.dag.nodes[at]);
+    }
+  return offsets;
+}
+
 // A distinct subtree: the node's edge, its child codes (references as 2) and the pooled ids of its children
 // (leaf ids for a leaf parent, node ids otherwise).
 struct NodeKey {
@@ -61,13 +73,7 @@ class PoolBuilder {
       leafId[i] = it->second;
     }
     const size_t levels = v.nodesPerLevel.size();
-    std::vector<std::vector<uint32_t>> offsets(levels);
-    uint32_t at = 0;
-    for (size_t l = 0; l < levels; ++l)
-      for (uint64_t k = 0; k < v.nodesPerLevel[l]; ++k) {
-        offsets[l].push_back(at);
-        at += nodeUnitCount(dag.nodes[at]);
-      }
+    const std::vector<std::vector<uint32_t>> offsets = nodeOffsetsByLevel(v);
     std::unordered_map<uint32_t, uint32_t> below;  // unit offset (or leaf index) -> pooled id
     for (size_t l = levels; l-- > 0;) {
       const uint32_t edge = dag.resolution >> l;
