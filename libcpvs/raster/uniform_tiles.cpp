@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "libcpvs/base/parallel.h"
+
 namespace cpvs {
 namespace {
 
@@ -127,6 +129,70 @@ UniformPeel replayUniformTile(const UniformTile& tile, const std::vector<RasterT
   return replayOrder<3>(tile, triangles, iterations, cap);
 }
 
+namespace {
+
+// The region's 64 x 64 blocks and the triangles that cover or cross each, in triangle order.
+struct BlockBins {
+  int32_t blocksX = 0, blocksY = 0;
+  std::vector<uint32_t> first;                          // entries of block b: [first[b], first[b + 1])
+  std::vector<std::pair<int32_t, Coverage>> entries;  // triangle index and its coverage of the block
+};
+
+void blockRect(int32_t bx, int32_t by, int32_t w, int32_t h, int32_t& ia, int32_t& ib, int32_t& ja, int32_t& jb) {
+  ia = bx * kBlock;
+  ib = std::min(w, ia + kBlock) - 1;
+  ja = by * kBlock;
+  jb = std::min(h, ja + kBlock) - 1;
+}
+
+// One coverage test per (triangle, block), in parallel over chunks of triangles whose hits are joined in chunk
+// order, then grouped by block (a counting sort keeps triangle order within a block): the same bins for any
+// number of threads.
+BlockBins binToBlocks(const std::vector<RasterTriangle>& triangles, int32_t w, int32_t h) {
+  BlockBins bins;
+  bins.blocksX = (w + kBlock - 1) / kBlock;
+  bins.blocksY = (h + kBlock - 1) / kBlock;
+  const size_t blockCount = size_t(bins.blocksX) * size_t(bins.blocksY);
+  struct Hit {
+    uint32_t block;
+    int32_t triangle;
+    Coverage coverage;
+  };
+  constexpr size_t kChunk = 256;
+  std::vector<std::vector<Hit>> chunks((triangles.size() + kChunk - 1) / kChunk);
+  parallelFor(chunks.size(), [&](size_t chunk) {
+    for (size_t k = chunk * kChunk; k < std::min(triangles.size(), (chunk + 1) * kChunk); ++k) {
+      const RasterTriangle& t = triangles[k];
+      if (t.i0 > t.i1 || t.j0 > t.j1) continue;
+      for (int32_t by = t.j0 / kBlock; by <= t.j1 / kBlock; ++by)
+        for (int32_t bx = t.i0 / kBlock; bx <= t.i1 / kBlock; ++bx) {
+          int32_t ia, ib, ja, jb;
+          blockRect(bx, by, w, h, ia, ib, ja, jb);
+          const Coverage c = coverage(t, ia, ib, ja, jb);
+          if (c != Coverage::None) chunks[chunk].push_back({uint32_t(by * bins.blocksX + bx), int32_t(k), c});
+        }
+    }
+  }, 1);
+  bins.first.assign(blockCount + 1, 0);
+  size_t hits = 0;
+  for (const std::vector<Hit>& chunk : chunks) {
+    hits += chunk.size();
+    for (const Hit& hit : chunk) ++bins.first[hit.block + 1];
+  }
+  for (size_t b = 0; b < blockCount; ++b) bins.first[b + 1] += bins.first[b];
+  bins.entries.resize(hits);
+  std::vector<uint32_t> cursor(bins.first.begin(), bins.first.end() - 1);
+  for (const std::vector<Hit>& chunk : chunks)
+    for (const Hit& hit : chunk) bins.entries[cursor[hit.block]++] = {hit.triangle, hit.coverage};
+  return bins;
+}
+
+bool sameSet(const UniformTile& a, const UniformTile& b) {
+  return a.planes == b.planes && std::equal(a.plane, a.plane + a.planes, b.plane);
+}
+
+}  // namespace
+
 TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t width, uint32_t height,
                           double keySign, uint32_t peelCap, const RowSpans* needed) {
   TileClasses out;
@@ -143,75 +209,40 @@ TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t
         return false;
     return true;
   };
+  const BlockBins bins = binToBlocks(triangles, w, h);
 
-  // Triangles per 64 x 64 block (compressed rows: count, then fill).
-  const int32_t blocksX = (w + kBlock - 1) / kBlock, blocksY = (h + kBlock - 1) / kBlock;
-  const size_t blockCount = size_t(blocksX) * size_t(blocksY);
-  std::vector<uint32_t> first(blockCount + 1, 0);
-  std::vector<std::pair<int32_t, Coverage>> entries;
-  const auto blockRect = [&](int32_t bx, int32_t by, int32_t& ia, int32_t& ib, int32_t& ja, int32_t& jb) {
-    ia = bx * kBlock;
-    ib = std::min(w, ia + kBlock) - 1;
-    ja = by * kBlock;
-    jb = std::min(h, ja + kBlock) - 1;
+  // Rows of blocks in parallel, each with sets of its own (a set is added unless it equals the row's last one:
+  // neighbouring tiles often meet the same planes); joined in row order below.
+  struct RowSets {
+    std::vector<UniformTile> sets;
+    uint64_t uniform = 0;
   };
-  // One coverage test per (triangle, block), kept in triangle order, then grouped by block (a counting sort keeps
-  // triangle order within a block).
-  struct Hit {
-    uint32_t block;
-    int32_t triangle;
-    Coverage coverage;
-  };
-  std::vector<Hit> hits;
-  for (size_t k = 0; k < triangles.size(); ++k) {
-    const RasterTriangle& t = triangles[k];
-    if (t.i0 > t.i1 || t.j0 > t.j1) continue;
-    for (int32_t by = t.j0 / kBlock; by <= t.j1 / kBlock; ++by)
-      for (int32_t bx = t.i0 / kBlock; bx <= t.i1 / kBlock; ++bx) {
-        int32_t ia, ib, ja, jb;
-        blockRect(bx, by, ia, ib, ja, jb);
-        const Coverage c = coverage(t, ia, ib, ja, jb);
-        if (c == Coverage::None) continue;
-        const uint32_t block = uint32_t(by) * uint32_t(blocksX) + uint32_t(bx);
-        hits.push_back({block, int32_t(k), c});
-        ++first[block + 1];
-      }
-  }
-  for (size_t b = 0; b < blockCount; ++b) first[b + 1] += first[b];
-  entries.resize(hits.size());
-  {
-    std::vector<uint32_t> cursor(first.begin(), first.end() - 1);
-    for (const Hit& hit : hits) entries[cursor[hit.block]++] = {hit.triangle, hit.coverage};
-  }
-
-  std::vector<Candidate> candidates;
-  // Adds `tile` as a set unless it equals the last one added (neighbouring tiles often meet the same planes).
-  const auto addSet = [&](const UniformTile& tile) {
-    if (!out.sets.empty()) {
-      const UniformTile& last = out.sets.back();
-      if (last.planes == tile.planes && std::equal(tile.plane, tile.plane + tile.planes, last.plane))
-        return int32_t(out.sets.size() - 1);
-    }
-    out.sets.push_back(tile);
-    return int32_t(out.sets.size() - 1);
-  };
-  const auto markUniform = [&](int32_t tx, int32_t ty, int32_t set) {
-    out.setOf[size_t(ty) * out.tilesX + size_t(tx)] = set;
-    ++out.uniformCount;
-  };
-  for (int32_t by = 0; by < blocksY; ++by)
-    for (int32_t bx = 0; bx < blocksX; ++bx) {
-      const size_t b = size_t(by) * size_t(blocksX) + size_t(bx);
+  std::vector<RowSets> rows(size_t(bins.blocksY));
+  parallelFor(rows.size(), [&](size_t row) {
+    RowSets& r = rows[row];
+    std::vector<Candidate> candidates;
+    const auto addSet = [&](const UniformTile& tile) {
+      if (r.sets.empty() || !sameSet(r.sets.back(), tile)) r.sets.push_back(tile);
+      return int32_t(r.sets.size() - 1);
+    };
+    const auto markUniform = [&](int32_t tx, int32_t ty, int32_t set) {
+      out.setOf[size_t(ty) * out.tilesX + size_t(tx)] = set;
+      ++r.uniform;
+    };
+    const int32_t by = int32_t(row);
+    for (int32_t bx = 0; bx < bins.blocksX; ++bx) {
+      const size_t b = size_t(by) * size_t(bins.blocksX) + size_t(bx);
+      const uint32_t e0 = bins.first[b], e1 = bins.first[b + 1];
       int32_t ia, ib, ja, jb;
-      blockRect(bx, by, ia, ib, ja, jb);
+      blockRect(bx, by, w, h, ia, ib, ja, jb);
       const int32_t tx0 = ia / kTile, tx1 = (ib + kTile) / kTile, ty0 = ja / kTile, ty1 = (jb + kTile) / kTile;
       // First the whole block: when every triangle covers all of it and their order holds over it, it holds
       // over each of its tiles (a tile's key ranges lie inside the block's).
       bool allFull = true;
-      for (uint32_t e = first[b]; e < first[b + 1]; ++e) allFull = allFull && entries[e].second == Coverage::Full;
+      for (uint32_t e = e0; e < e1; ++e) allFull = allFull && bins.entries[e].second == Coverage::Full;
       if (allFull) {
         candidates.clear();
-        for (uint32_t e = first[b]; e < first[b + 1]; ++e) candidates.push_back({0, 0, entries[e].first, true});
+        for (uint32_t e = e0; e < e1; ++e) candidates.push_back({0, 0, bins.entries[e].first, true});
         UniformTile tile;
         if (resolve(candidates, triangles, keySign, peelCap, ia, ib, ja, jb, tile)) {
           const int32_t set = addSet(tile);
@@ -224,15 +255,15 @@ TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t
       // A block that many triangles cross is detailed geometry, where tiles are rarely uniform: leave its tiles to
       // the per-texel path rather than test each of them against every triangle (only the time changes).
       uint32_t crossing = 0;
-      for (uint32_t e = first[b]; e < first[b + 1]; ++e) crossing += entries[e].second == Coverage::Crossed;
+      for (uint32_t e = e0; e < e1; ++e) crossing += bins.entries[e].second == Coverage::Crossed;
       if (crossing > kMostCrossingPerBlock) continue;
       for (int32_t ty = ty0; ty < ty1; ++ty)
         for (int32_t tx = tx0; tx < tx1; ++tx) {
           if (!tileEligible(tx, ty)) continue;
           const int32_t ta = tx * kTile, tb = ta + kTile - 1, sa = ty * kTile, sb = sa + kTile - 1;
           candidates.clear();
-          for (uint32_t e = first[b]; e < first[b + 1]; ++e) {
-            const auto& [k, blockCoverage] = entries[e];
+          for (uint32_t e = e0; e < e1; ++e) {
+            const auto& [k, blockCoverage] = bins.entries[e];
             const Coverage c = blockCoverage == Coverage::Full ? Coverage::Full
                                                                : coverage(triangles[size_t(k)], ta, tb, sa, sb);
             if (c != Coverage::None) candidates.push_back({0, 0, k, c == Coverage::Full});
@@ -241,6 +272,20 @@ TileClasses classifyTiles(const std::vector<RasterTriangle>& triangles, uint32_t
           if (resolve(candidates, triangles, keySign, peelCap, ta, tb, sa, sb, tile)) markUniform(tx, ty, addSet(tile));
         }
     }
+  }, 1);
+  // The rows' sets in row order. Within a row they are what one pass over every block in order would make; at a
+  // join that pass would have merged the row's first set into the last one before it when equal: so here.
+  for (size_t row = 0; row < rows.size(); ++row) {
+    const RowSets& r = rows[row];
+    out.uniformCount += r.uniform;
+    if (r.sets.empty()) continue;
+    const bool merged = !out.sets.empty() && sameSet(out.sets.back(), r.sets.front());
+    const int32_t shift = int32_t(out.sets.size()) - (merged ? 1 : 0);
+    out.sets.insert(out.sets.end(), r.sets.begin() + (merged ? 1 : 0), r.sets.end());
+    const size_t ty0 = row * size_t(kBlock / kTile), ty1 = std::min<size_t>(out.tilesY, ty0 + kBlock / kTile);
+    for (size_t tile = ty0 * out.tilesX; tile < ty1 * out.tilesX; ++tile)
+      if (out.setOf[tile] >= 0) out.setOf[tile] += shift;
+  }
   return out;
 }
 
