@@ -2,6 +2,7 @@
 // the same passes (cpu_depth_renderer_avx2.cpp): both give the same maps bit for bit (the target is plain AVX2,
 // without FMA, so every multiply and add stays separate and rounds as in the baseline).
 #define CPVS_RASTER_NAMESPACE baseline
+#define CPVS_RASTER_ISA_NAME "baseline"
 #include "libcpvs/raster/cpu_depth_renderer_passes.h"
 
 #include <cstdlib>

@@ -29,6 +29,7 @@
 
 CPVS_TARGET_BEGIN_AVX2
 #define CPVS_RASTER_NAMESPACE avx2
+#define CPVS_RASTER_ISA_NAME "AVX2"
 #include "libcpvs/raster/cpu_depth_renderer_passes.h"
 CPVS_TARGET_END
 

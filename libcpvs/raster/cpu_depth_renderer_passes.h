@@ -396,7 +396,8 @@ class CpuDepthRenderer final : public DepthRenderer {
 public:
   explicit CpuDepthRenderer(CpuPeel peelMethod) : peelMethod_(peelMethod) {}
   uint32_t maxRegionSize() const override { return 1u << 14; }
-  std::string description() const override { return "cpvs CPU rasteriser"; }
+  // Which compilation of these passes runs, so that every report names the instruction set its timings used.
+  std::string description() const override { return "cpvs CPU rasteriser (" CPVS_RASTER_ISA_NAME ")"; }
   DepthRegion render(const ViewGeometry& geometry, const LightView& view, const RegionRect& rect,
                      const PeelSettings& peel, RenderStats* stats, const RowSpans* needed,
                      bool summarizeTiles) override;
