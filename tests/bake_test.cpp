@@ -396,6 +396,11 @@ TEST(Bake, ReportsWorkAndSpan) {
     EXPECT_GT(span, 0.0);
     EXPECT_LE(span, b.report.cpuMs * 1.02) << threads << " thread(s)";
     EXPECT_GE(span, std::max(v.laneSerialMs, v.dagChainMs) + v.encodeMs);
+    // On one core the bake takes its whole work at least (the span is part of it), the span more at most.
+    const WallBounds one = bakeWallBounds(b.report, 1);
+    EXPECT_DOUBLE_EQ(one.atLeastMs, std::max(b.report.cpuMs, span));
+    EXPECT_DOUBLE_EQ(one.atMostMs, b.report.cpuMs + span);
+    EXPECT_LE(bakeWallBounds(b.report, 16).atLeastMs, one.atLeastMs);
     spans[threads - 1] = span;
   }
   EXPECT_LT(std::abs(spans[0] - spans[1]), 0.5 * std::max(spans[0], spans[1])) << spans[0] << " " << spans[1];

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "libcpvs/bake/cpvs_writer.h"
-#include "libcpvs/base/memory_limit.h"
 #include "libcpvs/bake/light_subsets.h"
+#include "libcpvs/base/memory_limit.h"
 #include "libcpvs/raster/depth_renderer.h"
 #include "libcpvs/scene/scene.h"
 #include "libcpvs/tiles/tile_masks.h"
@@ -139,6 +139,11 @@ struct BakeReport {
 // the end. Parallel loops count as if they had cores enough (their imbalance is not in it). On N cores a bake
 // takes at least max(cpuMs / N, span) and, with ideal scheduling, at most cpuMs / N + span (Brent's bound).
 double bakeSpanMs(const BakeReport& report);
+// Those two bounds on the bake's wall time on `cores` cores, in ms.
+struct WallBounds {
+  double atLeastMs = 0, atMostMs = 0;
+};
+WallBounds bakeWallBounds(const BakeReport& report, unsigned cores);
 
 struct BakeCallbacks {
   // Fraction of the whole bake done, in [0, 1].

@@ -16,4 +16,9 @@ double bakeSpanMs(const BakeReport& report) {
   return report.setupSerialMs + longestLight + report.endSerialMs;
 }
 
+WallBounds bakeWallBounds(const BakeReport& report, unsigned cores) {
+  const double span = bakeSpanMs(report), share = report.cpuMs / std::max(1u, cores);
+  return {std::max(share, span), share + span};
+}
+
 }  // namespace cpvs

@@ -49,8 +49,10 @@ nlohmann::json workJson(const BakeSettings& settings, const BakeReport& report) 
   nlohmann::json bounds = nlohmann::json::object();
   std::vector<unsigned> cores = {1, 2, 4, 8, 16};
   if (std::find(cores.begin(), cores.end(), settings.threads) == cores.end()) cores.push_back(settings.threads);
-  for (const unsigned n : cores)
-    bounds[std::to_string(n)] = {std::max(report.cpuMs / n, span), report.cpuMs / n + span};
+  for (const unsigned n : cores) {
+    const WallBounds b = bakeWallBounds(report, n);
+    bounds[std::to_string(n)] = {b.atLeastMs, b.atMostMs};
+  }
   return {{"cpu_ms", report.cpuMs},
           {"span_ms", span},
           {"serial_fraction", report.cpuMs > 0 ? span / report.cpuMs : 0.0},
@@ -254,7 +256,7 @@ BakeOutcome bakeOnce(const BakeCommand& o, BakeSettings settings, const std::str
     if (work > 0)
       std::fprintf(stderr, "cpvs-bake: work %.1f CPU-s, %.1f s of it on one thread (%.1f %%): 16 cores would take at "
                    "least %.1f s\n", work / 1000.0, span / 1000.0, 100.0 * span / work,
-                   std::max(work / 16.0, span) / 1000.0);
+                   bakeWallBounds(report, 16).atLeastMs / 1000.0);
   }
   return outcome;
 }
