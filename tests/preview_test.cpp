@@ -24,7 +24,7 @@
 #include "libcpvs/preview/camera.h"
 #include "libcpvs/preview/frame_image.h"
 #include "libcpvs/preview/glsl_sources.h"
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/preview/light_lists.h"
 #include "libcpvs/preview/preview_renderer.h"
 #include "libcpvs/preview/shadow_pass.h"
@@ -95,7 +95,7 @@ Baked& subpass() {
 }
 
 // A generated city (cpvs-scenegen city-spots: 9 spot lights) with a sun and a point light added, as a 3.0 file:
-// its views read one pool, which the GPU records hold once (gpu_scene.cpp).
+// its views read one pool, which the GPU records hold once (gpu_records.cpp).
 Baked& city() {
   static Baked* b = [] {
     const std::string path = test::tempDir() + "/preview_city.glb";
@@ -207,7 +207,7 @@ void checkGpuEqualsCpu(Baked& b, const PreviewCamera& camera, int pcf) {
   EXPECT_EQ(countChecked, voxelPairs);
 }
 
-// The record layout the C++ writes (gpu_scene.h) is the one the shaders read (lookup_records.glsl).
+// The record layout the C++ writes (gpu_records.h) is the one the shaders read (lookup_records.glsl).
 TEST(Preview, RecordLayoutEqualsTheShadersDefines) {
   std::map<std::string, uint32_t> defines;
   std::istringstream text(glsl::lookup_records_glsl);
@@ -274,7 +274,7 @@ TEST(Preview, GpuLookupsEqualTheCpuRuntimeOnAGeneratedCity) {
     for (const CpvsFile::View& view : light.views)
       if (!view.dag.sharedNodes.empty()) pool = view.dag.sharedNodes;
   ASSERT_FALSE(pool.empty());
-  EXPECT_EQ(packGpuScene(b.renderer->lights()).nodes.size(), (pool.size() + 1) / 2);
+  EXPECT_EQ(orThrow(packGpuScene(b.renderer->lights())).nodes.size(), (pool.size() + 1) / 2);
 }
 
 // ---- light lists ----------------------------------------------------------------------------------------

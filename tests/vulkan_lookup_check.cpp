@@ -19,7 +19,7 @@
 #include "libcpvs/bake/cpvs_writer.h"
 #include "libcpvs/base/error.h"
 #include "libcpvs/import/gltf_import.h"
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 #include "libcpvs/scene/surface_samples.h"
@@ -286,7 +286,7 @@ TEST(VulkanLookup, AnswersAsTheCpuRuntime) {
     const auto file = orThrow(CpvsFile::fromBytes({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()}, "tk"));
     std::vector<LightShadow> lights;
     for (const CpvsFile::LightEntry& e : file->lights()) lights.push_back(orThrow(lightShadowOf(e)));
-    const GpuSceneRecords records = packGpuScene(lights);
+    const GpuSceneRecords records = orThrow(packGpuScene(lights));
     for (uint32_t l = 0; l < lights.size(); ++l)
       for (int k : {1, 3, 9}) {
         std::vector<float> cpu(points.size());

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 
 namespace cpvs {

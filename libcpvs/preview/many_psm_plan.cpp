@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/eval/shadow_map.h"
 
 namespace cpvs {
@@ -64,7 +65,7 @@ ManyPsmPlan planManyPsms(const std::vector<LightShadow>& lights, const Frame& fr
   for (uint32_t l = 0; l < lights.size(); ++l) {
     std::vector<LightView> views;
     for (const LightView& v : lights[l].views()) views.push_back(shadowMapView(v, size[l]));
-    appendLightRecords(plan.records, lights[l].light(), views, nullptr);
+    orThrow(appendLightRecords(plan.records, lights[l].light(), views, nullptr));
   }
   for (const AtlasView& v : plan.views) {
     const size_t first = plan.records.lightWords[size_t(v.light) * gpu_layout::kLightWords + gpu_layout::kLightFirstView];

@@ -8,7 +8,7 @@
 #include <glm/glm.hpp>
 
 #include "libcpvs/preview/frame.h"
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 
 namespace cpvs {
 

@@ -8,7 +8,7 @@
 #include "libcpvs/base/error.h"
 #include "libcpvs/gl/gl_program.h"
 #include "libcpvs/preview/glsl_sources.h"
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/raster/gpu_masks.h"
 
 #define STB_IMAGE_RESIZE_IMPLEMENTATION
@@ -188,7 +188,7 @@ void RendererResources::uploadMasks(const Scene& s) {
 
 void RendererResources::uploadLights() {
   const gl::Context& c = *context;
-  const GpuSceneRecords records = packGpuScene(lights);
+  const GpuSceneRecords records = orThrow(packGpuScene(lights));
   GLint maxBlock = 0;
   gl().GetIntegerv(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &maxBlock);
   maxStorageBlock = maxBlock > 0 ? size_t(uint32_t(maxBlock)) : size_t(1) << 27;
@@ -204,7 +204,7 @@ void RendererResources::uploadLights() {
 
 void RendererResources::uploadDags() {
   if (dagNodes) return;
-  const GpuSceneRecords records = packGpuScene(lights);
+  const GpuSceneRecords records = orThrow(packGpuScene(lights));
   requireStorage(std::max(records.nodes.size() * 4, records.leaves.size() * 8), "the DAGs",
                  "--shadows cpu looks them up from the file instead");
   const gl::Context& c = *context;  // current: the GPU technique is made while a frame renders

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/preview/shadow_pass.h"
 
 namespace cpvs {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <map>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/base/parallel.h"
 #include "libcpvs/eval/shadow_map.h"
 
@@ -62,14 +63,14 @@ ShadowMapPlan planShadowMaps(const ShadowMapScene& scene, const Frame& frame, co
     std::vector<LightView> views;
     for (const LightView& v : l.views()) views.push_back(shadowMapView(v, m));
     recordViews.push_back(views);
-    appendLightRecords(plan.records, l.light(), views, nullptr);
+    orThrow(appendLightRecords(plan.records, l.light(), views, nullptr));
   }
   if (clustered)
     for (size_t c = 0; c < scene.clusters->lights.size(); ++c) {
       std::vector<LightView> views;
       for (const LightView& v : (*scene.clusterViews)[c]) views.push_back(shadowMapView(v, m));
       recordViews.push_back(views);
-      appendLightRecords(plan.records, scene.clusters->lights[c], views, nullptr);
+      orThrow(appendLightRecords(plan.records, scene.clusters->lights[c], views, nullptr));
     }
   auto shadowRecordOf = [&](uint32_t light) {
     if (!clustered || scene.clusters->clusterOf[light] == LightClusters::kAlone) return light;

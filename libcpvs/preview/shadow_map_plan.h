@@ -8,7 +8,7 @@
 
 #include "libcpvs/preview/caster_culling.h"
 #include "libcpvs/preview/frame.h"
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 #include "libcpvs/preview/light_clusters.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 

@@ -2,7 +2,7 @@
 // The runtime's GPU lookup as a Vulkan compute shader: for each surface point (and its normal), the visibility
 // of one light with K x K PCF, as LightShadow::visibility answers it. An engine compiles it to SPIR-V
 // (glslangValidator -V --target-env vulkan1.1 -I<this folder>) and binds the records cpvs-view's GPU path
-// uploads (libcpvs/preview/gpu_scene.h writes them; lookup_records.glsl has their layout) in set 0; docs/runtime.md,
+// uploads (libcpvs/runtime/gpu_records.h writes them; lookup_records.glsl has their layout) in set 0; docs/runtime.md,
 // "Vulkan", shows the binding. Needs shaderFloat64 (the mapping runs in doubles, as the CPU's does) and
 // std430 storage buffers. The walk and the cell are the runtime's own GLSL (dag_walk.glsl.h,
 // lookup_cell.glsl), included as they are. Comments stay ASCII (GLSL).

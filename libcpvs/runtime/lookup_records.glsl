@@ -1,4 +1,4 @@
-// The records cpvs-view uploads for the GPU lookups (libcpvs/preview/gpu_scene.cpp writes them; lookup_cell.glsl,
+// The records cpvs-view uploads for the GPU lookups (libcpvs/runtime/gpu_records.cpp writes them; lookup_cell.glsl,
 // the culling and the shading read them): per view CPVS_MAP_REALS doubles (ViewMapping's constants) and
 // CPVS_VIEW_WORDS uints (flags and where its DAG lies), per light CPVS_LIGHT_REALS doubles and CPVS_LIGHT_WORDS
 // uints. Plain arrays of doubles and uints, so std430's struct rules never come in.

@@ -1,10 +1,12 @@
 #pragma once
-// The lights, their views and their DAGs as the GPU passes read them (libcpvs/runtime/lookup_records.glsl):
-// plain arrays of doubles and uints, every view's node units and leaves appended to two shared buffers.
+// The lights, their views and their DAGs as the GPU lookups read them (lookup_records.glsl: cpvs_visibility.comp
+// for Vulkan, cpvs-view's passes): plain arrays of doubles and uints, every view's node units and leaves
+// appended to two shared buffers. An engine uploads these arrays as they are (docs/runtime.md, "Vulkan").
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "libcpvs/runtime/outcome.h"
 #include "libcpvs/runtime/shadow_lookup.h"
 
 namespace cpvs {
@@ -27,12 +29,12 @@ struct GpuSceneRecords {
   size_t bytes() const;
 };
 
-// Throws Error(RuntimeFailure) when a buffer would exceed what 32-bit indices address.
-GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights);
+// Fails (RuntimeFailure) when a buffer would exceed what 32-bit indices address.
+Result<GpuSceneRecords> packGpuScene(const std::vector<LightShadow>& lights);
 // Appends one light and its views (with their DAGs, or without: views for shadow maps, whose layer the caller
-// sets). The light's shadow light is itself.
-void appendLightRecords(GpuSceneRecords& records, const Light& light, const std::vector<LightView>& views,
-                        const std::vector<DagView>* dags);
+// sets). The light's shadow light is itself. Fails as packGpuScene, leaving `records` partly appended.
+Outcome appendLightRecords(GpuSceneRecords& records, const Light& light, const std::vector<LightView>& views,
+                           const std::vector<DagView>* dags);
 
 // The record layout, mirrored from lookup_records.glsl (tests/preview_test.cpp checks every value against the
 // file's #defines).

@@ -1,10 +1,8 @@
-#include "libcpvs/preview/gpu_scene.h"
+#include "libcpvs/runtime/gpu_records.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "libcpvs/base/error.h"
 
 namespace cpvs {
 
@@ -17,8 +15,8 @@ size_t GpuSceneRecords::bytes() const {
          nodes.size() * 4 + leaves.size() * 8;
 }
 
-void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vector<LightView>& views,
-                        const std::vector<DagView>* dags) {
+Outcome appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vector<LightView>& views,
+                           const std::vector<DagView>* dags) {
   const size_t firstView = r.viewWords.size() / kViewWords;
   std::vector<double> reals(kLightReals, 0.0);
   for (int i = 0; i < 3; ++i) {
@@ -75,7 +73,7 @@ void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vecto
       const uint64_t nodeBase = nodesAt ? *nodesAt : uint64_t(r.nodes.size()) * 2;
       const uint64_t leafBase = leavesAt ? *leavesAt : r.leaves.size();
       if (nodeBase + nodes.size() > UINT32_MAX || leafBase + dag.leaves.size() > UINT32_MAX)
-        throw Error(ErrorCategory::RuntimeFailure, "light '" + light.name + "': the DAGs exceed 2^32 units for the GPU");
+        return {ErrorCategory::RuntimeFailure, "light '" + light.name + "': the DAGs exceed 2^32 units for the GPU"};
       view[kViewNodeBase] = uint32_t(nodeBase + uint64_t(dag.nodes.data() - nodes.data()));
       view[kViewLeafBase] = uint32_t(leafBase);
       view[kViewRootCode] = uint32_t(dag.rootCode);
@@ -94,11 +92,13 @@ void appendLightRecords(GpuSceneRecords& r, const Light& light, const std::vecto
     view[kViewFlags] = (m.orthographic ? kFlagOrthographic : 0) | (m.linear ? kFlagLinear : 0) | (empty ? kFlagEmpty : 0);
     r.viewWords.insert(r.viewWords.end(), view.begin(), view.end());
   }
+  return Outcome::success();
 }
 
-GpuSceneRecords packGpuScene(const std::vector<LightShadow>& lights) {
+Result<GpuSceneRecords> packGpuScene(const std::vector<LightShadow>& lights) {
   GpuSceneRecords r;
-  for (const LightShadow& shadow : lights) appendLightRecords(r, shadow.light(), shadow.views(), &shadow.dags());
+  for (const LightShadow& shadow : lights)
+    if (Outcome added = appendLightRecords(r, shadow.light(), shadow.views(), &shadow.dags()); !added) return added;
   return r;
 }
 
