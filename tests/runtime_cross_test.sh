@@ -5,6 +5,7 @@
 # GCC build of the same example: two real bakes (TorusKnot under a sun and a spot; the generated city with 165
 # spot lights at 1k) in format 2.0 and 3.0, unfiltered and with 9x9 PCF, and the golden files of
 # formats/cpvs/golden (1.0, 2.0, 3.0). Windows writes text with CRLF line ends: the only difference allowed.
+# On ARM64 every check runs twice, on the NEON path and on the scalar one (CPVS_LOOKUP_ISA=scalar).
 # Skips (77) without the cross compiler or the emulator (scripts/install-deps.sh installs them).
 # Usage: runtime_cross_test.sh windows|arm64 SOURCE_DIR BINARY_DIR WORK_DIR
 set -euo pipefail
@@ -36,11 +37,18 @@ PY
 )
 "$cxx" -std=c++20 -O2 -Wall -Wextra -Werror -ffp-contract=off -fno-math-errno -DXXH_INLINE_ALL -I"$src" \
   -isystem "$work/include" -static -o "$work/$program" "$src/examples/lookup/main.cpp" $sources
+# The cross build's paths: on ARM64 the NEON path (its best) and the scalar one, each against the native build.
+paths=(best)
+[ "$target" = arm64 ] && paths=(best scalar)
 answers() {  # FILE.cpvs POINTS K OUT: the cross build's answers (CRLF made LF) and the native build's
-  "$runner" "$work/$program" "$1" --pcf "$3" < "$2" 2> "$work/runner.log" | tr -d '\r' > "$4.$target"
   "$bin/cpvs-lookup-example" "$1" --pcf "$3" < "$2" > "$4.native"
   [ -s "$4.native" ] || { echo "no answers for $1"; exit 1; }
-  cmp "$4.$target" "$4.native" || { echo "the $target build answers $1 (K = $3) otherwise"; cat "$work/runner.log"; exit 1; }
+  for path in "${paths[@]}"; do
+    isa=(); [ "$path" = best ] || isa=(env CPVS_LOOKUP_ISA="$path")
+    "${isa[@]}" "$runner" "$work/$program" "$1" --pcf "$3" < "$2" 2> "$work/runner.log" | tr -d '\r' > "$4.$target"
+    cmp "$4.$target" "$4.native" ||
+      { echo "the $target build ($path path) answers $1 (K = $3) otherwise"; cat "$work/runner.log"; exit 1; }
+  done
 }
 scene="$src/data/scenes/TorusKnot/torusknot.gltf"
 lights=(--sun 0.3,-1,0.2 --spot 10,60,-30,-0.15,-0.85,0.5,0.6,200)
@@ -64,4 +72,4 @@ for k in 1 9; do
     answers "$g" "$work/tiny-points.csv" $k "$work/$(basename "$g" .cpvs)-$k"; checked=$((checked + 2000))
   done
 done
-echo "$target runtime ($(basename "$cxx") under $(basename "$runner")): $checked answers as the native build's"
+echo "$target runtime ($(basename "$cxx") under $(basename "$runner"), paths: ${paths[*]}): $checked answers as the native build's, on each path"

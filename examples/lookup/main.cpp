@@ -6,12 +6,15 @@
 //
 // Without points on the command line, reads them from standard input, one X,Y,Z,NX,NY,NZ per line (a CSV
 // header line is skipped). Prints one line per point: the point, then one visibility per light (1 lit, 0 shadowed). Exit codes: 0 ok,
-// 1 usage, 2 the file cannot be read.
+// 1 usage, 2 the file cannot be read. CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512 in the environment caps the
+// batch lookups' instruction set, as in the tools (every path gives the same answers).
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "libcpvs/runtime/batch_cells.h"
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 
@@ -31,6 +34,14 @@ int main(int argc, char** argv) {
   if (argc < 2) {
     std::fprintf(stderr, "usage: %s FILE.cpvs [--pcf K] [X,Y,Z,NX,NY,NZ ...]\n", argv[0]);
     return 1;
+  }
+  if (const char* isa = std::getenv("CPVS_LOOKUP_ISA")) {
+    const std::optional<cpvs::CellIsa> limit = cpvs::parseCellIsa(isa);
+    if (!limit) {
+      std::fprintf(stderr, "%s: CPVS_LOOKUP_ISA='%s': expected scalar, neon, avx2 or avx512\n", argv[0], isa);
+      return 1;
+    }
+    cpvs::setCellIsaLimit(*limit);
   }
   cpvs::LookupOptions options;
   std::vector<cpvs::SurfacePoint> points;

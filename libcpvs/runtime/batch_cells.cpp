@@ -17,6 +17,9 @@ CellIsa detectCellIsa() {
   if (portable::cpuHasAvx512f()) return CellIsa::Avx512;
   if (portable::cpuHasAvx2()) return CellIsa::Avx2;
 #endif
+#if CPVS_ARM_NEON_PATHS
+  return CellIsa::Neon;  // every AArch64 CPU has it
+#endif
   return CellIsa::Scalar;
 }
 
@@ -30,6 +33,7 @@ std::optional<CellIsa> parseCellIsa(const char* name) {
   if (!name) return std::nullopt;
   const std::string n(name);
   if (n == "scalar") return CellIsa::Scalar;
+  if (n == "neon") return CellIsa::Neon;
   if (n == "avx2") return CellIsa::Avx2;
   if (n == "avx512") return CellIsa::Avx512;
   return std::nullopt;
@@ -77,6 +81,9 @@ void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa)
   const CellIsa best = bestCellIsa();
   if (isa == CellIsa::Avx512 && best == CellIsa::Avx512) return detail::mapCellsAvx512(in, out);
   if (isa >= CellIsa::Avx2 && best >= CellIsa::Avx2) return detail::mapCellsAvx2(in, out);
+#endif
+#if CPVS_ARM_NEON_PATHS
+  if (isa >= CellIsa::Neon && bestCellIsa() >= CellIsa::Neon) return detail::mapCellsNeon(in, out);
 #endif
   (void)isa;
   mapCellsScalar(in, out);

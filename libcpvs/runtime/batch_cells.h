@@ -51,14 +51,16 @@ struct CellBatchOutput {
   uint8_t* state = nullptr;
 };
 
-enum class CellIsa : uint8_t { Scalar, Avx2, Avx512 };
+// The batch lookups' instruction sets, narrowest first: a limit lets every path up to it run. NEON exists on
+// AArch64 only, AVX2 and AVX-512 on x86-64 only (portability.h), so each CPU's best is one of its own.
+enum class CellIsa : uint8_t { Scalar, Neon, Avx2, Avx512 };
 
 // The fastest path this CPU runs, lowered to the limit set by setCellIsaLimit (default: no limit).
 CellIsa bestCellIsa();
 // Caps the paths every later batch lookup may use, process-wide (to compare the paths, or to rule one out; the
 // tools take it from the environment variable CPVS_LOOKUP_ISA). A path the CPU lacks is never used.
 void setCellIsaLimit(CellIsa limit);
-// "scalar", "avx2", "avx512"; nullopt for anything else (or null).
+// "scalar", "neon", "avx2", "avx512"; nullopt for anything else (or null).
 std::optional<CellIsa> parseCellIsa(const char* name);
 // Maps the batch with the given path, or the best one below it that this CPU runs.
 void mapCells(const CellBatchInput& in, const CellBatchOutput& out, CellIsa isa);
@@ -79,6 +81,7 @@ template <class Run>
 
 void mapCellsAvx2(const CellBatchInput& in, const CellBatchOutput& out);    // batch_cells_avx2.cpp
 void mapCellsAvx512(const CellBatchInput& in, const CellBatchOutput& out);  // batch_cells_avx512.cpp
+void mapCellsNeon(const CellBatchInput& in, const CellBatchOutput& out);    // batch_cells_neon.cpp
 }
 
 }  // namespace cpvs

@@ -17,11 +17,18 @@
 #include <vector>
 
 // x86-64 with GCC or clang: the AVX2 and AVX-512 paths are compiled (for their targets, below) and chosen at run
-// time. Elsewhere (MSVC, other CPUs) only the scalar path is compiled.
+// time. Elsewhere (MSVC, other CPUs) only the scalar path is compiled, and the NEON one on AArch64 (below).
 #if (defined(__x86_64__) || defined(_M_X64)) && defined(__GNUC__)
 #define CPVS_X86_VECTOR_PATHS 1
 #else
 #define CPVS_X86_VECTOR_PATHS 0
+#endif
+// AArch64 with GCC or clang: the NEON paths (Advanced SIMD, part of every ARMv8-A CPU, so compiled for the
+// build's own target and always chosen unless CPVS_LOOKUP_ISA lowers it). MSVC on ARM64 runs the scalar paths.
+#if defined(__aarch64__) && defined(__ARM_NEON) && defined(__GNUC__)
+#define CPVS_ARM_NEON_PATHS 1
+#else
+#define CPVS_ARM_NEON_PATHS 0
 #endif
 
 // Compiling one file's functions for a wider instruction set than the rest of the build, the same way with GCC

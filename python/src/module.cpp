@@ -21,7 +21,7 @@ PYBIND11_MODULE(_cpvs, m) {
   using namespace cpvs::python;
   m.doc() = "cpvs: Compact Precomputed Voxelized Shadows, baked and looked up from Python (docs/python.md).";
   m.attr("__version__") = cpvs::kVersion;
-  // As in the tools: CPVS_LOOKUP_ISA=scalar|avx2|avx512, read at import, caps the lookups' instruction set.
+  // As in the tools: CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512, read at import, caps the lookups' instruction set.
   if (const auto isa = cpvs::parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) cpvs::setCellIsaLimit(*isa);
   defineErrors(m);
 

@@ -158,7 +158,7 @@ void LightOptions::applyTo(Scene& scene) const {
 }
 
 int runMain(const char* toolName, const std::function<int()>& body) {
-  // CPVS_LOOKUP_ISA=scalar|avx2|avx512 caps the batch lookups' instruction set (docs/cli.md).
+  // CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512 caps the batch lookups' instruction set (docs/cli.md).
   if (const auto isa = parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) setCellIsaLimit(*isa);
   try {
     return body();
