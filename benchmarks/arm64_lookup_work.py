@@ -7,7 +7,8 @@ aarch64-linux-gnu-g++ -O2, -ffp-contract=off) and benchmarks/qemu_instruction_co
 case with this build's tools, samples surface points with cpvs-sample, then for each case, kernel (K = 1, 9)
 and path (CPVS_LOOKUP_ISA=scalar, neon) runs lookup_work under qemu-aarch64 twice, with --repeat 1 and 3:
 the difference in guest instructions over the lookups it adds is the work per lookup, opening and reading
-excluded. The answers' checksum of every ARM64 run must equal the native build's (exit 2 otherwise).
+excluded; the plugin's count per function splits off the batch mapping's part (the functions of
+batch_cells*.cpp). The answers' checksum of every ARM64 run must equal the native build's (exit 2 otherwise).
 
     python3 benchmarks/arm64_lookup_work.py [--bin build/bin] [--out out/arm64-work]
                                             [--doc docs/runtime/arm64-work.json] [--points 4000]
@@ -68,13 +69,21 @@ def build(out):
     return qemu, program, plugin, cxx
 
 
+# The batch mapping's functions (batch_cells*.cpp: the lane loops and what they call); the rest of a lookup is
+# the view selection, the walks and the answers.
+MAPPING = re.compile(r"mapCells|laneLog|NeonLanes|ScalarLanes")
+
+
 def counted(qemu, plugin, program, args, isa, out):
-    """(guest instructions, lookup_work's JSON) of one run under qemu."""
+    """(guest instructions, of them in the batch mapping, lookup_work's JSON) of one run under qemu."""
     count_file = out + ".count"
     env = dict(os.environ, CPVS_LOOKUP_ISA=isa)
-    report = json.loads(run([qemu, "-plugin", plugin + ",out=" + count_file, program] + args, env=env))
+    report = json.loads(run([qemu, "-plugin", plugin + ",out=" + count_file + ",functions=on", program] + args,
+                            env=env))
     with open(count_file) as f:
-        return int(f.read().strip()), report
+        lines = f.read().split("\n")
+    mapping = sum(int(line.split(" ", 1)[0]) for line in lines[1:] if line and MAPPING.search(line))
+    return int(lines[0]), mapping, report
 
 
 def main():
@@ -106,19 +115,24 @@ def main():
             row = {"case": name, "pcf": k, "lights": native["lights"], "points": native["points"],
                    "native_checksum": native["checksum"], "native_isa": native["isa"]}
             for isa in ("scalar", "neon"):
-                once, r1 = counted(qemu, plugin, program, args + ["--repeat", "1"], isa, os.path.join(a.out, "run"))
-                thrice, r3 = counted(qemu, plugin, program, args + ["--repeat", "3"], isa, os.path.join(a.out, "run"))
+                once, map1, r1 = counted(qemu, plugin, program, args + ["--repeat", "1"], isa,
+                                         os.path.join(a.out, "run"))
+                thrice, map3, r3 = counted(qemu, plugin, program, args + ["--repeat", "3"], isa,
+                                           os.path.join(a.out, "run"))
                 if r1["isa"] != isa or r1["checksum"] != native["checksum"] or r3["lookups"] != 3 * r1["lookups"]:
                     sys.stderr.write("arm64_lookup_work.py: %s K=%d %s: ISA %s, checksum %s against the native %s\n"
                                      % (name, k, isa, r1["isa"], r1["checksum"], native["checksum"]))
                     sys.exit(2)
                 row[isa + "_instructions_per_lookup"] = (thrice - once) / (2 * r1["lookups"])
+                row[isa + "_mapping_instructions_per_lookup"] = (map3 - map1) / (2 * r1["lookups"])
                 row[isa + "_instructions_total_repeat1"] = once
             row["neon_over_scalar"] = row["neon_instructions_per_lookup"] / row["scalar_instructions_per_lookup"]
             rows.append(row)
-            print("%-14s K=%d  %d lights x %d points  scalar %.1f  neon %.1f instructions per lookup  (%.2fx)" %
+            print("%-14s K=%d  %d lights x %d points  instructions per lookup: scalar %.1f (mapping %.1f), "
+                  "neon %.1f (mapping %.1f): %.2fx" %
                   (name, k, row["lights"], row["points"], row["scalar_instructions_per_lookup"],
-                   row["neon_instructions_per_lookup"], 1 / row["neon_over_scalar"]), flush=True)
+                   row["scalar_mapping_instructions_per_lookup"], row["neon_instructions_per_lookup"],
+                   row["neon_mapping_instructions_per_lookup"], 1 / row["neon_over_scalar"]), flush=True)
     doc = {"what": "instructions per lookup under qemu-aarch64 (guest instructions, counted by "
                    "benchmarks/qemu_instruction_count.c), (repeat 3 - repeat 1) / (2 x lookups)",
            "command": "python3 benchmarks/arm64_lookup_work.py" + (" --points %d" % a.points if a.points else ""),

@@ -86,15 +86,16 @@ WalkDag walkDag(const DagView& dag) {
 WalkStart walkStart(const DagView& dag, const TopGrid& grid) {
   return {walkDag(dag), grid.empty() ? nullptr : grid.cells.data(), grid.shift, grid.level, uint32_t(dag.rootCode)};
 }
-// The vector walks the CPU runs (AVX-512, else AVX2; NEON on AArch64), where the DAG and the batch (`slots` results: answers, or
+// The vector walks the CPU runs (AVX-512, else AVX2), where the DAG and the batch (`slots` results: answers, or
 // four tile masks per footprint) fit their signed 32-bit gather and scatter indices; else Scalar.
 CellIsa vectorWalks(const DagView& dag, size_t slots) {
   const bool fits = dag.nodes.size() >= 2 && dag.nodes.size() < (size_t(1) << 31) &&
                     dag.leaves.size() < (size_t(1) << 30) && slots < (size_t(1) << 31);
   if (!fits) return CellIsa::Scalar;
   if (vectorWalksAvailable()) return CellIsa::Avx512;
-  const CellIsa best = bestCellIsa();
-  return best == CellIsa::Avx2 || best == CellIsa::Neon ? best : CellIsa::Scalar;
+  // No NEON walks: on ARM64 a port of the vector walks, without gathers, took more instructions per lookup than
+  // the scalar walks (docs/runtime.md, "ARM64: the NEON path").
+  return bestCellIsa() >= CellIsa::Avx2 ? CellIsa::Avx2 : CellIsa::Scalar;
 }
 
 // The walks w[0, active) (active <= kWalksInFlight), each at a node of edge startSize, go down level by level
@@ -104,7 +105,7 @@ CellIsa vectorWalks(const DagView& dag, size_t slots) {
 // the group later, by which time it has arrived. A walk's result is written at every step (final unless a
 // reference follows). The scalar path: with AVX-512 the batches walk in dag_walks_avx512.cpp
 // (walkVoxelsAvx512, filterFootprintsAvx512), with AVX2 in dag_walks_avx2.cpp (walkVoxelsAvx2,
-// filterFootprintsAvx2), with NEON in dag_walks_neon.cpp, which give the same results.
+// filterFootprintsAvx2), which give the same results.
 template <class Results>
 [[gnu::always_inline]] inline void descendGroup(const DagView& dag, const WalkSet& w, size_t active,
                                                 uint32_t startSize, const Results& results) {
@@ -177,9 +178,7 @@ CPVS_POPCNT_CLONES void LightShadow::walkVoxels(uint32_t view, const CellBatchOu
     batch.indices = indices;
     batch.count = count;
     batch.answers = out.data();
-    return isa == CellIsa::Avx512 ? walkVoxelsAvx512(batch)
-           : isa == CellIsa::Avx2 ? walkVoxelsAvx2(batch)
-                                  : walkVoxelsNeon(batch);
+    return isa == CellIsa::Avx512 ? walkVoxelsAvx512(batch) : walkVoxelsAvx2(batch);
   }
   const uint16_t* nodes = nodeUnits(dag);
   // Locals, not members: the float stores to out[] could otherwise alias them and force reloads.
@@ -408,9 +407,7 @@ CPVS_POPCNT_CLONES Outcome LightShadow::visibility(const PointArrays& points, co
       batch.count = lanes;
       batch.kernelHalf = uint32_t(h);
       batch.answers = out.data();
-      return isa == CellIsa::Avx512 ? filterFootprintsAvx512(batch)
-             : isa == CellIsa::Avx2 ? filterFootprintsAvx2(batch)
-                                    : filterFootprintsNeon(batch);
+      return isa == CellIsa::Avx512 ? filterFootprintsAvx512(batch) : filterFootprintsAvx2(batch);
     }
     size_t pendingCount = 0;
     for (size_t j = 0; j < lanes; ++j) {

@@ -111,9 +111,6 @@ void descendGroupAvx512(const WalkDag& dag, const WalkSet& walks, size_t count, 
 // The same eight walks at a time with AVX2 (bestCellIsa() >= CellIsa::Avx2), the same results bit for bit.
 void descendGroupAvx2(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
                       void* results);
-// The same four walks at a time with NEON (AArch64, bestCellIsa() == CellIsa::Neon; dag_walks_neon.cpp).
-void descendGroupNeon(const WalkDag& dag, const WalkSet& walks, size_t count, uint32_t startSize, WalkResult kind,
-                      void* results);
 
 // Where the walks of a batch start: the DAG and its top grid.
 struct WalkStart {
@@ -136,7 +133,6 @@ struct VoxelWalkBatch {
 void walkVoxelsAvx512(const VoxelWalkBatch& batch);
 // The same with AVX2 (descendGroupAvx2's preconditions).
 void walkVoxelsAvx2(const VoxelWalkBatch& batch);
-void walkVoxelsNeon(const VoxelWalkBatch& batch);  // the same with NEON
 
 // K <= 9 PCF, AVX-512: LightShadow's filter for one view's mapped batch (lane j answers point indices[j], or j
 // when null), where the DAG's root is a reference. Every lane gets its answer without the DAG first (1 for
@@ -157,6 +153,5 @@ struct FootprintBatch {
 void filterFootprintsAvx512(const FootprintBatch& batch);
 // The same eight footprints at a time with AVX2 (descendGroupAvx2's preconditions), the same answers bit for bit.
 void filterFootprintsAvx2(const FootprintBatch& batch);
-void filterFootprintsNeon(const FootprintBatch& batch);  // the same four footprints at a time with NEON
 
 }  // namespace cpvs

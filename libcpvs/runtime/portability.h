@@ -6,8 +6,8 @@
 // (tests/layering_check.py fails on one).
 //
 // Tested: GCC 12 and clang 14 on x86-64 Linux, MinGW-w64's GCC 12 with its Windows file mapping under Wine, and
-// GCC 12 on AArch64 under qemu (tests/runtime_cross_test.sh). Written as the compilers' documentation says, not
-// yet built here: MSVC (x64, ARM64) (docs/runtime.md, "Compilers and systems").
+// GCC 12 on AArch64 under qemu, its NEON mapping included (tests/runtime_cross_test.sh). Written as the
+// compilers' documentation says, not yet built here: MSVC (x64, ARM64) (docs/runtime.md, "Compilers and systems").
 //
 // Standard headers only: the vector files include it before their CPVS_TARGET_BEGIN_* line, and it must not
 // pull anything into that range.
