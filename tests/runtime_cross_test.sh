@@ -5,7 +5,9 @@
 # GCC build of the same example: two real bakes (TorusKnot under a sun and a spot; the generated city with 165
 # spot lights at 1k) in format 2.0 and 3.0, unfiltered and with 9x9 PCF, and the golden files of
 # formats/cpvs/golden (1.0, 2.0, 3.0). Windows writes text with CRLF line ends: the only difference allowed.
-# On ARM64 every check runs twice, on the NEON path and on the scalar one (CPVS_LOOKUP_ISA=scalar).
+# On ARM64 every check runs twice, on the NEON path and on the scalar one (CPVS_LOOKUP_ISA=scalar). Then the
+# runtime's own checks (tests/runtime_alone/runtime_checks.cpp), cross-compiled with GoogleTest, run on the same
+# files under the same emulator.
 # Skips (77) without the cross compiler or the emulator (scripts/install-deps.sh installs them).
 # Usage: runtime_cross_test.sh windows|arm64 SOURCE_DIR BINARY_DIR WORK_DIR
 set -euo pipefail
@@ -35,8 +37,22 @@ names = re.search(r"set\(_cpvs_runtime_files([^)]*)\)", text).group(1).split()
 print(" ".join(os.path.join(os.path.dirname(sys.argv[1]), n + ".cpp") for n in names))
 PY
 )
-"$cxx" -std=c++20 -O2 -Wall -Wextra -Werror -ffp-contract=off -fno-math-errno -DXXH_INLINE_ALL -I"$src" \
-  -isystem "$work/include" -static -o "$work/$program" "$src/examples/lookup/main.cpp" $sources
+# The runtime's files compiled once, then linked into the example and into the runtime's own checks
+# (tests/runtime_alone/runtime_checks.cpp, with GoogleTest built from Debian's sources for the target).
+gtest=/usr/src/googletest/googletest
+[ -f "$gtest/src/gtest-all.cc" ] || { echo "no GoogleTest sources (libgtest-dev)"; exit 77; }
+flags=(-std=c++20 -O2 -Wall -Wextra -Werror -ffp-contract=off -fno-math-errno -DXXH_INLINE_ALL -I"$src"
+       -isystem "$work/include" -isystem "$gtest/include")
+objects=()
+for s in $sources "$src/examples/lookup/main.cpp" "$src/tests/runtime_alone/runtime_checks.cpp"; do
+  o="$work/$(basename "$(dirname "$s")")-$(basename "$s" .cpp).o"
+  "$cxx" "${flags[@]}" -c "$s" -o "$o"
+  case "$s" in */main.cpp) example_main=$o;; */runtime_checks.cpp) checks_main=$o;; *) objects+=("$o");; esac
+done
+"$cxx" -std=c++20 -O1 -I"$gtest" -I"$gtest/include" -c "$gtest/src/gtest-all.cc" -o "$work/gtest-all.o"
+checks=runtime_checks${program#cpvs-lookup-example}
+"$cxx" -static -o "$work/$program" "$example_main" "${objects[@]}"
+"$cxx" -static -o "$work/$checks" "$checks_main" "${objects[@]}" "$work/gtest-all.o" -pthread
 # The cross build's paths: on ARM64 the NEON path (its best) and the scalar one, each against the native build.
 paths=(best)
 [ "$target" = arm64 ] && paths=(best scalar)
@@ -73,3 +89,11 @@ for k in 1 9; do
   done
 done
 echo "$target runtime ($(basename "$cxx") under $(basename "$runner"), paths: ${paths[*]}): $checked answers as the native build's, on each path"
+# The runtime's own checks on the same files: every lookup path against one point at a time, damaged copies, the
+# GPU records against the file's DAGs.
+cases=("$work/tk2.cpvs" "$work/points.csv" "$work/tk3.cpvs" "$work/points.csv" "$work/spots2.cpvs"
+       "$work/spots-points.csv" "$work/spots3.cpvs" "$work/spots-points.csv")
+for g in "$src"/formats/cpvs/golden/tiny_v*.cpvs; do cases+=("$g" "$work/tiny-points.csv"); done
+"$runner" "$work/$checks" --gtest_brief=1 "${cases[@]}" > "$work/checks.log" 2>&1 ||
+  { echo "the $target build's runtime checks failed"; tr -d '\r' < "$work/checks.log"; exit 1; }
+tr -d '\r' < "$work/checks.log" | grep -E "answers|copies|voxels|PASSED"
