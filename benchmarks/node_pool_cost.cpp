@@ -1,6 +1,7 @@
 // What pooling costs a bake: the time and memory of the library's NodePool (libcpvs/dag/node_pool.h) adding every
-// view of a baked .cpvs one after the other, as a bake would add each light as it finishes, then laying the
-// pool out. A study for format 3.0: the bake does not pool yet.
+// view of a baked .cpvs one after the other, as a 3.0 bake adds each light as it finishes (cpvs_writer.cpp, without
+// per-node view counts), then laying the pool out. The histogram of how many views reach each node comes from
+// one more pool, with the counts, outside the timings.
 //
 // Memory: the resident set before the first add (the file mapped and validated, every DAG touched) and after
 // the layout; the pool's share is the difference (the tables' index, the build-form nodes, the laid-out bytes).
@@ -47,7 +48,7 @@ int run(const char* path, int rounds) {
   uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0, layoutHash = 0;
   std::vector<uint64_t> sharing;
   for (int r = 0; r < rounds; ++r) {
-    NodePool pool;
+    NodePool pool(LeafShape::Slices, /*countViews=*/false);
     const auto t0 = Clock::now();
     for (const CpvsFile::LightEntry& light : file->lights())
       for (const CpvsFile::View& v : light.views) pool.add(v.dag);
@@ -67,8 +68,13 @@ int run(const char* path, int rounds) {
     for (const LaidOutPool::Root& root : laid.roots)
       layoutHash = XXH3_64bits_withSeed(&root.offset, sizeof root.offset, layoutHash);
     nodes = pool.nodes();
-    sharing = pool.nodesByViewsReaching();
     rssAfter = std::max(rssAfter, currentRssBytes());
+  }
+  {
+    NodePool counted(LeafShape::Slices, /*countViews=*/true);
+    for (const CpvsFile::LightEntry& light : file->lights())
+      for (const CpvsFile::View& v : light.views) counted.add(v.dag);
+    sharing = counted.nodesByViewsReaching();
   }
   std::printf("%s: %llu views, DAGs %.2f MB as stored, pooled %.2f MB (%llu nodes, layout XXH3 %016llx); adding every "
               "view %.2f s, laying out %.2f s (best of %d); resident %.0f MB before, %.0f MB with the pool (+%.0f MB), "

@@ -32,14 +32,25 @@ public:
     std::vector<uint32_t>().swap(slots_);  // the old slots are not needed: the items are rehashed
     slots_.assign(capacity, 0);
     idBits_ = std::max<uint32_t>(uint32_t(std::bit_width(nextId + 1)), idBits_);
-    forEachItem([&](uint32_t id, uint64_t hash) {
+    // Each insert is a cache miss in a large index: the items are inserted kAhead after their slots are
+    // prefetched. The slots they land in are the same as one by one (each waits for the inserts before it).
+    constexpr size_t kAhead = 16;
+    std::pair<uint32_t, uint64_t> pending[kAhead];
+    size_t seen = 0;
+    const auto place = [&](uint32_t id, uint64_t hash) {
       for (size_t i = size_t(hash) & (slots_.size() - 1);; i = (i + 1) & (slots_.size() - 1)) {
         if (slots_[i] == 0) {
           slots_[i] = slotOf(id, hash);
           break;
         }
       }
+    };
+    forEachItem([&](uint32_t id, uint64_t hash) {
+      if (seen >= kAhead) place(pending[seen % kAhead].first, pending[seen % kAhead].second);
+      pending[seen++ % kAhead] = {id, hash};
+      prefetch(hash);
     });
+    for (size_t k = seen > kAhead ? seen - kAhead : 0; k < seen; ++k) place(pending[k % kAhead].first, pending[k % kAhead].second);
   }
 
   // The id of the item equal(id) confirms, among those with this hash; or newId, recorded, when there is none.
@@ -71,8 +82,19 @@ public:
     }
   }
 
+  // The id in the slot a search for this hash starts at, when its hash bits match (the item a search would most
+  // likely compare first); UINT32_MAX otherwise.
+  uint32_t firstCandidate(uint64_t hash) const {
+    if (slots_.empty()) return UINT32_MAX;
+    const uint32_t idMask = idBits_ >= 32 ? UINT32_MAX : (1u << idBits_) - 1;
+    const uint32_t slot = slots_[size_t(hash) & (slots_.size() - 1)];
+    return slot != 0 && (slot & ~idMask) == tagOf(hash) ? (slot & idMask) - 1 : UINT32_MAX;
+  }
+
   // Brings the slot a search for this hash starts at into the cache.
-  void prefetch(uint64_t hash) const { __builtin_prefetch(slots_.data() + (size_t(hash) & (slots_.size() - 1))); }
+  void prefetch(uint64_t hash) const {
+    if (!slots_.empty()) __builtin_prefetch(slots_.data() + (size_t(hash) & (slots_.size() - 1)));
+  }
 
   void release() { std::vector<uint32_t>().swap(slots_); }
   // Empties the index, keeping its slots (for a table refilled many times).

@@ -22,7 +22,10 @@ template <class T, class RecordLength>
 class InternedRecords {
 public:
   // Returns the offset of a record equal to record[0, length), appending it when new.
-  uint32_t intern(const T* record, uint32_t length) {
+  uint32_t intern(const T* record, uint32_t length) { return intern(record, length, hashOf(record, length)); }
+  // The same with the record's hashOf() already taken (a caller that hashes records ahead of interning them, to
+  // prefetch() their index slots).
+  uint32_t intern(const T* record, uint32_t length, uint64_t hash) {
     if (index_.full(size_, records_.size())) {
       index_.rebuild(size_, records_.size(), [&](auto&& insert) {
         for (size_t i = 0; i < records_.size();) {
@@ -35,7 +38,7 @@ public:
     // A stored record may be shorter than this one: the comparison may read past it, but not past the mapping.
     records_.reserve(records_.size() + length);
     const uint32_t newOffset = uint32_t(records_.size());
-    const uint32_t offset = index_.findOrInsert(hashOf(record, length), newOffset, [&](uint32_t at) {
+    const uint32_t offset = index_.findOrInsert(hash, newOffset, [&](uint32_t at) {
       return records_[at] == record[0] && std::memcmp(&records_[at], record, length * sizeof(T)) == 0;
     });
     if (offset == newOffset) {
@@ -43,6 +46,18 @@ public:
       ++size_;
     }
     return offset;
+  }
+
+  // What intern() hashes a record by.
+  static uint64_t hashOf(const T* record, uint32_t length) { return XXH3_64bits(record, length * sizeof(T)); }
+  // Brings the index slot an intern() of a record with this hash starts at into the cache: a hint, taken a few
+  // records ahead, so that the probes (cache misses in a large table) overlap.
+  void prefetch(uint64_t hash) const { index_.prefetch(hash); }
+  // The next step, once that slot has arrived: brings the stored record it names into the cache, where the
+  // intern() will compare it (found records are compared whole).
+  void prefetchCandidate(uint64_t hash) const {
+    const uint32_t at = index_.firstCandidate(hash);
+    if (at < records_.size()) __builtin_prefetch(&records_[at]);
   }
 
   const MappedArray<T>& records() const { return records_; }
@@ -57,8 +72,6 @@ public:
   uint64_t indexBytes() const { return index_.bytes(); }
 
 private:
-  static uint64_t hashOf(const T* record, uint32_t length) { return XXH3_64bits(record, length * sizeof(T)); }
-
   MappedArray<T> records_;  // every record once, in the order they were added
   HashIndex index_;         // by offset
   uint64_t size_ = 0;

@@ -83,40 +83,84 @@ size_t NodePool::add(const DagView& dag) {
   const uint32_t log2Edge = uint32_t(std::countr_zero(dag.resolution));
   Root root{dag.rootCode, log2Edge, 0};
   if (dag.rootCode == ChildCode::Ref) {
-    // A view's unit offset -> its node's pooled id (every unit offset is one node's: levels do not share units).
+    // The nodes in the order a depth-first walk from the root completes them (children first, in child order),
+    // level by level. Interning each level's nodes in that order gives every new node the id a recursive
+    // intern would (a level's ids count only that level's interns), so the bytes do not depend on this
+    // schedule; and a level's nodes, interned in a loop, can have their index slots prefetched a few nodes
+    // ahead, where the recursion met a cache miss per node.
+    std::vector<std::vector<uint32_t>> order(log2Edge + 1);
+    // A view's unit offset -> its node's pooled id (every unit offset is one node's: levels do not share units);
+    // UINT32_MAX - 1 marks a node the walk has met but not interned yet.
     std::vector<uint32_t> memo(dag.nodes.size(), UINT32_MAX);
-    // Bottom-up by recursion: a node is interned after its children, whose ids it holds.
-    // A view's DAG holds each of its nodes once, so a node met here for the first time in this view is one more
-    // view reaching it.
-    const auto reached = [&](uint32_t log2, uint32_t id) {
-      if (!countViews_) return id;
-      uint32_t& n = viewsReaching_[log2][id];
-      n += n != UINT32_MAX;
-      return id;
-    };
-    const auto intern = [&](const auto& self, uint32_t unit, uint32_t log2) -> uint32_t {
-      if (memo[unit] != UINT32_MAX) return memo[unit];
-      if (log2 == 3 && shape_ == LeafShape::Octants) return memo[unit] = reached(3, internLeafParent(dag, unit));
+    const auto visit = [&](const auto& self, uint32_t unit, uint32_t log2) -> void {
+      if (memo[unit] != UINT32_MAX) return;
+      memo[unit] = UINT32_MAX - 1;
       const uint32_t header = dag.nodes[unit];
-      uint32_t words[9] = {0};
-      unsigned count = 1;
-      for (unsigned c = 0; c < 8; ++c) {
-        const uint32_t code = childCodeOf(header, c);
-        words[0] |= code << (2 * c);
-        if (code != uint32_t(ChildCode::Ref)) continue;
-        const uint32_t target = dag.child(unit, header, c, 1u << log2);
-        words[count++] = log2 == 3 ? leaves_.intern(dag.leaves[target]) : self(self, target, log2 - 1);
-      }
-      return memo[unit] = reached(log2, internNode(log2, words, count));
+      for (unsigned c = 0; log2 > 3 && c < 8; ++c)
+        if (childCodeOf(header, c) == uint32_t(ChildCode::Ref)) self(self, dag.child(unit, header, c, 1u << log2), log2 - 1);
+      order[log2].push_back(unit);
     };
-    root.id = intern(intern, 0, log2Edge);
+    visit(visit, 0, log2Edge);
+    for (uint32_t log2 = 3; log2 <= log2Edge; ++log2) internLevel(dag, log2, order[log2], memo);
+    root.id = memo[0];
   }
   roots_.push_back(root);
   return roots_.size() - 1;
 }
 
-// A leaf parent regrouped into its 4^3 octants: the slices' bits gathered per octant.
-uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
+// One level of a view's nodes, in `units` order: each node's words (its children's pooled ids, known from the
+// level below, or its leaves' indices, interned here in child order), then its id in memo. A node is hashed and
+// its index slot prefetched kAhead nodes before its intern, and the record that slot names kAhead / 2 before.
+void NodePool::internLevel(const DagView& dag, uint32_t log2, const std::vector<uint32_t>& units,
+                           std::vector<uint32_t>& memo) {
+  constexpr size_t kAhead = 16;
+  struct Pending {
+    uint32_t words[9];
+    unsigned count;
+    uint64_t hash;
+  } ring[kAhead];
+  NodeTable& table = levels_[log2];
+  const size_t n = units.size();
+  for (size_t i = 0; i < n + kAhead; ++i) {
+    if (i >= kAhead) {
+      const Pending& p = ring[i % kAhead];
+      const uint32_t id = internNode(log2, p.words, p.count, p.hash);
+      if (countViews_) {  // a view's DAG holds each of its nodes once: one more view reaching it
+        uint32_t& views = viewsReaching_[log2][id];
+        views += views != UINT32_MAX;
+      }
+      memo[units[i - kAhead]] = id;
+    }
+    if (i >= kAhead / 2 && i - kAhead / 2 < n) table.prefetchCandidate(ring[(i - kAhead / 2) % kAhead].hash);
+    if (i < n) {
+      Pending& p = ring[i % kAhead];
+      p.count = log2 == 3 && shape_ == LeafShape::Octants ? leafParentWords(dag, units[i], p.words)
+                                                           : nodeWords(dag, units[i], log2, memo, p.words);
+      p.hash = NodeTable::hashOf(p.words, p.count);
+      table.prefetch(p.hash);
+    }
+  }
+}
+
+// A node's build-form words: its header's codes (2 bits a child), then each reference's child id (its leaf index
+// below a leaf parent). Returns how many.
+unsigned NodePool::nodeWords(const DagView& dag, uint32_t unit, uint32_t log2, const std::vector<uint32_t>& memo,
+                             uint32_t (&words)[9]) {
+  const uint32_t header = dag.nodes[unit];
+  words[0] = 0;
+  unsigned count = 1;
+  for (unsigned c = 0; c < 8; ++c) {
+    const uint32_t code = childCodeOf(header, c);
+    words[0] |= code << (2 * c);
+    if (code != uint32_t(ChildCode::Ref)) continue;
+    const uint32_t target = dag.child(unit, header, c, 1u << log2);
+    words[count++] = log2 == 3 ? leaves_.intern(dag.leaves[target]) : memo[target];
+  }
+  return count;
+}
+
+// A leaf parent regrouped into its 4^3 octants: the slices' bits gathered per octant, each octant a leaf.
+unsigned NodePool::leafParentWords(const DagView& dag, uint32_t unit, uint32_t (&words)[9]) {
   const uint32_t header = dag.nodes[unit];
   uint64_t slices[8];
   for (unsigned z = 0; z < 8; ++z) {
@@ -124,7 +168,7 @@ uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
     slices[z] = code == uint32_t(ChildCode::Ref) ? dag.leaves[dag.child(unit, header, z, 8)]
                                                  : code == uint32_t(ChildCode::Shadowed) ? ~uint64_t(0) : 0;
   }
-  uint32_t words[9] = {0};
+  words[0] = 0;
   unsigned count = 1;
   for (unsigned c = 0; c < 8; ++c) {
     const unsigned x0 = (c & 1u) * 4, y0 = ((c >> 1) & 1u) * 4, z0 = (c >> 2) * 4;
@@ -140,12 +184,12 @@ uint32_t NodePool::internLeafParent(const DagView& dag, uint32_t unit) {
     words[0] |= uint32_t(ChildCode::Ref) << (2 * c);
     words[count++] = leaves_.intern(octant);
   }
-  return internNode(3, words, count);
+  return count;
 }
 
-uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned count) {
+uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned count, uint64_t hash) {
   const uint64_t before = levels_[log2].records().size();
-  const uint32_t offset = levels_[log2].intern(words, count);
+  const uint32_t offset = levels_[log2].intern(words, count, hash);
   if (offset != before) return starts_[log2].idAt(offset);
   // New: appended at the end, so offsets grow with ids.
   const uint32_t id = nodesIn_[log2]++;

@@ -128,8 +128,12 @@ private:
   bool consumed_ = false;
   // layOut's work; with `release`, each level's build form is freed once laid out and the next level counted.
   void layOutImpl(bool hotTables, const LayoutSink& sink, bool release) const;
-  uint32_t internLeafParent(const DagView& dag, uint32_t unit);
-  uint32_t internNode(uint32_t log2, const uint32_t* words, unsigned count);  // the node's id in its level
+  void internLevel(const DagView& dag, uint32_t log2, const std::vector<uint32_t>& units, std::vector<uint32_t>& memo);
+  unsigned nodeWords(const DagView& dag, uint32_t unit, uint32_t log2, const std::vector<uint32_t>& memo,
+                     uint32_t (&words)[9]);
+  unsigned leafParentWords(const DagView& dag, uint32_t unit, uint32_t (&words)[9]);
+  // The node's id in its level; `hash` is NodeTable::hashOf(words, count).
+  uint32_t internNode(uint32_t log2, const uint32_t* words, unsigned count, uint64_t hash);
   bool indexesReleased_ = false;
 };
 
