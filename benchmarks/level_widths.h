@@ -1,8 +1,8 @@
 #pragma once
-// A pool of DAG nodes laid out with two reference widths per level, in bytes: the candidate coding for a
-// .cpvs 3.0 that benchmarks/level_width_estimate weighs (the library's NodePool, libcpvs/dag/node_pool.h, is its
-// implementation, and the runtime's ByteDagView, libcpvs/runtime/byte_dag.h, its walk). A study's tool, not a
-// format.
+// A pool of DAG nodes laid out with two reference widths per level, in bytes: the coding format 3.0 adopted, as
+// the format study weighed it (docs/format-3-study.md; the library's NodePool, libcpvs/dag/node_pool.h, is its
+// implementation, and the runtime's ByteDagView, libcpvs/runtime/byte_dag.h, its walk). Kept for the smaller-DAG
+// estimator (dag_transform_estimate.cpp), which weighs transformed DAGs in it. A study's tool, not a format.
 //
 // Every node edge (8, 16, ... N) is one level of the pool, its nodes most referenced first (ties as first
 // seen, as cpvs-bake orders a view's levels). A node is a 16-bit header, 2 bits per child as in format 2.0
@@ -76,7 +76,7 @@ struct PoolLevel {
 };
 
 // The study's layout of a pool: what the estimator weighs the other codings over. The library's NodePool
-// (libcpvs/dag/node_pool.h) lays out the same bytes (level_width_estimate checks it); the walks read those.
+// (libcpvs/dag/node_pool.h) lays out the same bytes (the format study checked it); the walks read those.
 struct StudyLayout {
   std::vector<uint8_t> bytes;
   std::vector<PoolLevel> levels;         // ascending edge

@@ -1,8 +1,8 @@
 #pragma once
-// One node pool for a whole .cpvs, as the studies of a shared pool count it (shared_pool_estimate,
-// ref_dictionary_estimate): every view's DAG pooled so that each distinct subtree (the same child codes over the
-// same distinct children, at the same node size) and each distinct leaf mask is kept once per file. A study's
-// tool, not a format.
+// One node pool for a whole .cpvs, as the format study counted it (docs/format-3-study.md; the smaller-DAG
+// estimator, dag_transform_estimate.cpp, pools transformed DAGs with it): every view's DAG pooled so that each
+// distinct subtree (the same child codes over the same distinct children, at the same node size) and each
+// distinct leaf mask is kept once per file. A study's tool, not a format.
 #include <cstdint>
 #include <map>
 #include <tuple>
@@ -104,57 +104,5 @@ class PoolBuilder {
   std::unordered_map<uint64_t, uint32_t> leafIds_;
   std::map<NodeKey, uint32_t> nodeIds_;
 };
-
-inline Pool poolOf(const CpvsFile& file) {
-  PoolBuilder builder;
-  for (const CpvsFile::LightEntry& light : file.lights())
-    for (const CpvsFile::View& v : light.views) builder.add(v);
-  return builder.pool();
-}
-
-// The slices of a leaf parent as 64-bit masks (bit (y & 7) * 8 + (x & 7)).
-void slicesOf(const Pool& pool, const PooledNode& n, uint64_t (&slices)[8]) {
-  for (unsigned z = 0, k = 0; z < 8; ++z) {
-    const uint32_t code = (n.codes >> (2 * z)) & 3u;
-    slices[z] = code == uint32_t(ChildCode::Ref) ? pool.leafMasks[n.children[k++]] : code == 1 ? ~uint64_t(0) : 0;
-  }
-}
-
-// The same pool with its leaf parents split into their 4^3 octants (bit (z & 3) * 16 + (y & 3) * 4 + (x & 3) of a
-// 64-bit leaf, homogeneous octants coded lit or shadowed) instead of 8x8x1 slices: a study of the leaf shape
-// (leaf_shape_estimate, level_width_estimate --cube-leaves). The levels above do not change.
-Pool withCubeLeaves(const Pool& pool) {
-  Pool out = pool;
-  out.leafMasks.clear();
-  std::unordered_map<uint64_t, uint32_t> brickIds;
-  for (PooledNode& n : out.nodes) {
-    if (n.edge != 8) continue;
-    uint64_t slices[8];
-    slicesOf(pool, n, slices);
-    n.codes = 0;
-    n.children.clear();
-    for (unsigned c = 0; c < 8; ++c) {
-      const unsigned bx = c & 1u, by = (c >> 1) & 1u, bz = c >> 2;
-      uint64_t brick = 0;
-      for (unsigned z = 0; z < 4; ++z)
-        for (unsigned y = 0; y < 4; ++y)
-          for (unsigned x = 0; x < 4; ++x) {
-            const uint64_t bit = (slices[4 * bz + z] >> ((4 * by + y) * 8 + 4 * bx + x)) & 1u;
-            brick |= bit << (z * 16 + y * 4 + x);
-          }
-      if (brick == 0) continue;  // lit: code 0
-      if (brick == ~uint64_t(0)) {
-        n.codes |= 1u << (2 * c);
-        continue;
-      }
-      const auto [it, fresh] = brickIds.emplace(brick, uint32_t(out.leafMasks.size()));
-      if (fresh) out.leafMasks.push_back(brick);
-      n.codes |= 2u << (2 * c);
-      n.children.push_back(it->second);
-    }
-  }
-  out.leaves = out.leafMasks.size();
-  return out;
-}
 
 }  // namespace cpvs::study
