@@ -47,12 +47,14 @@ int run(const char* path, int rounds) {
   double bestAdd = 1e30, bestLayOut = 1e30;
   uint64_t pooledBytes = 0, rssAfter = 0, nodes = 0, layoutHash = 0;
   std::vector<uint64_t> sharing;
+  NodePool::BuildFormBytes buildForm;
   for (int r = 0; r < rounds; ++r) {
     NodePool pool(LeafShape::Slices, /*countViews=*/false);
     const auto t0 = Clock::now();
     for (const CpvsFile::LightEntry& light : file->lights())
       for (const CpvsFile::View& v : light.views) pool.add(v.dag);
     const auto t1 = Clock::now();
+    buildForm = pool.buildFormBytes();
     pool.releaseIndexes();
     const LaidOutPool laid = pool.layOut();
     const auto t2 = Clock::now();
@@ -83,6 +85,11 @@ int run(const char* path, int rounds) {
               (unsigned long long)nodes, (unsigned long long)layoutHash, bestAdd, bestLayOut, rounds, double(rssBefore) / 1e6, double(rssAfter) / 1e6,
               double(rssAfter - std::min(rssAfter, rssBefore)) / 1e6, double(peakRssBytes()) / 1e6,
               loadBefore.c_str(), loadAverage().c_str());
+  const auto mb = [](uint64_t bytes) { return double(bytes) / 1e6; };
+  std::printf("  build form once every view is in: %.1f MB (nodes %.1f, leaf parents %.1f, indexes %.1f, "
+              "node starts %.1f, leaves %.1f, leaf index %.1f)\n",
+              mb(buildForm.total()), mb(buildForm.nodes), mb(buildForm.leafParents), mb(buildForm.indexes),
+              mb(buildForm.starts), mb(buildForm.leaves), mb(buildForm.leafIndex));
   std::printf("  nodes by the views that reach them:");
   for (size_t k = 0; k < sharing.size(); ++k) {
     const uint64_t low = k == 0 ? 1 : (uint64_t(1) << (k - 1)) + 1, high = uint64_t(1) << k;

@@ -13,6 +13,27 @@ namespace cpvs {
 
 namespace {
 
+// Calls visit(offset, header, children, count) for each node of a level in build form, in id order.
+template <class Visit>
+void forEachNode(const PooledLevelTable& nodes, Visit&& visit) {
+  const MappedArray<uint8_t>& bytes = nodes.records();
+  uint32_t header, children[8];
+  for (size_t at = 0; at < bytes.size();) {
+    const unsigned length = PooledLevelTable::decode(&bytes[at], header, children);
+    visit(uint32_t(at), header, children, nodeWordCount(header) - 1);
+    at += length;
+  }
+}
+
+// References per child of a level's nodes (popularity_order.h's referenceCounts, over the byte-coded build form).
+std::vector<uint32_t> referenceCounts(const PooledLevelTable& parents, size_t childCount) {
+  std::vector<uint32_t> counts(childCount, 0);
+  forEachNode(parents, [&](uint32_t, uint32_t, const uint32_t* children, unsigned count) {
+    for (unsigned k = 0; k < count; ++k) counts[children[k]] += counts[children[k]] != UINT32_MAX;
+  });
+  return counts;
+}
+
 unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1u << 16) ? 2 : value < (1u << 24) ? 3 : 4; }
 
 // How a level codes its references: the pair of widths, and how many of the level below's most referenced
@@ -35,15 +56,14 @@ unsigned referenceWidth(unsigned rankNeeds, unsigned offsetNeeds, ReferenceWidth
 // level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
 // counts those and every coding is priced from the counts. Ties go to the first pair of kWidthPairs, without a
 // table before with one.
-LevelChoice narrowestCoding(std::span<const uint32_t> words, const std::vector<uint32_t>& offsetBelow,
+LevelChoice narrowestCoding(const PooledLevelTable& nodes, const std::vector<uint32_t>& offsetBelow,
                             const std::vector<uint32_t>& rankBelow, uint64_t nodesBelow, bool allowTable,
                             uint32_t edge) {
   uint64_t needing[5][5] = {};  // [bytes the rank needs][bytes the offset needs]
-  for (size_t at = 0; at < words.size(); at += nodeWordCount(words[at]))
-    for (unsigned k = 1; k < nodeWordCount(words[at]); ++k) {
-      const uint32_t child = words[at + k];
-      needing[bytesNeeded(rankBelow[child])][bytesNeeded(offsetBelow[child])] += 1;
-    }
+  forEachNode(nodes, [&](uint32_t, uint32_t, const uint32_t* children, unsigned count) {
+    for (unsigned k = 0; k < count; ++k)
+      needing[bytesNeeded(rankBelow[children[k]])][bytesNeeded(offsetBelow[children[k]])] += 1;
+  });
   uint64_t best = std::numeric_limits<uint64_t>::max();
   LevelChoice chosen;
   for (const bool table : {false, true}) {
@@ -115,16 +135,16 @@ void NodePool::internLevel(const DagView& dag, uint32_t log2, const std::vector<
                            std::vector<uint32_t>& memo) {
   constexpr size_t kAhead = 16;
   struct Pending {
-    uint32_t words[9];
-    unsigned count;
+    uint8_t bytes[PooledLevelTable::kMaxNodeBytes];
+    unsigned length;
     uint64_t hash;
   } ring[kAhead];
-  NodeTable& table = levels_[log2];
+  PooledLevelTable& table = levels_[log2];
   const size_t n = units.size();
   for (size_t i = 0; i < n + kAhead; ++i) {
     if (i >= kAhead) {
       const Pending& p = ring[i % kAhead];
-      const uint32_t id = internNode(log2, p.words, p.count, p.hash);
+      const uint32_t id = internNode(log2, p.bytes, p.length, p.hash);
       if (countViews_) {  // a view's DAG holds each of its nodes once: one more view reaching it
         uint32_t& views = viewsReaching_[log2][id];
         views += views != UINT32_MAX;
@@ -134,9 +154,11 @@ void NodePool::internLevel(const DagView& dag, uint32_t log2, const std::vector<
     if (i >= kAhead / 2 && i - kAhead / 2 < n) table.prefetchCandidate(ring[(i - kAhead / 2) % kAhead].hash);
     if (i < n) {
       Pending& p = ring[i % kAhead];
-      p.count = log2 == 3 && shape_ == LeafShape::Octants ? leafParentWords(dag, units[i], p.words)
-                                                           : nodeWords(dag, units[i], log2, memo, p.words);
-      p.hash = NodeTable::hashOf(p.words, p.count);
+      uint32_t words[9];
+      const unsigned count = log2 == 3 && shape_ == LeafShape::Octants ? leafParentWords(dag, units[i], words)
+                                                                      : nodeWords(dag, units[i], log2, memo, words);
+      p.length = PooledLevelTable::encode(words[0], words + 1, count - 1, p.bytes);
+      p.hash = PooledLevelTable::hashOf(p.bytes, p.length);
       table.prefetch(p.hash);
     }
   }
@@ -187,9 +209,9 @@ unsigned NodePool::leafParentWords(const DagView& dag, uint32_t unit, uint32_t (
   return count;
 }
 
-uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned count, uint64_t hash) {
+uint32_t NodePool::internNode(uint32_t log2, const uint8_t* bytes, unsigned length, uint64_t hash) {
   const uint64_t before = levels_[log2].records().size();
-  const uint32_t offset = levels_[log2].intern(words, count, hash);
+  const uint32_t offset = levels_[log2].intern(bytes, length, hash);
   if (offset != before) return starts_[log2].idAt(offset);
   // New: appended at the end, so offsets grow with ids.
   const uint32_t id = nodesIn_[log2]++;
@@ -199,8 +221,8 @@ uint32_t NodePool::internNode(uint32_t log2, const uint32_t* words, unsigned cou
 }
 
 void NodePool::NodeStarts::append(uint32_t offset, uint32_t id) {
-  while (idsBefore.size() <= offset / 512) idsBefore.push_back(id);  // blocks this node is the first id at or past
-  if (bits.size() <= offset / 64) bits.resize(offset / 64 + 1, 0);
+  while (idsBefore.size() <= offset / 512) idsBefore.append(&id, 1);  // blocks this node is the first id at or past
+  if (bits.size() <= offset / 64) bits.resize(offset / 64 + 1);      // new words are zero
   bits[offset / 64] |= uint64_t(1) << (offset % 64);
 }
 
@@ -222,10 +244,22 @@ std::vector<uint64_t> NodePool::nodesByViewsReaching() const {
 }
 
 void NodePool::releaseIndexes() {
-  for (NodeTable& level : levels_) level.releaseIndex();
+  for (PooledLevelTable& level : levels_) level.releaseIndex();
   std::vector<NodeStarts>().swap(starts_);
   leaves_.releaseIndex();
   indexesReleased_ = true;
+}
+
+NodePool::BuildFormBytes NodePool::buildFormBytes() const {
+  BuildFormBytes b;
+  for (size_t log2 = 0; log2 < levels_.size(); ++log2) {
+    (log2 == 3 ? b.leafParents : b.nodes) += levels_[log2].records().size();
+    b.indexes += levels_[log2].indexBytes();
+  }
+  for (const NodeStarts& s : starts_) b.starts += s.bits.size() * 8 + s.idsBefore.size() * 4;
+  b.leaves = leaves_.leaves().capacity() * 8;
+  b.leafIndex = leaves_.indexBytes();
+  return b;
 }
 
 uint64_t NodePool::nodes() const {
@@ -263,7 +297,7 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
   std::vector<uint32_t> leafIds(masks.size());
   std::iota(leafIds.begin(), leafIds.end(), 0u);
   const std::vector<uint32_t> leafOrder =
-      mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3].records().span(), masks.size())
+      mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3], masks.size())
                                             : std::vector<uint32_t>(masks.size(), 0));
   // Each child of the level below: its byte offset (leaves: index) and its rank, by its id (leaf index).
   std::vector<uint32_t> offsetBelow(masks.size()), rankBelow(masks.size());
@@ -281,14 +315,14 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
   std::vector<LaidOutPool::Root> roots(roots_.size());
   for (size_t v = 0; v < roots_.size(); ++v) roots[v] = {roots_[v].code, 1u << roots_[v].log2Edge, 0};
   for (uint32_t log2 = 3; top >= 3 && log2 <= top; ++log2) {
-    const std::span<const uint32_t> words = levels_[log2].records().span();
-    std::vector<uint32_t> offsetOf;  // where each id's words start: ids are in the order of the words
+    const PooledLevelTable& table = levels_[log2];
+    std::vector<uint32_t> offsetOf;  // where each id's bytes start: ids are in the order of the bytes
     offsetOf.reserve(nodesIn_[log2]);
-    for (size_t at = 0; at < words.size(); at += nodeWordCount(words[at])) offsetOf.push_back(uint32_t(at));
+    forEachNode(table, [&](uint32_t at, uint32_t, const uint32_t*, unsigned) { offsetOf.push_back(at); });
     const size_t nodes = offsetOf.size();
     std::vector<uint32_t> order;  // the level's node ids as laid out
     {
-      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1].records().span(), nodes)
+      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1], nodes)
                                                 : std::vector<uint32_t>(nodes, 0);
       for (const Root& r : roots_)
         if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.id] != UINT32_MAX) counts[r.id] += 1;
@@ -301,14 +335,15 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
     level.edge = 1u << log2;
     level.nodes = order.size();
     const LevelChoice coding =
-        narrowestCoding(words, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
+        narrowestCoding(table, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
     level.widths = coding.widths;
     for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
     level.bytes.reserve(2 * order.size() + coding.referenceBytes);
     std::vector<uint32_t> position(nodes, 0), rank(nodes, 0);
     for (uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
     for (const uint32_t id : order) {
-      const uint32_t at = offsetOf[id];
+      uint32_t codes, children[8];
+      (void)PooledLevelTable::decode(&table.records()[offsetOf[id]], codes, children);
       if (level.bytes.size() > UINT32_MAX)
         throw Error(ErrorCategory::RuntimeFailure,
                     "node pool: the level of edge " + std::to_string(level.edge) + " passed 4 GiB");
@@ -316,10 +351,10 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
       const size_t headerAt = level.bytes.size();
       level.bytes.resize(headerAt + 2);
       uint32_t header = 0;
-      for (unsigned c = 0, k = 1; c < 8; ++c) {
-        uint32_t code = wordCodeOf(words[at], c);
+      for (unsigned c = 0, k = 0; c < 8; ++c) {
+        uint32_t code = wordCodeOf(codes, c);
         if (code == uint32_t(ChildCode::Ref)) {
-          const uint32_t child = words[at + k++];
+          const uint32_t child = children[k++];
           const bool table = coding.hotEntries > 0;
           bool isShort;
           const unsigned width = referenceWidth(bytesNeeded(rankBelow[child]), bytesNeeded(offsetBelow[child]),
@@ -338,7 +373,7 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
     offsetBelow = std::move(position);
     rankBelow = std::move(rank);
     orderBelow = std::move(order);
-    if (release) {  // this level's words and ids are done with; the level above is read next
+    if (release) {  // this level's build form and ids are done with; the level above is read next
       (void)self.levels_[log2].take();
     }
     sink.level(std::move(level));

@@ -16,8 +16,9 @@
 #include <functional>
 #include <vector>
 
+#include "libcpvs/dag/leaf_parent_table.h"
 #include "libcpvs/dag/leaf_table.h"
-#include "libcpvs/dag/node_table.h"
+#include "libcpvs/dag/mapped_array.h"
 #include "libcpvs/runtime/byte_dag.h"
 #include "libcpvs/runtime/shadow_dag.h"
 
@@ -65,6 +66,10 @@ struct PooledDags {
 };
 PooledDags concatenate(const LaidOutPool& pool, LeafShape shape);
 
+// A pooled level's build form: the byte code of leaf_parent_table.h serves every level (a node's header, then its
+// children's ids as differences, in varints).
+using PooledLevelTable = LeafParentTable;
+
 class NodePool {
 public:
   // countViews: keep, per node, how many views reach it (nodesByViewsReaching; 4 bytes a node), for the studies.
@@ -92,6 +97,14 @@ public:
   // refuses views after it. layOut() needs only the nodes.
   void releaseIndexes();
 
+  // What the build form holds now, in bytes: the nodes (the leaf parents' level apart), the hash indexes, the
+  // node starts (a bit a byte and the ids before each block), the leaf masks and their index.
+  struct BuildFormBytes {
+    uint64_t nodes = 0, leafParents = 0, indexes = 0, starts = 0, leaves = 0, leafIndex = 0;
+    uint64_t total() const { return nodes + leafParents + indexes + starts + leaves + leafIndex; }
+  };
+  BuildFormBytes buildFormBytes() const;
+
   uint64_t nodes() const;
   uint64_t leaves() const { return leaves_.leaves().size(); }
   size_t views() const { return roots_.size(); }
@@ -105,18 +118,21 @@ private:
     uint32_t log2Edge;
     uint32_t id;  // a reference: the root's id in its level
   };
-  // levels_[log2(edge)]: the nodes of that edge in build form (a header of codes 0..2, then one word per
-  // referenced child: its id in the level below, or its leaf index below a leaf parent). A node's id is its
-  // place in the order the level first met it, which is the order of its words (the layout finds where each
-  // id's words start by one pass over the level), so the layout keeps its arrays per node rather than per word.
-  std::vector<NodeTable> levels_;
+  // levels_[log2(edge)]: the nodes of that edge in build form, byte-coded as leaf_parent_table.h codes leaf
+  // parents (the header of codes 0..2, then each referenced child's id in the level below, or its leaf index
+  // below a leaf parent, as varints of the difference to the one before: a node's new children were met one
+  // after the other, so most differences take a byte). A node's id is its place in the order the level first
+  // met it, which is the order of its bytes (the layout finds where each id's bytes start by one pass over the
+  // level), so the layout keeps its arrays per node rather than per byte.
+  std::vector<PooledLevelTable> levels_;
   std::vector<uint32_t> nodesIn_;  // per level
   std::vector<std::vector<uint32_t>> viewsReaching_;  // per level, by id
-  // Which words start a node, per level, with the ids before each block of 512 words: a record met again gives
-  // its id in constant time (its offset's rank), at 1 bit a word.
+  // Which bytes start a node, per level, with the ids before each block of 512 bytes: a record met again gives
+  // its id in constant time (its offset's rank), at 1 bit a byte.
   struct NodeStarts {
-    std::vector<uint64_t> bits;
-    std::vector<uint32_t> idsBefore;  // per 512-word block
+    // Mapped arrays: resident as far as written, where a vector grown a word at a time holds up to twice that.
+    MappedArray<uint64_t> bits;
+    MappedArray<uint32_t> idsBefore;  // per 512-byte block
     void append(uint32_t offset, uint32_t id);
     uint32_t idAt(uint32_t offset) const;
   };
@@ -132,8 +148,8 @@ private:
   unsigned nodeWords(const DagView& dag, uint32_t unit, uint32_t log2, const std::vector<uint32_t>& memo,
                      uint32_t (&words)[9]);
   unsigned leafParentWords(const DagView& dag, uint32_t unit, uint32_t (&words)[9]);
-  // The node's id in its level; `hash` is NodeTable::hashOf(words, count).
-  uint32_t internNode(uint32_t log2, const uint32_t* words, unsigned count, uint64_t hash);
+  // The node's id in its level, given its build-form bytes; `hash` is PooledLevelTable::hashOf(bytes, length).
+  uint32_t internNode(uint32_t log2, const uint8_t* bytes, unsigned length, uint64_t hash);
   bool indexesReleased_ = false;
 };
 
