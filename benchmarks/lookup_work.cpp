@@ -91,15 +91,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s: %s\n", argv[0], file.outcome().message().c_str());
     return 2;
   }
-  std::vector<cpvs::LightShadow> lights;
-  for (const cpvs::CpvsFile::LightEntry& entry : file.value()->lights()) {
-    cpvs::Result<cpvs::LightShadow> shadow = cpvs::lightShadowOf(entry);
-    if (!shadow) {
-      std::fprintf(stderr, "%s: %s\n", argv[0], shadow.outcome().message().c_str());
-      return 2;
-    }
-    lights.push_back(std::move(shadow).value());
+  cpvs::Result<std::vector<cpvs::LightShadow>> shadows = cpvs::lightShadowsOf(*file.value());
+  if (!shadows) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], shadows.outcome().message().c_str());
+    return 2;
   }
+  const std::vector<cpvs::LightShadow> lights = std::move(shadows).value();
 
   std::vector<float> answers(points.size());
   uint64_t checksum = 0;

@@ -80,15 +80,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s: %s\n", argv[0], file.outcome().message().c_str());
     return 2;
   }
-  std::vector<cpvs::LightShadow> lights;
-  for (const cpvs::CpvsFile::LightEntry& entry : file.value()->lights()) {
-    cpvs::Result<cpvs::LightShadow> shadow = cpvs::lightShadowOf(entry);
-    if (!shadow) {
-      std::fprintf(stderr, "%s: %s\n", argv[0], shadow.outcome().message().c_str());
-      return 2;
-    }
-    lights.push_back(std::move(shadow).value());
+  // The views and DAGs are referenced (spans into the file): `file` outlives `lights`.
+  cpvs::Result<std::vector<cpvs::LightShadow>> shadows = cpvs::lightShadowsOf(*file.value());
+  if (!shadows) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], shadows.outcome().message().c_str());
+    return 2;
   }
+  const std::vector<cpvs::LightShadow> lights = std::move(shadows).value();
 
   // One batch per light (the fast path); the per-point call gives the same answers.
   std::vector<std::vector<float>> visibility(lights.size(), std::vector<float>(points.size()));

@@ -12,4 +12,15 @@ Result<LightShadow> lightShadowOf(const CpvsFile::LightEntry& entry, int topGrid
   return LightShadow::create(entry.light, std::move(views), std::move(dags), topGridLevels);
 }
 
+Result<std::vector<LightShadow>> lightShadowsOf(const CpvsFile& file, int topGridLevels) {
+  std::vector<LightShadow> shadows;
+  shadows.reserve(file.lights().size());
+  for (const CpvsFile::LightEntry& entry : file.lights()) {
+    Result<LightShadow> shadow = lightShadowOf(entry, topGridLevels);
+    if (!shadow) return shadow.outcome();
+    shadows.push_back(std::move(shadow).value());
+  }
+  return shadows;
+}
+
 }  // namespace cpvs

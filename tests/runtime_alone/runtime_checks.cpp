@@ -65,14 +65,12 @@ Opened openAll(Result<std::unique_ptr<CpvsFile>> opened, std::string& error) {
     return o;
   }
   o.file = std::move(opened).value();
-  for (const CpvsFile::LightEntry& entry : o.file->lights()) {
-    Result<LightShadow> shadow = lightShadowOf(entry);
-    if (!shadow) {
-      error = shadow.outcome().message();
-      return {};
-    }
-    o.lights.push_back(std::move(shadow).value());
+  Result<std::vector<LightShadow>> shadows = lightShadowsOf(*o.file);
+  if (!shadows) {
+    error = shadows.outcome().message();
+    return {};
   }
+  o.lights = std::move(shadows).value();
   return o;
 }
 
