@@ -71,7 +71,7 @@ def build(out):
 
 # The batch mapping's functions (batch_cells*.cpp: the lane loops and what they call); the rest of a lookup is
 # the view selection, the walks and the answers.
-MAPPING = re.compile(r"mapCells|laneLog|NeonLanes|ScalarLanes")
+MAPPING = re.compile(r"mapCells|mappingLog|laneLog|NeonLanes|ScalarLanes")
 
 
 def counted(qemu, plugin, program, args, isa, out):

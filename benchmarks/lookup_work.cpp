@@ -43,7 +43,11 @@ int main(int argc, char** argv) {
   }
   cpvs::LookupOptions options;
   int repeat = 1;
-  for (int i = 3; i + 1 < argc; i += 2) {
+  for (int i = 3; i < argc; i += 2) {
+    if (i + 1 == argc) {
+      std::fprintf(stderr, "%s: '%s' needs a value\n", argv[0], argv[i]);
+      return 1;
+    }
     if (!std::strcmp(argv[i], "--pcf")) options.pcfKernel = std::atoi(argv[i + 1]);
     else if (!std::strcmp(argv[i], "--repeat")) repeat = std::atoi(argv[i + 1]);
     else {

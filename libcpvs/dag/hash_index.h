@@ -1,6 +1,6 @@
 #pragma once
 // The index of a hash-consing table: open addressing with linear probing over 32-bit slots, filled to at most
-// three quarters. A slot holds an item's id + 1 (a word offset or a leaf index) in its low bits and, in the bits
+// three quarters. A slot holds an item's id + 1 (a record's offset or a leaf index) in its low bits and, in the bits
 // the ids leave free, the top bits of the item's hash: a filter that spares most probes a comparison with the
 // stored item (a cache miss each). No hash is stored beside the slot: growing rehashes the stored items, so a
 // slot costs 4 bytes instead of the 8 of an (id, hash) pair, and a table of n items between 5.3n and 10.7n bytes
@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "libcpvs/base/error.h"

@@ -355,11 +355,11 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
         uint32_t code = wordCodeOf(codes, c);
         if (code == uint32_t(ChildCode::Ref)) {
           const uint32_t child = children[k++];
-          const bool table = coding.hotEntries > 0;
+          const bool hot = coding.hotEntries > 0;
           bool isShort;
           const unsigned width = referenceWidth(bytesNeeded(rankBelow[child]), bytesNeeded(offsetBelow[child]),
-                                                level.widths, table, isShort);
-          const uint32_t value = isShort && table ? rankBelow[child] : offsetBelow[child];
+                                                level.widths, hot, isShort);
+          const uint32_t value = isShort && hot ? rankBelow[child] : offsetBelow[child];
           code = isShort ? 2u : 3u;
           for (unsigned b = 0; b < width; ++b) level.bytes.push_back(uint8_t(value >> (8 * b)));
         }
