@@ -25,10 +25,15 @@ void forEachNode(const PooledLevelTable& nodes, Visit&& visit) {
   }
 }
 
-// References per child of a level's nodes (popularity_order.h's referenceCounts, over the byte-coded build form).
-std::vector<uint32_t> referenceCounts(const PooledLevelTable& parents, size_t childCount) {
+// References per child of a level's nodes (popularity_order.h's referenceCounts, over the byte-coded build form),
+// and, from the same pass, where each of those nodes starts (`parentStarts`, by id), which that level's own
+// layout needs next: a level is decoded once less.
+std::vector<uint32_t> referenceCounts(const PooledLevelTable& parents, size_t childCount,
+                                      std::vector<uint32_t>& parentStarts) {
   std::vector<uint32_t> counts(childCount, 0);
-  forEachNode(parents, [&](uint32_t, uint32_t, const uint32_t* children, unsigned count) {
+  parentStarts.clear();
+  forEachNode(parents, [&](uint32_t at, uint32_t, const uint32_t* children, unsigned count) {
+    parentStarts.push_back(at);
     for (unsigned k = 0; k < count; ++k) counts[children[k]] += counts[children[k]] != UINT32_MAX;
   });
   return counts;
@@ -293,11 +298,12 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
     if (r.code == ChildCode::Ref) top = std::max(top, r.log2Edge);
 
   // Leaves, most referenced first: the leaf parents' references are their indices.
+  std::vector<uint32_t> startsAbove;  // where each node of the level above starts, by id (referenceCounts)
   const std::vector<uint64_t>& masks = leaves_.leaves();
   std::vector<uint32_t> leafIds(masks.size());
   std::iota(leafIds.begin(), leafIds.end(), 0u);
   const std::vector<uint32_t> leafOrder =
-      mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3], masks.size())
+      mostReferencedFirst(leafIds, top >= 3 ? referenceCounts(levels_[3], masks.size(), startsAbove)
                                             : std::vector<uint32_t>(masks.size(), 0));
   // Each child of the level below: its byte offset (leaves: index) and its rank, by its id (leaf index).
   std::vector<uint32_t> offsetBelow(masks.size()), rankBelow(masks.size());
@@ -316,13 +322,13 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
   for (size_t v = 0; v < roots_.size(); ++v) roots[v] = {roots_[v].code, 1u << roots_[v].log2Edge, 0};
   for (uint32_t log2 = 3; top >= 3 && log2 <= top; ++log2) {
     const PooledLevelTable& table = levels_[log2];
-    std::vector<uint32_t> offsetOf;  // where each id's bytes start: ids are in the order of the bytes
-    offsetOf.reserve(nodesIn_[log2]);
-    forEachNode(table, [&](uint32_t at, uint32_t, const uint32_t*, unsigned) { offsetOf.push_back(at); });
+    // Where each id's bytes start (ids are in the order of the bytes): found when the level was counted as the
+    // parents of the one below.
+    const std::vector<uint32_t> offsetOf = std::move(startsAbove);
     const size_t nodes = offsetOf.size();
     std::vector<uint32_t> order;  // the level's node ids as laid out
     {
-      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1], nodes)
+      std::vector<uint32_t> counts = log2 < top ? referenceCounts(levels_[log2 + 1], nodes, startsAbove)
                                                 : std::vector<uint32_t>(nodes, 0);
       for (const Root& r : roots_)
         if (r.code == ChildCode::Ref && r.log2Edge == log2 && counts[r.id] != UINT32_MAX) counts[r.id] += 1;
