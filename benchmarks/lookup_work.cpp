@@ -14,11 +14,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/lookup_isa.h"
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 
@@ -59,13 +59,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s: --pcf K must be odd in 1..63 and --repeat at least 1\n", argv[0]);
     return 1;
   }
-  if (const char* isa = std::getenv("CPVS_LOOKUP_ISA")) {
-    const std::optional<cpvs::CellIsa> limit = cpvs::parseCellIsa(isa);
-    if (!limit) {
-      std::fprintf(stderr, "%s: CPVS_LOOKUP_ISA='%s': expected scalar, neon, avx2 or avx512\n", argv[0], isa);
-      return 1;
-    }
-    cpvs::setCellIsaLimit(*limit);
+  if (const cpvs::Outcome isa = cpvs::limitCellIsaFromEnvironment(); !isa) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], isa.message().c_str());
+    return 1;
   }
 
   std::vector<cpvs::SurfacePoint> points;

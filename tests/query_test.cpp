@@ -613,6 +613,17 @@ TEST(QueryIo, PcfValuesAreFractionsOfTheKernelInZeroOne) {
   EXPECT_GT(fractional, 50u) << "shadow edges give PCF fractions";
 }
 
+// A CPVS_LOOKUP_ISA that names no path is refused, naming the value, before any work: a typo must not silently
+// measure the widest path.
+TEST(QueryIo, AnUnknownLookupIsaIsRefused) {
+  const Dir dir;
+  writeCsv(dir / "p.csv", tinyPoints());
+  const auto r = runTool("CPVS_LOOKUP_ISA=avx " + toolPath("cpvs-query") + " " + quote(tinyCpvs()) + " --points " +
+                         quote(dir / "p.csv") + " -o " + quote(dir / "o.csv") + " -q");
+  EXPECT_EQ(r.exitCode, 1) << r.output;
+  EXPECT_NE(r.output.find("CPVS_LOOKUP_ISA='avx'"), std::string::npos) << r.output;
+}
+
 // The whole query through each of the batch mapping's paths (CPVS_LOOKUP_ISA lowers the one picked at run time;
 // on a CPU without a path it falls back, and the comparison holds trivially): the same CSV, byte for byte.
 TEST(QueryIo, EveryLookupPathGivesTheSameCsv) {

@@ -10,11 +10,10 @@
 // batch lookups' instruction set, as in the tools (every path gives the same answers).
 #include <cstdio>
 #include <cstdlib>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/lookup_isa.h"
 #include "libcpvs/runtime/cpvs_file.h"
 #include "libcpvs/runtime/file_shadows.h"
 
@@ -35,13 +34,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: %s FILE.cpvs [--pcf K] [X,Y,Z,NX,NY,NZ ...]\n", argv[0]);
     return 1;
   }
-  if (const char* isa = std::getenv("CPVS_LOOKUP_ISA")) {
-    const std::optional<cpvs::CellIsa> limit = cpvs::parseCellIsa(isa);
-    if (!limit) {
-      std::fprintf(stderr, "%s: CPVS_LOOKUP_ISA='%s': expected scalar, neon, avx2 or avx512\n", argv[0], isa);
-      return 1;
-    }
-    cpvs::setCellIsaLimit(*limit);
+  if (const cpvs::Outcome isa = cpvs::limitCellIsaFromEnvironment(); !isa) {
+    std::fprintf(stderr, "%s: %s\n", argv[0], isa.message().c_str());
+    return 1;
   }
   cpvs::LookupOptions options;
   std::vector<cpvs::SurfacePoint> points;

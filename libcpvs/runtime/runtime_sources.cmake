@@ -3,7 +3,7 @@
 get_filename_component(CPVS_RUNTIME_INCLUDE_DIR "${CMAKE_CURRENT_LIST_DIR}/../.." ABSOLUTE)
 set(_cpvs_runtime_dir "${CPVS_RUNTIME_INCLUDE_DIR}/libcpvs/runtime")
 set(_cpvs_runtime_files batch_cells batch_cells_avx2 batch_cells_avx512 batch_cells_neon batch_lookup cpvs_reader
-  dag_walks_avx2 dag_walks_avx512 byte_dag file_pool file_shadows gpu_records light light_view outcome
+  dag_walks_avx2 dag_walks_avx512 byte_dag file_pool file_shadows gpu_records light light_view lookup_isa outcome
   pool_validation cpu_features read_only_file shadow_dag shadow_lookup shadowed_texels view_mapping)
 list(TRANSFORM _cpvs_runtime_files PREPEND "${_cpvs_runtime_dir}/")
 list(TRANSFORM _cpvs_runtime_files APPEND ".cpp")

@@ -3,9 +3,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <cstdlib>
+#include <stdexcept>
 
-#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/lookup_isa.h"
 #include "libcpvs/version.h"
 #include "python/src/bake.h"
 #include "python/src/preview.h"
@@ -22,7 +22,7 @@ PYBIND11_MODULE(_cpvs, m) {
   m.doc() = "cpvs: Compact Precomputed Voxelized Shadows, baked and looked up from Python (docs/python.md).";
   m.attr("__version__") = cpvs::kVersion;
   // As in the tools: CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512, read at import, caps the lookups' instruction set.
-  if (const auto isa = cpvs::parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) cpvs::setCellIsaLimit(*isa);
+  if (const cpvs::Outcome isa = cpvs::limitCellIsaFromEnvironment(); !isa) throw std::invalid_argument(isa.message());
   defineErrors(m);
 
   py::class_<ShadowFile>(m, "ShadowFile", "An opened .cpvs file: its lights and their shadow lookups. Immutable; "

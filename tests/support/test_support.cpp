@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/lookup_isa.h"
 #include "libcpvs/scene/mesh_topology.h"
 
 namespace cpvs::test {
@@ -25,7 +25,7 @@ namespace {
 // CPVS_LOOKUP_ISA caps the batch lookups in the tests as it does in the tools (CTest runs the lookup tests a
 // second time with avx2, so the scalar walks are tested on AVX-512 machines too).
 const bool gLookupIsaFromEnvironment = [] {
-  if (const auto isa = parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) setCellIsaLimit(*isa);
+  orThrow(limitCellIsaFromEnvironment());
   return true;
 }();
 

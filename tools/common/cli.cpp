@@ -10,8 +10,9 @@
 #include <new>
 #include <sstream>
 
+#include "libcpvs/base/error.h"
 #include "libcpvs/base/memory_limit.h"
-#include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/lookup_isa.h"
 #include "libcpvs/version.h"
 #include "tools/common/usage_errors.h"
 
@@ -158,9 +159,9 @@ void LightOptions::applyTo(Scene& scene) const {
 }
 
 int runMain(const char* toolName, const std::function<int()>& body) {
-  // CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512 caps the batch lookups' instruction set (docs/cli.md).
-  if (const auto isa = parseCellIsa(std::getenv("CPVS_LOOKUP_ISA"))) setCellIsaLimit(*isa);
   try {
+    // CPVS_LOOKUP_ISA=scalar|neon|avx2|avx512 caps the batch lookups' instruction set (docs/cli.md).
+    orThrow(limitCellIsaFromEnvironment());
     return body();
   } catch (const Error& e) {
     std::cerr << toolName << ": error: " << e.what() << "\n";
