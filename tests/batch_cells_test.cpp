@@ -1,6 +1,7 @@
-// The batch's point-to-voxel mapping (libcpvs/runtime/batch_cells.h): the AVX2 and AVX-512 paths give the scalar path's
-// cells bit for bit, and both give lookupCell's (the single-point lookup), on random points and on the hard
-// ones: exactly on voxel boundaries, behind the eye, on the cone's edge, non-finite, huge, zero normals.
+// The batch's point-to-voxel mapping (libcpvs/runtime/batch_cells.h): the AVX2 path (single precision with a
+// double fall-back) and the AVX-512 one give the scalar path's cells bit for bit, and both give lookupCell's (the single-point
+// lookup), on random points and on the hard ones: exactly on voxel boundaries and within 1e-7 voxels of them,
+// behind the eye, on the cone's edge, non-finite, huge, zero normals.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -229,6 +230,97 @@ TEST(BatchCells, SeparateArraysEqualSurfacePoints) {
         }
     }
   }
+}
+
+// The AVX2 path maps in single precision where a view allows it (float_cells.h) and maps again in double the
+// points whose cell it cannot decide. Their cells must be the double path's everywhere: on random points, and
+// on points whose biased grid position lies within 1e-7 to 1e-2 voxels of a voxel boundary in u, v or s (found
+// by solving for the point whose lookup lands there), at grids of 1k to 32k. The share mapped again must stay
+// small on random points (else the single-precision path would be pointless) and large right at the boundaries
+// (else the bounds would not be doing their work).
+TEST(BatchCells, SinglePrecisionCellsEqualDoubleCells) {
+  const CellIsa best = bestCellIsa();
+  if (best < CellIsa::Avx2) GTEST_SKIP() << "this CPU has no single-precision path (no AVX2)";
+  const WorldGeometry world = test::groundAndRidge();
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> coord(-9.0, 9.0), unit(-1.0, 1.0), fraction(0.0, 1.0);
+  size_t checked = 0;
+  for (const Light& light : testLights())
+    for (const uint32_t resolution : {1024u, 8192u, 32768u}) {
+      const std::vector<LightView> views = makeLightViews(light, world, resolution);
+      const LightView& view = views.at(0);
+      const ViewMapping mapping(view);
+      const SpotInfluence spot = spotInfluence(light);
+      for (const LookupOptions options : {LookupOptions{9, NormalOrientation::AsGiven, 0.25},
+                                          LookupOptions{1, NormalOrientation::AsGiven, 0.0},
+                                          LookupOptions{3, NormalOrientation::TowardLight, 0.5}}) {
+        // The normal facing the light (the lookups that reach a voxel), tilted at random.
+        const glm::dvec3 towardLight = light.type == LightType::Directional ? -light.direction : glm::dvec3(0.0);
+        const auto facingNormal = [&](const glm::dvec3& p) {
+          const glm::dvec3 base = light.type == LightType::Directional ? towardLight : glm::normalize(light.position - p);
+          return base + 0.6 * glm::dvec3(unit(rng), unit(rng), unit(rng));
+        };
+        std::vector<SurfacePoint> random, boundary;
+        for (int i = 0; i < 8000; ++i) {
+          const glm::dvec3 p(coord(rng), coord(rng) * 0.3, coord(rng));
+          random.push_back({p, facingNormal(p)});
+        }
+        const double n = resolution;
+        for (int i = 0; i < 4000; ++i) {
+          // A target q near a boundary in one coordinate (the others random), then the point whose lookup lands
+          // on it: the bias offset q - g changes slowly with the point, so three steps settle it.
+          const double delta = std::pow(10.0, -7.0 + 5.0 * fraction(rng)) * (fraction(rng) < 0.5 ? -1 : 1);
+          glm::dvec3 target(n * (0.05 + 0.9 * fraction(rng)), n * (0.05 + 0.9 * fraction(rng)), n * (0.05 + 0.9 * fraction(rng)));
+          const int axis = i % 3;
+          target[axis] = std::floor(target[axis]) + delta;
+          glm::dvec3 p = gridToWorld(view, target), normal = facingNormal(p);
+          for (int step = 0; step < 3; ++step) {
+            const LookupCell cell = lookupCell(mapping, p, normal, options);
+            p = gridToWorld(view, target - (cell.uvs - toGrid(mapping, p).uvs));
+          }
+          boundary.push_back({p, normal});
+        }
+        for (const auto* set : {&random, &boundary}) {
+          CellBatchInput in;
+          in.mapping = &mapping;
+          in.settings = cellSettings(options);
+          in.spot = light.type == LightType::Spot ? &spot : nullptr;
+          in.points = interleavedArrays(*set);
+          in.count = set->size();
+          Cells scalar(set->size());
+          mapCells(in, scalar.output(), CellIsa::Scalar);
+          for (const CellIsa isa : {CellIsa::Avx2, CellIsa::Avx512}) {
+            if (isa > best) continue;
+            Cells vector(set->size());
+            size_t remapped = 0;
+            CellBatchOutput out = vector.output();
+            out.doubleRemapped = &remapped;
+            mapCells(in, out, isa);
+            SCOPED_TRACE(light.name + " at " + std::to_string(resolution) + (set == &random ? " random" : " boundary") +
+                         " isa " + std::to_string(int(isa)) + " K " + std::to_string(options.pcfKernel));
+            size_t voxels = 0;
+            for (size_t i = 0; i < set->size(); ++i) {
+              ASSERT_EQ(vector.state[i], scalar.state[i]) << "point " << i;
+              ASSERT_EQ(vector.x[i], scalar.x[i]) << "point " << i;
+              ASSERT_EQ(vector.y[i], scalar.y[i]) << "point " << i;
+              ASSERT_EQ(vector.z[i], scalar.z[i]) << "point " << i;
+              voxels += scalar.state[i] == kCellVoxel;
+            }
+            const double share = double(remapped) / double(set->size());
+            if (isa != CellIsa::Avx2) {  // AVX-512 maps in double (as fast here: docs/lookups.md)
+              EXPECT_EQ(remapped, 0u);
+            } else if (set == &random) {
+              EXPECT_LT(share, resolution <= 8192 ? 0.02 : 0.08);
+            } else {
+              EXPECT_GT(voxels, set->size() / 2);  // the boundary points do reach voxels
+              EXPECT_GT(share, 0.3);
+            }
+            checked += set->size();
+          }
+        }
+      }
+    }
+  EXPECT_GT(checked, 100000u);
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 #pragma once
 // Steps 1-3 of a lookup (shadow_lookup.h) for a whole batch of points of one view: where each lands, eight
-// points at a time with AVX-512 or four with AVX2 where the CPU has them, one at a time otherwise. Every path
-// runs cell_lanes.h, so they give the same cells bit for bit (batch_cells_test pins them together).
+// points at a time with AVX-512 (doubles) or AVX2 (floats, float_cells.h, the points it cannot decide mapped
+// again as four doubles) where the CPU has them, four with NEON, one at a time otherwise. Every double path
+// runs cell_lanes.h, so they give the same cells bit for bit, and the single-precision one gives theirs
+// (batch_cells_test pins them together).
 //
 // Same rule as view_mapping.h: standard headers only (included under CPVS_TARGET_BEGIN_AVX2 (portability.h)).
 #include <cstddef>
@@ -49,6 +51,9 @@ struct CellBatchOutput {
   int32_t* y = nullptr;
   int32_t* z = nullptr;
   uint8_t* state = nullptr;
+  // When set, incremented by the points a single-precision path could not decide and mapped again in double
+  // (float_cells.h), for tests and benchmarks.
+  size_t* doubleRemapped = nullptr;
 };
 
 // The batch lookups' instruction sets, narrowest first: a limit lets every path up to it run. NEON exists on

@@ -8,9 +8,22 @@
 #include <cstring>
 
 #include "libcpvs/runtime/batch_cells.h"
+#include "libcpvs/runtime/float_cells.h"
+#include "libcpvs/runtime/portability.h"
 
 namespace cpvs {
 namespace {
+
+// Brings the SurfacePoint records of points [first, first + count) of a batch without an index list into the
+// cache, eight groups before the loop reads them: records read once, 48 bytes each, where the hardware
+// prefetcher alone left the mapping waiting on memory (docs/lookups.md, "The mapping in single precision").
+// Always inlined: GCC takes a function of prefetches alone for one without effects and drops its calls.
+[[gnu::always_inline]] inline void prefetchRecords(const double* points, size_t first, size_t count, size_t total) {
+  if (first >= total) return;
+  const char* begin = reinterpret_cast<const char*>(points + 6 * first);
+  const size_t bytes = 6 * sizeof(double) * (first + count <= total ? count : total - first);
+  for (size_t at = 0; at < bytes; at += 64) portable::prefetchRead(begin + at);
+}
 
 // mapCells for one kind of view and one layout of the points with lane type L: L::kWidth points at a time
 // (L::load reads them from SurfacePoint records, L::loadSplit from separate position and normal arrays; L::cells
@@ -31,6 +44,7 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   const uint32_t* const indices = in.indices;
   for (size_t j = 0; j < in.count; j += kWidth) {
     const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
+    if (kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
     const double* p[kWidth];
     Real c[6];
     if constexpr (kInterleaved) {  // the tools' layout: one pointer and a constant stride, nothing more per lane
@@ -78,6 +92,92 @@ void mapCellsLanes(const CellBatchInput& in, const CellBatchOutput& out) {
       mapCellsShaped<L, decltype(shape), true>(in, out);
     else
       mapCellsShaped<L, decltype(shape), false>(in, out);
+  });
+}
+
+// mapCells in single precision (float_cells.h) with float lane type FL, FL::kWidth points at a time; the lanes
+// it cannot decide are collected, up to kRedoChunk at a time, and mapped again with the double lane type DL
+// (the same cells as every other path, bit for bit). FL::load gives a group's view coordinates as the double
+// path computes them, its normals and its offsets from the spot, all rounded to float; FL::store writes the
+// certain lanes and returns the uncertain ones' bits.
+template <class FL, class DL, class Shape, bool kInterleaved>
+void mapCellsFloatShaped(const CellBatchInput& in, const CellBatchOutput& out, const FloatViewMapping& fm) {
+  constexpr size_t kWidth = FL::kWidth, kRedoChunk = 512;
+  uint32_t redoPoint[kRedoChunk], redoAt[kRedoChunk];
+  alignas(64) int32_t redoX[kRedoChunk], redoY[kRedoChunk], redoZ[kRedoChunk];
+  uint8_t redoState[kRedoChunk];
+  size_t redo = 0;
+  const auto remap = [&] {
+    CellBatchInput again = in;
+    again.indices = redoPoint;
+    again.count = redo;
+    mapCellsShaped<DL, Shape, kInterleaved>(again, {redoX, redoY, redoZ, redoState});
+    for (size_t k = 0; k < redo; ++k) {
+      out.x[redoAt[k]] = redoX[k];
+      out.y[redoAt[k]] = redoY[k];
+      out.z[redoAt[k]] = redoZ[k];
+      out.state[redoAt[k]] = redoState[k];
+    }
+    if (out.doubleRemapped) *out.doubleRemapped += redo;
+    redo = 0;
+  };
+  const CellSettings settings = in.settings;
+  const FloatBiasBounds bias = floatBiasBounds(fm, settings, !in.mapping->linear);
+  const double* const points = in.points.positions;
+  const uint32_t* const indices = in.indices;
+  // One group; whole groups (kFull) have their lane count and index arithmetic fixed at compile time.
+  const auto group = [&]<bool kFull>(size_t j, size_t lanes, auto indexOf) {
+    const double* p[kWidth];
+    const double* n[kWidth];
+    uint32_t index[kWidth];
+    for (size_t l = 0; l < kWidth; ++l) {
+      index[l] = uint32_t(indexOf(j + (kFull || l < lanes ? l : lanes - 1)));
+      if constexpr (kInterleaved) {
+        p[l] = points + 6 * size_t(index[l]);
+        n[l] = p[l] + 3;
+      } else {
+        p[l] = points + in.points.positionStride * index[l];
+        n[l] = in.points.normals + in.points.normalStride * index[l];
+      }
+    }
+    typename FL::Real c[9];
+    FL::load(p, n, *in.mapping, fm, c);
+    const auto lanesOut = floatCellVerdict<typename FL::Real, typename FL::Mask, typename FL::Bits, Shape>(
+        *in.mapping, fm, settings, bias, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]);
+    uint32_t uncertain = FL::store(lanesOut, out, j, kFull ? kWidth : lanes);
+    while (uncertain) {
+      const unsigned l = unsigned(std::countr_zero(uncertain));
+      uncertain &= uncertain - 1;
+      if (redo == kRedoChunk) remap();
+      redoPoint[redo] = index[l];
+      redoAt[redo++] = uint32_t(j + l);
+    }
+  };
+  const auto run = [&](auto indexOf) {
+    const size_t whole = in.count - in.count % kWidth;
+    for (size_t j = 0; j < whole; j += kWidth) {
+      if (kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
+      group.template operator()<true>(j, kWidth, indexOf);
+    }
+    if (whole < in.count) group.template operator()<false>(whole, in.count - whole, indexOf);
+  };
+  if (indices)
+    run([indices](size_t k) { return indices[k]; });
+  else
+    run([](size_t k) { return k; });
+  if (redo) remap();
+}
+
+// mapCells for the vector paths: single precision where the view allows it (floatViewMapping), else double.
+template <class FL, class DL>
+void mapCellsFloatOrDouble(const CellBatchInput& in, const CellBatchOutput& out) {
+  const FloatViewMapping fm = floatViewMapping(*in.mapping, in.spot);
+  if (!fm.usable || in.count < FL::kWidth) return mapCellsLanes<DL>(in, out);
+  detail::withFixedShape(*in.mapping, [&](auto shape) {
+    if (in.points.interleaved())
+      mapCellsFloatShaped<FL, DL, decltype(shape), true>(in, out, fm);
+    else
+      mapCellsFloatShaped<FL, DL, decltype(shape), false>(in, out, fm);
   });
 }
 
