@@ -4,7 +4,7 @@ lookup per pair, against one shadow ray per pair) and filtered against filtered 
 spread over the same 9x9 footprint), with the error of each side against the 81-ray footprint reference.
 
     python3 benchmarks/shadow_speed.py [--bin build/bin] [--out out/shadow-speed] [--doc docs/viewer]
-                                       [--resolutions 8k,4k] [--frames 4] [--size 1920x1080]
+                                       [--resolutions 8k,4k] [--frames 4] [--size 1920x1080] [--commit C]
 
 The generated city with 165 spot lights (cpvs-scenegen city-spots), baked at each resolution, seen from the
 --frames cameras spread over benchmarks/viewer.py's flythrough (its first, overview, to its last, street level). Timing: for every camera, each side runs in its own
@@ -102,15 +102,16 @@ def main():
     ap.add_argument("--resolutions", default="8k,4k")
     ap.add_argument("--frames", type=int, default=4)
     ap.add_argument("--size", default="1920x1080")
+    ap.add_argument("--commit", help="the commit --bin was built from (default: this checkout's HEAD)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     os.makedirs(a.doc, exist_ok=True)
     scene = os.path.join(a.out, "city-spots.glb")
     subprocess.run([os.path.join(a.bin, "cpvs-scenegen"), "city-spots", "--lights", "165", "-o", scene], check=True)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    commit = a.commit or subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     # The command as it ran, with the lookup ISA it was forced to, if any (docs/cli.md, CPVS_LOOKUP_ISA).
     isa = "CPVS_LOOKUP_ISA=%s " % os.environ["CPVS_LOOKUP_ISA"] if "CPVS_LOOKUP_ISA" in os.environ else ""
-    result = {"machine": machine_info(), "commit": commit, "size": a.size, "load_average_before": os.getloadavg(),
+    result = {"machine": machine_info(), "commit": commit, "bin": a.bin, "size": a.size, "load_average_before": os.getloadavg(),
               "command": isa + "python3 benchmarks/shadow_speed.py " + " ".join(sys.argv[1:]), "resolutions": {}}
     for resolution in a.resolutions.split(","):
         cpvs = os.path.join(a.out, "city-%s.cpvs" % resolution)
