@@ -5,6 +5,7 @@
 // refused or walks inside its buffers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <memory>
@@ -13,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include <tbb/task_arena.h>
 #include <xxhash.h>
 
 #include "libcpvs/base/error.h"
@@ -242,6 +244,56 @@ TEST(NodePool, SameViewsGiveTheSameBytes) {
     EXPECT_EQ(la.levels[l].widths.longBytes, lb.levels[l].widths.longBytes);
   }
   EXPECT_EQ(la.leaves, lb.leaves);
+}
+
+// A 512^3 DAG with levels of up to 200,000 nodes (about 110,000 of them reachable), each child picked by a hash: levels large enough
+// that the layout splits them into parts (one per thread of the arena).
+ShadowDag manyNodesDag() {
+  const uint32_t counts[7] = {1, 8, 64, 512, 4096, 32768, 200000};
+  constexpr uint32_t kLeaves = 70000;
+  std::vector<std::vector<uint32_t>> words(7);
+  for (size_t l = 0; l < 7; ++l)
+    for (uint32_t j = 0; j < counts[l]; ++j) {
+      words[l].push_back(0xAAAAu);
+      for (uint32_t c = 0; c < 8; ++c) {
+        const uint64_t mixed = (uint64_t(l) << 40 | uint64_t(j) << 8 | c) * 0x9E3779B97F4A7C15ull;
+        const uint32_t pick = uint32_t(mixed >> 32);
+        words[l].push_back(l + 1 < 7 ? 9 * (pick % counts[l + 1]) : pick % kLeaves);
+      }
+    }
+  std::vector<uint64_t> leaves(kLeaves);
+  for (size_t i = 0; i < leaves.size(); ++i) leaves[i] = (i + 1) * 0xD1B54A32D192ED03ull;
+  std::vector<std::span<const uint32_t>> levels(words.begin(), words.end());
+  const std::vector<uint64_t> perLevel(counts, counts + 7);
+  return orThrow(encodeDag(512, ChildCode::Ref, levels, perLevel, std::move(leaves)));
+}
+
+// The layout cuts large levels into parts encoded side by side, one per thread: the bytes must not depend on
+// how many (a bake's -j). Laid out in an arena of one thread and of two, with and without hot tables.
+TEST(NodePool, TheLayoutDoesNotDependOnTheThreadCount) {
+  const ShadowDag dag = manyNodesDag();
+  NodePool pool(LeafShape::Slices, /*countViews=*/false);
+  pool.add(dag.view());
+  for (const bool hot : {false, true}) {
+    LaidOutPool one, parts;
+    tbb::task_arena(1).execute([&] { one = pool.layOut(hot); });
+    tbb::task_arena(2).execute([&] { parts = pool.layOut(hot); });
+    ASSERT_EQ(one.levels.size(), parts.levels.size());
+    uint64_t largest = 0;
+    for (size_t l = 0; l < one.levels.size(); ++l) {
+      EXPECT_EQ(one.levels[l].bytes, parts.levels[l].bytes) << "level " << l << " hot tables " << hot;
+      EXPECT_EQ(one.levels[l].hot, parts.levels[l].hot);
+      EXPECT_EQ(one.levels[l].widths.shortBytes, parts.levels[l].widths.shortBytes);
+      EXPECT_EQ(one.levels[l].widths.longBytes, parts.levels[l].widths.longBytes);
+      largest = std::max<uint64_t>(largest, one.levels[l].nodes);
+    }
+    EXPECT_EQ(one.leaves, parts.leaves);
+    ASSERT_EQ(one.roots.size(), parts.roots.size());
+    EXPECT_EQ(one.roots[0].offset, parts.roots[0].offset);
+    EXPECT_GT(largest, 65536u);  // a level the layout does split
+    for (const uint32_t v : {0u, 100u, 511u})
+      EXPECT_EQ(pooledShadowed(parts, 0, v, (v * 7) % 512, (v * 13) % 512), dag.view().shadowed(v, (v * 7) % 512, (v * 13) % 512));
+  }
 }
 
 // The pool of the golden bakes, laid out in each leaf shape and coding, hashed whole (leaves, each level's

@@ -1,24 +1,27 @@
 #include "libcpvs/dag/node_pool.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <limits>
 #include <numeric>
 #include <string>
 
 #include "libcpvs/base/error.h"
+#include "libcpvs/base/parallel.h"
 #include "libcpvs/runtime/popularity_order.h"
 
 namespace cpvs {
 
 namespace {
 
-// Calls visit(offset, header, children, count) for each node of a level in build form, in id order.
+// Calls visit(offset, header, children, count) for each node of a level in build form, in id order (those whose
+// records lie in [begin, end) bytes: by default the whole level).
 template <class Visit>
-void forEachNode(const PooledLevelTable& nodes, Visit&& visit) {
+void forEachNode(const PooledLevelTable& nodes, Visit&& visit, size_t begin = 0, size_t end = SIZE_MAX) {
   const MappedArray<uint8_t>& bytes = nodes.records();
   uint32_t header, children[8];
-  for (size_t at = 0; at < bytes.size();) {
+  for (size_t at = begin; at < std::min(end, bytes.size());) {
     const unsigned length = PooledLevelTable::decode(&bytes[at], header, children);
     visit(uint32_t(at), header, children, nodeWordCount(header) - 1);
     at += length;
@@ -37,6 +40,14 @@ std::vector<uint32_t> referenceCounts(const PooledLevelTable& parents, size_t ch
     for (unsigned k = 0; k < count; ++k) counts[children[k]] += counts[children[k]] != UINT32_MAX;
   });
   return counts;
+}
+
+// How many parts the layout splits a level of `nodes` into: one per thread of the calling arena (the bake's
+// -j), one for a small level. The bytes do not depend on it: parts are concatenated, or their counts summed, in
+// order.
+unsigned layoutParts(size_t nodes) {
+  if (nodes < (size_t(1) << 16)) return 1;
+  return unsigned(std::clamp(tbb::this_task_arena::max_concurrency(), 1, 8));
 }
 
 unsigned bytesNeeded(uint32_t value) { return value < (1u << 8) ? 1 : value < (1u << 16) ? 2 : value < (1u << 24) ? 3 : 4; }
@@ -61,14 +72,28 @@ unsigned referenceWidth(unsigned rankNeeds, unsigned offsetNeeds, ReferenceWidth
 // level below. A reference's bytes depend only on how many bytes its offset and its rank need, so one pass
 // counts those and every coding is priced from the counts. Ties go to the first pair of kWidthPairs, without a
 // table before with one.
-LevelChoice narrowestCoding(const PooledLevelTable& nodes, const std::vector<uint32_t>& offsetBelow,
-                            const std::vector<uint32_t>& rankBelow, uint64_t nodesBelow, bool allowTable,
-                            uint32_t edge) {
-  uint64_t needing[5][5] = {};  // [bytes the rank needs][bytes the offset needs]
-  forEachNode(nodes, [&](uint32_t, uint32_t, const uint32_t* children, unsigned count) {
-    for (unsigned k = 0; k < count; ++k)
-      needing[bytesNeeded(rankBelow[children[k]])][bytesNeeded(offsetBelow[children[k]])] += 1;
+// `starts`: where each node's record starts, by id (the level's parts are counted on as many threads).
+LevelChoice narrowestCoding(const PooledLevelTable& nodes, const std::vector<uint32_t>& starts,
+                            const std::vector<uint32_t>& offsetBelow, const std::vector<uint32_t>& rankBelow,
+                            uint64_t nodesBelow, bool allowTable, uint32_t edge) {
+  using Needs = std::array<std::array<uint64_t, 5>, 5>;  // [bytes the rank needs][bytes the offset needs]
+  const unsigned parts = layoutParts(starts.size());
+  std::vector<Needs> partNeeds(parts, Needs{});
+  parallelParts(starts.size(), parts, [&](unsigned part, size_t first, size_t last) {
+    if (first == last) return;
+    Needs& needs = partNeeds[part];
+    forEachNode(
+        nodes,
+        [&](uint32_t, uint32_t, const uint32_t* children, unsigned count) {
+          for (unsigned k = 0; k < count; ++k)
+            needs[bytesNeeded(rankBelow[children[k]])][bytesNeeded(offsetBelow[children[k]])] += 1;
+        },
+        starts[first], last < starts.size() ? starts[last] : SIZE_MAX);
   });
+  Needs needing{};
+  for (const Needs& needs : partNeeds)
+    for (size_t r = 0; r < 5; ++r)
+      for (size_t o = 0; o < 5; ++o) needing[r][o] += needs[r][o];
   uint64_t best = std::numeric_limits<uint64_t>::max();
   LevelChoice chosen;
   for (const bool table : {false, true}) {
@@ -341,38 +366,59 @@ void NodePool::layOutImpl(bool hotTables, const LayoutSink& sink, bool release) 
     level.edge = 1u << log2;
     level.nodes = order.size();
     const LevelChoice coding =
-        narrowestCoding(table, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
+        narrowestCoding(table, offsetOf, offsetBelow, rankBelow, orderBelow.size(), hotTables && log2 > 3, level.edge);
     level.widths = coding.widths;
     for (uint32_t r = 0; r < coding.hotEntries; ++r) level.hot.push_back(offsetBelow[orderBelow[r]]);
-    level.bytes.reserve(2 * order.size() + coding.referenceBytes);
     std::vector<uint32_t> position(nodes, 0), rank(nodes, 0);
     for (uint32_t i = 0; i < order.size(); ++i) rank[order[i]] = i;
-    for (const uint32_t id : order) {
-      uint32_t codes, children[8];
-      (void)PooledLevelTable::decode(&table.records()[offsetOf[id]], codes, children);
-      if (level.bytes.size() > UINT32_MAX)
-        throw Error(ErrorCategory::RuntimeFailure,
-                    "node pool: the level of edge " + std::to_string(level.edge) + " passed 4 GiB");
-      position[id] = uint32_t(level.bytes.size());
-      const size_t headerAt = level.bytes.size();
-      level.bytes.resize(headerAt + 2);
-      uint32_t header = 0;
-      for (unsigned c = 0, k = 0; c < 8; ++c) {
-        uint32_t code = wordCodeOf(codes, c);
-        if (code == uint32_t(ChildCode::Ref)) {
-          const uint32_t child = children[k++];
-          const bool hot = coding.hotEntries > 0;
-          bool isShort;
-          const unsigned width = referenceWidth(bytesNeeded(rankBelow[child]), bytesNeeded(offsetBelow[child]),
-                                                level.widths, hot, isShort);
-          const uint32_t value = isShort && hot ? rankBelow[child] : offsetBelow[child];
-          code = isShort ? 2u : 3u;
-          for (unsigned b = 0; b < width; ++b) level.bytes.push_back(uint8_t(value >> (8 * b)));
+    // The nodes in `order`, cut into parts encoded side by side (each into its own bytes, positions relative to
+    // them), then joined in order: the same bytes as one pass.
+    const auto tooLarge = [&] {
+      return Error(ErrorCategory::RuntimeFailure, "node pool: the level of edge " + std::to_string(level.edge) +
+                                                      " passed 4 GiB");
+    };
+    const unsigned parts = layoutParts(order.size());
+    std::vector<std::vector<uint8_t>> partBytes(parts);
+    parallelParts(order.size(), parts, [&](unsigned part, size_t first, size_t last) {
+      std::vector<uint8_t>& bytes = partBytes[part];
+      bytes.reserve(2 * (last - first) + coding.referenceBytes / std::max<size_t>(1, order.size()) * (last - first));
+      for (size_t i = first; i < last; ++i) {
+        const uint32_t id = order[i];
+        uint32_t codes, children[8];
+        (void)PooledLevelTable::decode(&table.records()[offsetOf[id]], codes, children);
+        if (bytes.size() > UINT32_MAX) throw tooLarge();
+        position[id] = uint32_t(bytes.size());
+        const size_t headerAt = bytes.size();
+        bytes.resize(headerAt + 2);
+        uint32_t header = 0;
+        for (unsigned c = 0, k = 0; c < 8; ++c) {
+          uint32_t code = wordCodeOf(codes, c);
+          if (code == uint32_t(ChildCode::Ref)) {
+            const uint32_t child = children[k++];
+            const bool hot = coding.hotEntries > 0;
+            bool isShort;
+            const unsigned width = referenceWidth(bytesNeeded(rankBelow[child]), bytesNeeded(offsetBelow[child]),
+                                                  level.widths, hot, isShort);
+            const uint32_t value = isShort && hot ? rankBelow[child] : offsetBelow[child];
+            code = isShort ? 2u : 3u;
+            for (unsigned b = 0; b < width; ++b) bytes.push_back(uint8_t(value >> (8 * b)));
+          }
+          header |= code << (2 * c);
         }
-        header |= code << (2 * c);
+        bytes[headerAt] = uint8_t(header);
+        bytes[headerAt + 1] = uint8_t(header >> 8);
       }
-      level.bytes[headerAt] = uint8_t(header);
-      level.bytes[headerAt + 1] = uint8_t(header >> 8);
+    });
+    level.bytes = std::move(partBytes[0]);
+    for (unsigned part = 1; part < parts; ++part) {
+      const uint64_t base = level.bytes.size();
+      const size_t first = order.size() * part / parts, last = order.size() * (part + 1) / parts;
+      for (size_t i = first; i < last; ++i) {
+        if (base + position[order[i]] > UINT32_MAX) throw tooLarge();
+        position[order[i]] += uint32_t(base);
+      }
+      level.bytes.insert(level.bytes.end(), partBytes[part].begin(), partBytes[part].end());
+      std::vector<uint8_t>().swap(partBytes[part]);
     }
     for (size_t v = 0; v < roots_.size(); ++v)
       if (roots_[v].code == ChildCode::Ref && roots_[v].log2Edge == log2) roots[v].offset = position[roots_[v].id];
