@@ -128,6 +128,7 @@ struct Avx2Lanes {
   using Real = Real4;
   using Mask = Mask4;
   static constexpr size_t kWidth = 4;
+  static constexpr bool kPrefetchRecords = true;  // lane_loop.h
   static void load(const double* const (&p)[4], Real4 (&c)[6]) {
     const Coords4 t = transpose4(p[0], p[1], p[2], p[3]);
     for (int i = 0; i < 6; ++i) c[i] = t.c[i];
@@ -153,6 +154,7 @@ struct FloatAvx2Lanes {
   using Mask = FMask8;
   using Bits = FloatBits8;
   static constexpr size_t kWidth = 8;
+  static constexpr bool kPrefetchRecords = true;  // lane_loop.h
   [[gnu::always_inline]] static __m256 joined(Real4 low, Real4 high) {
     return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm256_cvtpd_ps(low.v)), _mm256_cvtpd_ps(high.v), 1);
   }

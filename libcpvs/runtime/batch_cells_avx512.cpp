@@ -89,6 +89,7 @@ struct Avx512Lanes {
   using Real = Real8;
   using Mask = Mask8;
   static constexpr size_t kWidth = 8;
+  static constexpr bool kPrefetchRecords = true;  // lane_loop.h
   static void load(const double* const (&p)[8], Real8 (&c)[6]) {
     const Coords4 lo = transpose4(p[0], p[1], p[2], p[3]), hi = transpose4(p[4], p[5], p[6], p[7]);
     for (int i = 0; i < 6; ++i) c[i] = _mm512_insertf64x4(_mm512_castpd256_pd512(lo.c[i]), hi.c[i], 1);

@@ -25,6 +25,11 @@ namespace {
   for (size_t at = 0; at < bytes; at += 64) portable::prefetchRead(begin + at);
 }
 
+// Whether lane type L's loop prefetches the records (the x86 vector paths, where it was measured to pay; the
+// scalar and NEON paths were measured only in instructions, which a prefetch adds).
+template <class L>
+constexpr bool kPrefetchesRecords = requires { L::kPrefetchRecords; };
+
 // mapCells for one kind of view and one layout of the points with lane type L: L::kWidth points at a time
 // (L::load reads them from SurfacePoint records, L::loadSplit from separate position and normal arrays; L::cells
 // gives their voxels and states, one byte per lane; a short last group repeats its last point in the unused
@@ -44,7 +49,7 @@ void mapCellsShaped(const CellBatchInput& in, const CellBatchOutput& out) {
   const uint32_t* const indices = in.indices;
   for (size_t j = 0; j < in.count; j += kWidth) {
     const size_t lanes = in.count - j < kWidth ? in.count - j : kWidth;
-    if (kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
+    if (kPrefetchesRecords<L> && kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
     const double* p[kWidth];
     Real c[6];
     if constexpr (kInterleaved) {  // the tools' layout: one pointer and a constant stride, nothing more per lane
@@ -156,7 +161,7 @@ void mapCellsFloatShaped(const CellBatchInput& in, const CellBatchOutput& out, c
   const auto run = [&](auto indexOf) {
     const size_t whole = in.count - in.count % kWidth;
     for (size_t j = 0; j < whole; j += kWidth) {
-      if (kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
+      if (kPrefetchesRecords<FL> && kInterleaved && !indices) prefetchRecords(points, j + 8 * kWidth, kWidth, in.count);
       group.template operator()<true>(j, kWidth, indexOf);
     }
     if (whole < in.count) group.template operator()<false>(whole, in.count - whole, indexOf);

@@ -1,6 +1,7 @@
 // The runtime's own checks, built from the runtime's files and GoogleTest alone (no libcpvs, no test support),
 // so that the same program runs natively in CTest and cross-compiled under Wine and qemu
-// (tests/runtime_cross_test.sh): on every file given, every lookup path answers as one point at a time, damaged
+// (tests/runtime_cross_test.sh): on every file given, every lookup path answers as one point at a time and maps
+// points near voxel boundaries to the scalar path's cells, damaged
 // copies of a file fail with a message and never crash, and the GPU records walk (the GLSL twin compiled as
 // C++) as the file's DAGs do.
 //
@@ -10,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -116,6 +118,76 @@ TEST(RuntimeAlone, EveryLookupPathAnswersAsOnePointAtATime) {
   EXPECT_GT(lit, 0u);  // the comparison means something: both answers occur
   EXPECT_GT(shadowed, 0u);
   std::printf("%llu batch answers equal to the single-point answers\n", static_cast<unsigned long long>(compared));
+}
+
+// The vector paths map in single precision (AVX2, NEON) and map again in double what they cannot decide: on points
+// whose biased grid position lies within 1e-7 to 1e-2 voxels of a voxel boundary (each found by solving for the
+// point whose lookup lands there), in every view of every file given, every path's cells are the scalar path's.
+TEST(RuntimeAlone, CellsNearVoxelBoundariesAreAlikeOnEveryPath) {
+  ASSERT_FALSE(gCases.empty()) << "no FILE.cpvs POINTS.csv given";
+  uint64_t compared = 0, remapped = 0, voxels = 0, made = 0;
+  uint32_t state = 12345;
+  const auto fraction = [&] {  // a small LCG: the same points on every platform
+    state = state * 1664525u + 1013904223u;
+    return double(state >> 8) / double(1u << 24);
+  };
+  for (const Case& c : gCases) {
+    std::string error;
+    const Opened o = openAll(CpvsFile::open(c.file), error);
+    ASSERT_TRUE(o.file) << c.file << ": " << error;
+    for (const CpvsFile::LightEntry& entry : o.file->lights()) {
+      const Light& light = entry.light;
+      const SpotInfluence spot = spotInfluence(light);
+      for (const auto& stored : entry.views) {
+        const LightView& view = stored.view;
+        if (view.empty) continue;
+        const ViewMapping mapping(view);
+        for (const LookupOptions options : {LookupOptions{9, NormalOrientation::AsGiven, 0.25},
+                                            LookupOptions{1, NormalOrientation::TowardLight, 0.5}}) {
+          std::vector<SurfacePoint> points;
+          const double n = view.resolution;
+          for (int i = 0; i < 3000; ++i) {
+            const double delta = std::pow(10.0, -7.0 + 5.0 * fraction()) * (fraction() < 0.5 ? -1 : 1);
+            glm::dvec3 target(n * (0.05 + 0.9 * fraction()), n * (0.05 + 0.9 * fraction()), n * (0.05 + 0.9 * fraction()));
+            target[i % 3] = std::floor(target[i % 3]) + delta;
+            glm::dvec3 p = gridToWorld(view, target);
+            const glm::dvec3 toward =
+                light.type == LightType::Directional ? -light.direction : glm::normalize(light.position - p);
+            const glm::dvec3 normal = toward + 0.6 * glm::dvec3(fraction() - 0.5, fraction() - 0.5, fraction() - 0.5);
+            for (int step = 0; step < 3; ++step) {
+              const LookupCell cell = lookupCell(mapping, p, normal, options);
+              p = gridToWorld(view, target - (cell.uvs - toGrid(mapping, p).uvs));
+            }
+            points.push_back({p, normal});
+          }
+          CellBatchInput in;
+          in.mapping = &mapping;
+          in.settings = cellSettings(options);
+          in.spot = light.type == LightType::Spot ? &spot : nullptr;
+          in.points = {&points[0].position.x, 6, &points[0].normal.x, 6};
+          in.count = points.size();
+          const size_t count = points.size();
+          std::vector<int32_t> x(count), y(count), z(count), x2(count), y2(count), z2(count);
+          std::vector<uint8_t> cell(count), cell2(count);
+          mapCells(in, {x.data(), y.data(), z.data(), cell.data()}, CellIsa::Scalar);
+          for (const CellIsa isa : {CellIsa::Neon, CellIsa::Avx2, CellIsa::Avx512}) {
+            CellBatchOutput out{x2.data(), y2.data(), z2.data(), cell2.data()};
+            out.doubleRemapped = &remapped;
+            mapCells(in, out, isa);  // a path this CPU lacks runs the best one below it
+            for (size_t i = 0; i < count; ++i)
+              ASSERT_TRUE(cell2[i] == cell[i] && x2[i] == x[i] && y2[i] == y[i] && z2[i] == z[i])
+                  << c.file << ", light " << light.name << ", point " << i << ", path " << int(isa);
+            compared += count;
+          }
+          for (const uint8_t s : cell) voxels += s == kCellVoxel;
+          made += count;
+        }
+      }
+    }
+  }
+  EXPECT_GT(voxels, made / 8);  // the points do reach voxels
+  std::printf("%llu cells near voxel boundaries alike on every path (%llu mapped again in double)\n",
+              static_cast<unsigned long long>(compared), static_cast<unsigned long long>(remapped));
 }
 
 // Truncated copies and copies with one bit flipped: each opens and answers, or fails as invalid input with a
