@@ -96,4 +96,4 @@ cases=("$work/tk2.cpvs" "$work/points.csv" "$work/tk3.cpvs" "$work/points.csv" "
 for g in "$src"/formats/cpvs/golden/tiny_v*.cpvs; do cases+=("$g" "$work/tiny-points.csv"); done
 "$runner" "$work/$checks" --gtest_brief=1 "${cases[@]}" > "$work/checks.log" 2>&1 ||
   { echo "the $target build's runtime checks failed"; tr -d '\r' < "$work/checks.log"; exit 1; }
-tr -d '\r' < "$work/checks.log" | grep -E "answers|copies|voxels|PASSED"
+tr -d '\r' < "$work/checks.log" | grep -E "answers|copies|voxels|boundaries|PASSED"
