@@ -15,10 +15,18 @@ def run_text(cmd):
         return ""
 
 
+# The instruction sets cpvs's paths choose between, as /proc/cpuinfo (x86) and lscpu (ARM) name them.
+VECTOR_ISAS = [("avx2", "AVX2"), ("fma", "FMA"), ("avx512f", "AVX-512F"), ("asimd", "NEON")]
+
+
 def machine_info(renderer=""):
-    """CPU model, logical CPUs, threads per core, cores per socket, memory (GiB), kernel, renderer."""
+    """CPU model (with its family and model numbers, the vector instruction sets it has, and any path the
+    environment forces: the same CPU name covers different chips in a VM), logical CPUs, threads per core,
+    cores per socket, memory (GiB), kernel, renderer."""
     info = {"model": "", "cpus": os.cpu_count(), "threads_per_core": "", "cores_per_socket": "",
-            "memory_gib": 0.0, "kernel": platform.release(), "renderer": renderer}
+            "memory_gib": 0.0, "kernel": platform.release(), "renderer": renderer, "family": "",
+            "model_number": "", "isa": []}
+    flags = set()
     for line in run_text(["lscpu"]).splitlines():
         key, _, value = line.partition(":")
         value = value.strip()
@@ -28,6 +36,23 @@ def machine_info(renderer=""):
             info["threads_per_core"] = value
         elif key == "Core(s) per socket":
             info["cores_per_socket"] = value
+        elif key == "CPU family":
+            info["family"] = value
+        elif key == "Model":
+            info["model_number"] = value
+        elif key == "Flags":
+            flags = set(value.split())
+    info["isa"] = [name for flag, name in VECTOR_ISAS if flag in flags]
+    details = []
+    if info["family"] and info["model_number"]:
+        details.append("family %s model %s" % (info["family"], info["model_number"]))
+    if info["isa"]:
+        details.append(", ".join(info["isa"]))
+    forced = ["%s=%s" % (v, os.environ[v]) for v in ("CPVS_LOOKUP_ISA", "CPVS_RASTER_ISA") if os.environ.get(v)]
+    if forced:
+        details.append("forced " + " ".join(forced))
+    if info["model"] and details:
+        info["model"] += " (" + "; ".join(details) + ")"
     try:
         with open("/proc/meminfo") as f:
             for line in f:
