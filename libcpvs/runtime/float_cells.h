@@ -1,19 +1,19 @@
 #pragma once
 // Steps 1-3 of a lookup (cell_lanes.h's cellVerdict) in single precision, twice the lanes of the double path per
 // instruction and a fraction of the cost of its divisions and square roots, with a bound on how far each
-// computed value may lie from the exact one. A lane is *certain* when every decision the double path takes for
-// it (the spot's range and cone, in front of the eye, the face's side, inside the grid, which voxel) lies further
-// from its threshold than that bound: then the double path, whose own error is 2^29 times smaller, decides it
-// the same way, and the lane's cell is the double path's bit for bit. The other lanes (about 1-4 % of them, the
-// points within a few thousandths of a voxel of a voxel boundary) are mapped again in double by the caller.
+// computed value may lie from the double path's. A lane is *certain* when every decision the double path takes
+// for it (the spot's range and cone, in front of the eye, the face's side, inside the grid, which voxel) lies
+// further from its threshold than that bound: then the double path decides it the same way, and the lane's cell
+// is the double path's bit for bit. The other lanes (about 1-5 % of random points, most of those within a few
+// thousandths of a voxel of a voxel boundary) are mapped again in double by the caller (lane_loop.h).
 //
-// The bounds (docs/lookups.md, "The mapping in single precision", writes the argument out): inputs are taken
-// relative to the view's eye in double and then rounded, so every float holds a small magnitude; each step's
-// bound is first-order error propagation with the rounding of every operation (unit roundoff eps = 2^-24)
-// counted against the magnitude of the operands, not the result (cancellation is covered), and the linear
-// steps are only taken where the relative error stays below 1/4 (else the lane is uncertain). The final
-// bounds are multiplied by 1.25 and widened by four ulps of the value. batch_cells_test checks the result
-// against the double path on points placed within 10^-7 to 10^-2 voxels of voxel boundaries.
+// The bounds (docs/lookups.md, "The mapping in single precision", writes the argument out): the point's view
+// coordinates are the double path's own sums, rounded once; each later step's bound is first-order error
+// propagation with the rounding of every operation (unit roundoff eps = 2^-24) counted against the magnitude of
+// the operands, not the result (cancellation is covered), and the unit normal's only where its error is below
+// an eighth of its length (else the lane is uncertain). The final bounds carry 1.25 times slack and four ulps of
+// q. batch_cells_test and the runtime's own checks compare the result with the double path on points placed
+// within 10^-7 to 10^-2 voxels of voxel boundaries.
 //
 // Same rule as view_mapping.h: standard headers only (the vector paths include it under their
 // CPVS_TARGET_BEGIN_* (portability.h)), everything in an unnamed namespace.
