@@ -158,15 +158,16 @@ struct FloatAvx2Lanes {
   [[gnu::always_inline]] static __m256 joined(Real4 low, Real4 high) {
     return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm256_cvtpd_ps(low.v)), _mm256_cvtpd_ps(high.v), 1);
   }
+  // kInterleaved: SurfacePoint records, six doubles in a row (n[l] is p[l] + 3).
+  template <bool kInterleaved>
   [[gnu::always_inline]] static void load(const double* const (&p)[8], const double* const (&n)[8],
                                           const ViewMapping& m, const FloatViewMapping& fm, Float8 (&c)[9]) {
     const double* const p0[4] = {p[0], p[1], p[2], p[3]};
     const double* const p1[4] = {p[4], p[5], p[6], p[7]};
     const double* const n0[4] = {n[0], n[1], n[2], n[3]};
     const double* const n1[4] = {n[4], n[5], n[6], n[7]};
-    const bool interleaved = n[0] == p[0] + 3;  // SurfacePoint records: six doubles in a row (the loop's choice)
-    const Coords4 a = interleaved ? transpose4(p[0], p[1], p[2], p[3]) : transposeSplit4(p0, n0);
-    const Coords4 b = interleaved ? transpose4(p[4], p[5], p[6], p[7]) : transposeSplit4(p1, n1);
+    const Coords4 a = kInterleaved ? transpose4(p[0], p[1], p[2], p[3]) : transposeSplit4(p0, n0);
+    const Coords4 b = kInterleaved ? transpose4(p[4], p[5], p[6], p[7]) : transposeSplit4(p1, n1);
     for (int i = 0; i < 3; ++i) {
       const auto view = [&](const Coords4& q) {
         return (Real4(m.row[i][0]) * Real4(q.c[0]) + Real4(m.row[i][1]) * Real4(q.c[1])) +

@@ -63,7 +63,7 @@ inline FloatViewMapping floatViewMapping(const ViewMapping& c, const SpotInfluen
   }
   f.rowAbs = float(rowAbs * (1 + 1e-6));
   for (const double x : {c.xMin, c.yMin, c.uScale, c.vScale, c.uStep, c.vStep, c.near, c.invNear, c.sScale, c.invDs})
-    if (!normalFloat(x) || !std::isfinite(x)) return f;
+    if (!normalFloat(x)) return f;  // also NaN and infinities
   f.xMin = float(c.xMin);
   f.yMin = float(c.yMin);
   f.uScale = float(c.uScale);

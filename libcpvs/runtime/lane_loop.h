@@ -1,7 +1,8 @@
 #pragma once
 // mapCells' loop over a batch in groups of the lane width, for every path (batch_cells.cpp's scalar lanes,
-// lanes_x86.h's vector ones). Same rule as view_mapping.h: standard headers only, and in an unnamed namespace,
-// since the vector kernels include it under their CPVS_TARGET_BEGIN_* (portability.h).
+// lanes_x86.h's vector ones). Same rule as view_mapping.h: standard headers and the runtime's own lane headers
+// only, and in an unnamed namespace, since the vector kernels include it under their CPVS_TARGET_BEGIN_*
+// (portability.h).
 #include <bit>
 #include <cstddef>
 #include <cstdint>
@@ -146,7 +147,7 @@ void mapCellsFloatShaped(const CellBatchInput& in, const CellBatchOutput& out, c
       }
     }
     typename FL::Real c[9];
-    FL::load(p, n, *in.mapping, fm, c);
+    FL::template load<kInterleaved>(p, n, *in.mapping, fm, c);
     const auto lanesOut = floatCellVerdict<typename FL::Real, typename FL::Mask, typename FL::Bits, Shape>(
         *in.mapping, fm, settings, bias, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8]);
     uint32_t uncertain = FL::store(lanesOut, out, j, kFull ? kWidth : lanes);
